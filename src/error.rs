@@ -1,0 +1,80 @@
+//! Errors of the library, sorted by culprit: the input (a file or its
+//! contents), the caller (an argument), or the computation itself.
+
+use std::path::PathBuf;
+
+/// What is wrong with a mesh or a mesh sequence. Each variant names the
+/// offending element so a user can find it in the file.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum MeshProblem {
+    #[error("has no faces")]
+    NoFaces,
+    #[error("face {face} uses vertex {index}, but there are only {count} vertices")]
+    IndexOutOfRange { face: usize, index: i64, count: usize },
+    #[error("has {found} vertices, but the first frame has {expected}")]
+    VertexCountMismatch { expected: usize, found: usize },
+    #[error("has {found} faces, but the first frame has {expected}")]
+    FaceCountMismatch { expected: usize, found: usize },
+    #[error("face {face} differs from the first frame's face {face} (frames must share one connectivity)")]
+    FacesDiffer { face: usize },
+    #[error("vertex {vertex} has a non-finite coordinate")]
+    NonFinite { vertex: usize },
+    #[error("face {face} is degenerate (it repeats vertex {vertex})")]
+    DegenerateFace { face: usize, vertex: u32 },
+    #[error("face {face} has zero area")]
+    ZeroAreaFace { face: usize },
+    #[error("faces {first} and {second} are duplicates (same three vertices)")]
+    DuplicateFace { first: usize, second: usize },
+    #[error("edge ({a}, {b}) is shared by {count} faces (non-manifold edge)")]
+    NonManifoldEdge { a: u32, b: u32, count: usize },
+    #[error("edge ({a}, {b}) is used twice in the same direction (inconsistent face orientation)")]
+    InconsistentOrientation { a: u32, b: u32 },
+    #[error("vertex {vertex} is non-manifold (its faces form {fans} separate fans)")]
+    NonManifoldVertex { vertex: u32, fans: usize },
+    #[error("vertex {vertex} is not used by any face")]
+    UnusedVertex { vertex: u32 },
+    #[error("has {count} connected components (a single connected surface is required)")]
+    Components { count: usize },
+    #[error("has {loops} boundary loop(s) made of {edges} boundary edges: the surface has holes (pass --fill-holes to close them)")]
+    Holes { loops: usize, edges: usize },
+    #[error("has genus {genus} (a closed surface of genus 0, like a sphere, is required)")]
+    Genus { genus: i64 },
+}
+
+/// The library's error type.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// Reading or writing a file failed.
+    #[error("{}: {source}", path.display())]
+    Io {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A file is not valid in its format (OBJ, glTF, ...).
+    #[error("{}:{line}: {msg}", path.display())]
+    Parse { path: PathBuf, line: usize, msg: String },
+    /// A glTF file could not be read or baked.
+    #[error("{}: glTF: {msg}", path.display())]
+    Gltf { path: PathBuf, msg: String },
+    /// A mesh or frame is valid in its format but unusable as a motion.
+    #[error("{}: {problem}", path.display())]
+    Mesh { path: PathBuf, problem: MeshProblem },
+    /// The caller asked for something that cannot be done.
+    #[error("invalid argument: {0}")]
+    Argument(String),
+    /// A numerical step failed (a singular system, a map that folds over).
+    #[error("{0}")]
+    Numerical(String),
+}
+
+impl Error {
+    pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
+        Error::Io { path: path.into(), source }
+    }
+    pub fn mesh(path: impl Into<PathBuf>, problem: MeshProblem) -> Self {
+        Error::Mesh { path: path.into(), problem }
+    }
+}
+
+pub type Result<T, E = Error> = std::result::Result<T, E>;

@@ -1,0 +1,21 @@
+//! # cgv — conformal geometry videos
+//!
+//! The reference implementation of *conformal geometry videos* (Quynh, He,
+//! Chen, Xia, Sun, Hoi: "Modeling 3D articulated motions with conformal
+//! geometry videos (CGVs)", ACM Multimedia 2011). A platform-free core: mesh
+//! sequence I/O ([`mesh`]), the embedded default motion ([`demo`]), seamless
+//! geometry images ([`param`], [`grid`], [`resample`]) and metrics
+//! ([`metrics`]). Platform code lives at the edges (the `cgv` binary).
+
+pub mod demo;
+pub mod error;
+pub mod fsutil;
+pub mod grid;
+pub mod image;
+pub mod mesh;
+pub mod metrics;
+pub mod param;
+pub mod resample;
+pub mod sparse;
+
+pub use error::{Error, MeshProblem, Result};

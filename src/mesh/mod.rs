@@ -1,0 +1,67 @@
+//! Triangle meshes and registered mesh sequences: one connectivity shared by
+//! every frame, one array of positions per frame.
+
+pub mod adjacency;
+pub mod gltf_in;
+pub mod gltf_out;
+pub mod obj;
+pub mod source;
+pub mod topology;
+
+use glam::Vec3;
+
+pub use adjacency::Adjacency;
+pub use source::{open_sequence, FrameSource, InMemory, OpenOptions};
+pub use topology::{analyze, TopologyReport};
+
+/// Positions of one frame, indexed like the sequence's vertices.
+pub type Frame = Vec<Vec3>;
+
+/// Connectivity shared by every frame of a sequence: counter-clockwise
+/// triangles (seen from outside) over `vertex_count` vertices.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Topology {
+    pub vertex_count: usize,
+    pub faces: Vec<[u32; 3]>,
+}
+
+/// Axis-aligned bounding box.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Bounds {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl Bounds {
+    pub fn of(points: &[Vec3]) -> Bounds {
+        let mut min = Vec3::splat(f32::INFINITY);
+        let mut max = Vec3::splat(f32::NEG_INFINITY);
+        for p in points {
+            min = min.min(*p);
+            max = max.max(*p);
+        }
+        Bounds { min, max }
+    }
+    pub fn diagonal(&self) -> f32 {
+        (self.max - self.min).length()
+    }
+    pub fn union(&self, other: &Bounds) -> Bounds {
+        Bounds { min: self.min.min(other.min), max: self.max.max(other.max) }
+    }
+}
+
+/// Twice the area vector of a triangle (its normal times twice its area).
+pub fn triangle_area_vector(a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
+    (b - a).cross(c - a)
+}
+
+/// Total surface area of a frame.
+pub fn surface_area(positions: &[Vec3], faces: &[[u32; 3]]) -> f64 {
+    faces
+        .iter()
+        .map(|f| {
+            let [a, b, c] = f.map(|i| positions[i as usize]);
+            0.5 * triangle_area_vector(a, b, c).length() as f64
+        })
+        .sum()
+}
