@@ -1,0 +1,107 @@
+//! `cgv info`: what a sequence is and whether it can become a geometry video.
+
+use super::InputArgs;
+use anyhow::Result;
+use cgv::mesh::{analyze, Bounds};
+use rayon::prelude::*;
+
+#[derive(clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    input: InputArgs,
+    /// Print the report as JSON.
+    #[arg(long)]
+    json: bool,
+    /// Only read the first frame (skip checking every frame's vertex count, faces and coordinates).
+    #[arg(long)]
+    quick: bool,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let src = args.input.open()?;
+    let first = src.read_frame(0)?;
+    let topo = analyze(src.topology(), &first);
+    let bounds = Bounds::of(&first);
+    let n = src.frame_count();
+    let mut frame_error = None;
+    let mut motion_bounds = bounds;
+    if !args.quick && n > 1 {
+        let pb = super::progress(n, "checking", args.json);
+        let results: Vec<cgv::Result<Bounds>> = (1..n)
+            .into_par_iter()
+            .map(|i| {
+                let f = src.read_frame(i);
+                pb.inc(1);
+                f.map(|f| Bounds::of(&f))
+            })
+            .collect();
+        pb.finish_and_clear();
+        for r in results {
+            match r {
+                Ok(b) => motion_bounds = motion_bounds.union(&b),
+                Err(e) => {
+                    frame_error = Some(e.to_string());
+                    break;
+                }
+            }
+        }
+    }
+    let usable = topo.is_sphere() && frame_error.is_none();
+    if args.json {
+        let report = serde_json::json!({
+            "input": src.label(),
+            "kind": src.kind(),
+            "frames": n,
+            "fps": src.fps(),
+            "vertices": src.topology().vertex_count,
+            "faces": src.topology().faces.len(),
+            "first_frame_bounds": bounds,
+            "first_frame_diagonal": bounds.diagonal(),
+            "motion_bounds": (!args.quick).then_some(motion_bounds),
+            "topology": topo,
+            "frames_checked": !args.quick,
+            "frame_error": frame_error,
+            "usable": usable,
+        });
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        println!("{} ({})", src.label().display(), src.kind());
+        println!("  frames        {} at {} fps ({:.2} s)", n, src.fps(), n as f32 / src.fps());
+        println!("  vertices      {}", src.topology().vertex_count);
+        println!("  faces         {}", src.topology().faces.len());
+        println!("  edges         {}", topo.edges);
+        println!(
+            "  bounds        {:?} .. {:?} (diagonal {:.4}, first frame)",
+            bounds.min.to_array(),
+            bounds.max.to_array(),
+            bounds.diagonal()
+        );
+        if !args.quick {
+            println!("  motion bounds diagonal {:.4} over all frames", motion_bounds.diagonal());
+        }
+        println!("  components    {}", topo.components);
+        println!("  boundary      {} loops, {} edges", topo.boundary_loops, topo.boundary_edges);
+        println!("  Euler char.   {}", topo.euler_characteristic);
+        match topo.genus {
+            Some(g) => println!("  genus         {g}"),
+            None => println!("  genus         undefined (not a connected manifold)"),
+        }
+        for p in &topo.problems {
+            println!("  problem: {p}");
+        }
+        if let Some(e) = &frame_error {
+            println!("  problem: {e}");
+        }
+        println!(
+            "  verdict: {}",
+            if usable {
+                "closed genus-0 manifold, all frames consistent: ready for a geometry image"
+            } else if topo.problems_except_holes().next().is_none() && frame_error.is_none() {
+                "usable with --fill-holes"
+            } else {
+                "not usable as is"
+            }
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,298 @@
+//! Cone points and the cut that opens a sphere-like mesh onto the square
+//! orbifold of [`crate::grid`].
+//!
+//! Four cone vertices (placed on the extremities by farthest-point sampling
+//! of geodesic distance, so that the cones' extra sampling lands on limbs) are
+//! joined to a fifth vertex `P` by four disjoint shortest paths. Cutting along
+//! this star opens the surface into a disk whose boundary maps onto the
+//! square's border: `P` to the four corners, each cone to the middle of one
+//! side. Instead of duplicating the boundary vertices, every face corner
+//! carries the isometry of the orbifold (a half-turn about a cone, or a
+//! composition of them) that takes its vertex's single unknown to the copy
+//! that face sees; this is the one-unknown-per-vertex form of Aigerman &
+//! Lipman, "Orbifold Tutte Embeddings", ACM TOG 34(6), 2015.
+
+use crate::error::{Error, Result};
+use crate::mesh::adjacency::{origin, prev, target, Adjacency};
+use glam::{DVec2, DVec3};
+use std::cmp::Ordering;
+use std::collections::{BinaryHeap, HashMap};
+
+/// An isometry of the square orbifold: `u -> s u + t` with `s = ±1`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Iso {
+    pub s: f64,
+    pub t: DVec2,
+}
+
+impl Iso {
+    pub const IDENTITY: Iso = Iso { s: 1.0, t: DVec2::ZERO };
+    /// The half-turn about `m`.
+    pub fn half_turn(m: DVec2) -> Iso {
+        Iso { s: -1.0, t: 2.0 * m }
+    }
+    pub fn apply(&self, u: DVec2) -> DVec2 {
+        self.s * u + self.t
+    }
+    /// `self ∘ other`.
+    pub fn then_after(&self, other: &Iso) -> Iso {
+        Iso { s: self.s * other.s, t: self.s * other.t + self.t }
+    }
+}
+
+/// The cone positions in the square [-1, 1]²: the middles of its top, right,
+/// bottom and left sides, in that order.
+pub const CONE_UV: [DVec2; 4] =
+    [DVec2::new(0.0, 1.0), DVec2::new(1.0, 0.0), DVec2::new(0.0, -1.0), DVec2::new(-1.0, 0.0)];
+
+/// The cut of a mesh and the per-corner isometries it implies.
+#[derive(Debug, Clone)]
+pub struct Cut {
+    /// Cone vertices, in the order of [`CONE_UV`].
+    pub cones: [u32; 4],
+    /// The vertex that maps to the square's corners.
+    pub corner: u32,
+    /// The path from `corner` to `cones[k]`, both ends included.
+    pub paths: [Vec<u32>; 4],
+    /// For each face, the isometry of each of its corners.
+    pub corner_iso: Vec<[Iso; 3]>,
+}
+
+/// Vertex neighbours with edge lengths, in compressed rows.
+pub struct Graph {
+    start: Vec<usize>,
+    nbr: Vec<(u32, f64)>,
+}
+
+impl Graph {
+    pub fn new(nv: usize, faces: &[[u32; 3]], pos: &[DVec3]) -> Graph {
+        let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(faces.len() * 6);
+        for f in faces {
+            for k in 0..3 {
+                let (a, b) = (f[k], f[(k + 1) % 3]);
+                pairs.push((a, b));
+                pairs.push((b, a));
+            }
+        }
+        pairs.sort_unstable();
+        pairs.dedup();
+        let mut start = vec![0; nv + 1];
+        for &(a, _) in &pairs {
+            start[a as usize + 1] += 1;
+        }
+        for i in 0..nv {
+            start[i + 1] += start[i];
+        }
+        let nbr = pairs.iter().map(|&(a, b)| (b, pos[a as usize].distance(pos[b as usize]))).collect();
+        Graph { start, nbr }
+    }
+
+    pub fn neighbours(&self, v: u32) -> &[(u32, f64)] {
+        &self.nbr[self.start[v as usize]..self.start[v as usize + 1]]
+    }
+
+    /// Shortest-path distances from `source` over edges, never entering a
+    /// `blocked` vertex; returns distances and predecessors.
+    pub fn dijkstra(&self, source: u32, blocked: &[bool]) -> (Vec<f64>, Vec<u32>) {
+        #[derive(PartialEq)]
+        struct Item(f64, u32);
+        impl Eq for Item {}
+        impl PartialOrd for Item {
+            fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
+                Some(self.cmp(o))
+            }
+        }
+        impl Ord for Item {
+            fn cmp(&self, o: &Self) -> Ordering {
+                o.0.total_cmp(&self.0).then(o.1.cmp(&self.1))
+            }
+        }
+        let n = self.start.len() - 1;
+        let mut dist = vec![f64::INFINITY; n];
+        let mut pred = vec![u32::MAX; n];
+        let mut heap = BinaryHeap::new();
+        dist[source as usize] = 0.0;
+        heap.push(Item(0.0, source));
+        while let Some(Item(d, v)) = heap.pop() {
+            if d > dist[v as usize] {
+                continue;
+            }
+            for &(w, len) in self.neighbours(v) {
+                if blocked[w as usize] {
+                    continue;
+                }
+                let nd = d + len;
+                if nd < dist[w as usize] {
+                    dist[w as usize] = nd;
+                    pred[w as usize] = v;
+                    heap.push(Item(nd, w));
+                }
+            }
+        }
+        (dist, pred)
+    }
+}
+
+fn argmax(values: impl Iterator<Item = f64>) -> u32 {
+    let mut best = (f64::NEG_INFINITY, 0u32);
+    for (i, v) in values.enumerate() {
+        if v > best.0 {
+            best = (v, i as u32);
+        }
+    }
+    best.1
+}
+
+/// Picks four cones on the extremities (farthest-point sampling of geodesic
+/// distance) and the corner vertex farthest from all of them.
+pub fn choose_cones(graph: &Graph, nv: usize) -> ([u32; 4], u32) {
+    let free = vec![false; nv];
+    let d0 = graph.dijkstra(0, &free).0;
+    let mut cones = vec![argmax(d0.iter().copied())];
+    let mut min_d = vec![f64::INFINITY; nv];
+    while cones.len() < 5 {
+        let d = graph.dijkstra(*cones.last().unwrap_or(&0), &free).0;
+        for (m, x) in min_d.iter_mut().zip(d) {
+            *m = m.min(x);
+        }
+        cones.push(argmax(min_d.iter().copied()));
+    }
+    // The first pick only seeds the search (it is the farthest from vertex 0);
+    // replace it by the point farthest from the other four if that differs.
+    ([cones[1], cones[2], cones[3], cones[4]], {
+        let mut min_d = vec![f64::INFINITY; nv];
+        for &c in &cones[1..5] {
+            let d = graph.dijkstra(c, &free).0;
+            for (m, x) in min_d.iter_mut().zip(d) {
+                *m = m.min(x);
+            }
+        }
+        argmax(min_d.iter().copied())
+    })
+}
+
+impl Cut {
+    /// Builds the cut for the given cones and corner vertex. `mirror` assigns
+    /// the cones to the square's sides in the opposite rotational order (for
+    /// meshes whose faces turn clockwise seen from outside).
+    pub fn new(
+        faces: &[[u32; 3]],
+        adj: &Adjacency,
+        graph: &Graph,
+        nv: usize,
+        cones: [u32; 4],
+        corner: u32,
+        mirror: bool,
+    ) -> Result<Cut> {
+        let mut distinct = cones.to_vec();
+        distinct.push(corner);
+        distinct.sort_unstable();
+        distinct.dedup();
+        if distinct.len() != 5 || distinct.iter().any(|&v| v as usize >= nv) {
+            return Err(Error::Argument(format!("cones {cones:?} and corner {corner} must be five distinct vertices")));
+        }
+        // Four disjoint paths from the corner, each avoiding the others and the other cones.
+        let mut blocked = vec![false; nv];
+        for &c in &cones {
+            blocked[c as usize] = true;
+        }
+        let mut paths: Vec<Vec<u32>> = Vec::new();
+        for &cone in &cones {
+            blocked[cone as usize] = false;
+            let (dist, pred) = graph.dijkstra(corner, &blocked);
+            if !dist[cone as usize].is_finite() {
+                return Err(Error::Numerical(format!(
+                    "cannot cut the surface: no path from vertex {corner} to cone {cone} avoids the other cuts"
+                )));
+            }
+            let mut path = vec![cone];
+            while *path.last().unwrap_or(&corner) != corner {
+                path.push(pred[*path.last().unwrap_or(&corner) as usize]);
+            }
+            path.reverse();
+            for &v in &path[1..] {
+                blocked[v as usize] = true;
+            }
+            paths.push(path);
+        }
+        // Cut edges, labelled by their path.
+        let mut cut_edge: HashMap<(u32, u32), usize> = HashMap::new();
+        for (k, p) in paths.iter().enumerate() {
+            for w in p.windows(2) {
+                cut_edge.insert((w[0].min(w[1]), w[0].max(w[1])), k);
+            }
+        }
+        let is_cut = |a: u32, b: u32| cut_edge.get(&(a.min(b), a.max(b))).copied();
+
+        let mut out_he = vec![u32::MAX; nv];
+        for h in 0..(faces.len() * 3) as u32 {
+            out_he[origin(faces, h) as usize] = h;
+        }
+        // Walks the fan of `v` counter-clockwise from just after a cut edge and
+        // returns (corner half-edge, number of cut edges crossed before it), and
+        // the paths crossed in order (the first is the one the walk starts after).
+        let walk = |v: u32| -> (Vec<(u32, usize)>, Vec<usize>) {
+            let any = out_he[v as usize];
+            let start = adj.fan(any).find(|&h| is_cut(v, target(faces, h)).is_some()).unwrap_or(any);
+            let mut crossed = vec![is_cut(v, target(faces, start)).unwrap_or(0)];
+            let mut comp = 0;
+            let mut corners = Vec::new();
+            for h in adj.fan(start) {
+                corners.push((h, comp));
+                let b = origin(faces, prev(h));
+                if let Some(k) = is_cut(v, b) {
+                    comp += 1;
+                    crossed.push(k);
+                }
+            }
+            (corners, crossed)
+        };
+
+        let mut corner_iso = vec![[Iso::IDENTITY; 3]; faces.len()];
+        let mut cone_uv = [DVec2::ZERO; 4];
+        // Around the corner vertex: the paths in rotational order get the
+        // square's sides top, right, bottom, left (or the mirror order).
+        let (corners, crossed) = walk(corner);
+        if crossed.len() != 5 {
+            return Err(Error::Numerical(format!(
+                "cut around vertex {corner} crosses {} paths, expected 4",
+                crossed.len() - 1
+            )));
+        }
+        let sides: [usize; 4] = if mirror { [1, 0, 3, 2] } else { [0, 1, 2, 3] };
+        for (i, &k) in crossed[..4].iter().enumerate() {
+            cone_uv[k] = CONE_UV[sides[i]];
+        }
+        let mut comp_iso = [Iso::IDENTITY; 4];
+        for c in 1..4 {
+            comp_iso[c] = Iso::half_turn(cone_uv[crossed[c]]).then_after(&comp_iso[c - 1]);
+        }
+        for (h, comp) in corners {
+            corner_iso[(h / 3) as usize][(h % 3) as usize] = comp_iso[comp.min(3)];
+        }
+        // Along each path: the two sides differ by the half-turn about its cone.
+        for (k, p) in paths.iter().enumerate() {
+            let ht = Iso::half_turn(cone_uv[k]);
+            for &v in &p[1..p.len() - 1] {
+                let (corners, crossed) = walk(v);
+                if crossed.len() != 3 {
+                    return Err(Error::Numerical(format!("cut path meets itself at vertex {v}")));
+                }
+                for (h, comp) in corners {
+                    if comp == 1 {
+                        corner_iso[(h / 3) as usize][(h % 3) as usize] = ht;
+                    }
+                }
+            }
+        }
+        // Reorder so cones[i] sits at CONE_UV[i].
+        let mut ordered = [0u32; 4];
+        let mut ordered_paths: [Vec<u32>; 4] = Default::default();
+        for k in 0..4 {
+            let side = CONE_UV.iter().position(|&m| m == cone_uv[k]).unwrap_or(k);
+            ordered[side] = cones[k];
+            ordered_paths[side] = paths[k].clone();
+        }
+        Ok(Cut { cones: ordered, corner, paths: ordered_paths, corner_iso })
+    }
+}

@@ -1,0 +1,94 @@
+//! Resampling a mesh sequence onto the grid: every sample of the square is
+//! located once, in the reference frame's parameterization, as a triangle and
+//! barycentric coordinates; every frame is then resampled through the same
+//! triangles and weights, so all grid meshes share one connectivity and a
+//! sample follows the same material point through the motion.
+
+use crate::error::{Error, Result};
+use crate::grid::Grid;
+use crate::param::Parameterization;
+use glam::{DVec2, Vec3};
+
+/// Barycentric tolerance when testing whether a sample lies in a triangle;
+/// samples on shared edges are claimed by the triangle that contains them
+/// most deeply.
+const INSIDE_EPS: f64 = 1e-9;
+
+/// Where each grid sample lies on the input surface.
+#[derive(Debug, Clone)]
+pub struct SampleMap {
+    pub grid: Grid,
+    /// The input face containing each sample.
+    pub face: Vec<u32>,
+    /// The face's three vertices, repeated here for speed.
+    pub corners: Vec<[u32; 3]>,
+    pub bary: Vec<[f32; 3]>,
+}
+
+impl SampleMap {
+    /// Locates every grid sample in the parameterization of `faces`.
+    pub fn build(grid: Grid, faces: &[[u32; 3]], param: &Parameterization) -> Result<SampleMap> {
+        let n = grid.n as f64;
+        let mut best: Vec<(f64, u32, [f64; 3])> = vec![(f64::NEG_INFINITY, u32::MAX, [0.0; 3]); grid.len()];
+        let to_index = |x: f64| (x + 1.0) * n / 2.0 - 0.5;
+        for (f, _) in faces.iter().enumerate() {
+            let q = param.face_uv(faces, f);
+            let det = (q[1] - q[0]).perp_dot(q[2] - q[0]);
+            if det <= 0.0 {
+                continue;
+            }
+            let lo = q[0].min(q[1]).min(q[2]);
+            let hi = q[0].max(q[1]).max(q[2]);
+            let (a0, a1) = (to_index(lo.x).ceil() as i64, to_index(hi.x).floor() as i64);
+            let (b0, b1) = (to_index(lo.y).ceil() as i64, to_index(hi.y).floor() as i64);
+            for b in b0..=b1 {
+                for a in a0..=a1 {
+                    let p = grid.uv(a, b);
+                    let bary = |x: DVec2, y: DVec2| (y - x).perp_dot(p - x) / det;
+                    let w = [bary(q[1], q[2]), bary(q[2], q[0]), bary(q[0], q[1])];
+                    let depth = w[0].min(w[1]).min(w[2]);
+                    if depth < -INSIDE_EPS {
+                        continue;
+                    }
+                    let idx = grid.canonical_index(a, b) as usize;
+                    if depth > best[idx].0 {
+                        best[idx] = (depth, f as u32, w);
+                    }
+                }
+            }
+        }
+        if let Some(missing) = best.iter().position(|b| b.1 == u32::MAX) {
+            let count = best.iter().filter(|b| b.1 == u32::MAX).count();
+            return Err(Error::Numerical(format!(
+                "{count} grid samples (first: {missing}) fall in no triangle of the parameterization"
+            )));
+        }
+        let mut map = SampleMap { grid, face: Vec::new(), corners: Vec::new(), bary: Vec::new() };
+        for (_, f, w) in best {
+            let w = w.map(|x| x.max(0.0));
+            let s = w[0] + w[1] + w[2];
+            map.face.push(f);
+            map.corners.push(faces[f as usize]);
+            map.bary.push(w.map(|x| (x / s) as f32));
+        }
+        Ok(map)
+    }
+
+    /// Resamples one frame of the input sequence onto the grid.
+    pub fn apply(&self, frame: &[Vec3]) -> Vec<Vec3> {
+        let mut out = Vec::with_capacity(self.corners.len());
+        self.apply_into(frame, &mut out);
+        out
+    }
+
+    /// Like [`SampleMap::apply`], reusing `out`'s allocation.
+    pub fn apply_into(&self, frame: &[Vec3], out: &mut Vec<Vec3>) {
+        out.clear();
+        out.extend(
+            self.corners
+                .iter()
+                .zip(&self.bary)
+                .map(|(c, w)| frame[c[0] as usize] * w[0] + frame[c[1] as usize] * w[1] + frame[c[2] as usize] * w[2]),
+        );
+    }
+}
