@@ -1,0 +1,117 @@
+//! Reading and writing mesh sequences: OBJ folders in numeric order, single
+//! OBJ files, frame consistency errors, GLB and OBJ output.
+
+mod common;
+
+use cgv::mesh::{open_sequence, OpenOptions};
+use cgv::{Error, MeshProblem};
+use common::{temp_dir, tetrahedron, write_obj};
+use glam::Vec3;
+
+fn open(p: &std::path::Path) -> cgv::Result<Box<dyn cgv::mesh::FrameSource>> {
+    open_sequence(p.to_str().unwrap(), &OpenOptions::default())
+}
+
+#[test]
+fn obj_folder_is_ordered_by_frame_number() {
+    let dir = temp_dir("order");
+    let (p, f) = tetrahedron();
+    for k in [10u32, 2, 1, 33] {
+        let moved: Vec<Vec3> = p.iter().map(|v| *v + Vec3::X * k as f32).collect();
+        write_obj(&dir.join(format!("{k}.obj")), &moved, &f);
+    }
+    std::fs::write(dir.join("notes.txt"), "not a frame").unwrap();
+    let src = open(&dir).unwrap();
+    assert_eq!(src.frame_count(), 4);
+    let xs: Vec<f32> = (0..4).map(|i| src.read_frame(i).unwrap()[0].x - 1.0).collect();
+    assert_eq!(xs, vec![1.0, 2.0, 10.0, 33.0]);
+}
+
+#[test]
+fn zero_padded_names_and_single_files() {
+    let dir = temp_dir("padded");
+    let (p, f) = tetrahedron();
+    write_obj(&dir.join("mesh_0001.obj"), &p, &f);
+    write_obj(&dir.join("mesh_0000.obj"), &p, &f);
+    assert_eq!(open(&dir).unwrap().frame_count(), 2);
+    let single = open(&dir.join("mesh_0001.obj")).unwrap();
+    assert_eq!(single.frame_count(), 1);
+    assert_eq!(single.read_frame(0).unwrap(), p);
+}
+
+#[test]
+fn frames_that_disagree_with_the_first_are_rejected_naming_the_file() {
+    let (p, f) = tetrahedron();
+    // Vertex count.
+    let dir = temp_dir("count");
+    write_obj(&dir.join("0.obj"), &p, &f);
+    let mut more = p.clone();
+    more.push(Vec3::ZERO);
+    write_obj(&dir.join("1.obj"), &more, &f);
+    let e = open(&dir).unwrap().read_frame(1).unwrap_err();
+    assert!(
+        matches!(&e, Error::Mesh { problem: MeshProblem::VertexCountMismatch { expected: 4, found: 5 }, path } if path.ends_with("1.obj")),
+        "{e}"
+    );
+    // Faces.
+    let dir = temp_dir("faces");
+    write_obj(&dir.join("0.obj"), &p, &f);
+    let mut g = f.clone();
+    g[2] = [0, 3, 2];
+    write_obj(&dir.join("1.obj"), &p, &g);
+    let e = open(&dir).unwrap().read_frame(1).unwrap_err();
+    assert!(matches!(e, Error::Mesh { problem: MeshProblem::FacesDiffer { face: 2 }, .. }), "{e}");
+    // Non-finite coordinates.
+    let dir = temp_dir("nan");
+    write_obj(&dir.join("0.obj"), &p, &f);
+    std::fs::write(dir.join("1.obj"), "v 0 0 0\nv 1 0 0\nv 0 nan 0\nv 0 0 1\nf 1 2 3\nf 1 4 2\nf 1 3 4\nf 2 4 3\n")
+        .unwrap();
+    let e = open(&dir).unwrap().read_frame(1).unwrap_err();
+    assert!(matches!(e, Error::Mesh { problem: MeshProblem::NonFinite { vertex: 2 }, .. }), "{e}");
+    assert!(e.to_string().contains("1.obj"), "{e}");
+}
+
+#[test]
+fn missing_and_unknown_inputs_are_clear_errors() {
+    let e = open_sequence("/nonexistent/cgv/motion", &OpenOptions::default()).err().unwrap();
+    assert!(matches!(e, Error::Io { .. }) && e.to_string().contains("/nonexistent/cgv/motion"), "{e}");
+    let dir = temp_dir("unknown");
+    std::fs::write(dir.join("x.ply"), "ply").unwrap();
+    let e = open(&dir.join("x.ply")).err().unwrap();
+    assert!(matches!(e, Error::Argument(_)), "{e}");
+    let e = open(&dir).err().unwrap();
+    assert!(e.to_string().contains("no .obj files"), "{e}");
+}
+
+#[test]
+fn glb_and_obj_output_round_trip() {
+    let src = cgv::demo::motion(5);
+    let dir = temp_dir("roundtrip");
+    let glb = dir.join("walk.glb");
+    cgv::mesh::gltf_out::write_glb(&glb, &src.topology, 5, 30.0, "walk", |i| Ok(src.frames[i].clone())).unwrap();
+    let back = open(&glb).unwrap();
+    assert_eq!(back.frame_count(), 5);
+    assert_eq!(back.topology().faces, src.topology.faces);
+    for i in 0..5 {
+        let f = back.read_frame(i).unwrap();
+        let (rms, max) = cgv::metrics::vertex_error(&f, &src.frames[i]);
+        assert!(max < 1e-5, "frame {i}: rms {rms} max {max}");
+    }
+    let objs = dir.join("frames");
+    cgv::mesh::gltf_out::write_obj_folder(&objs, &src.topology, 5, |i| Ok(src.frames[i].clone())).unwrap();
+    let back = open(&objs).unwrap();
+    assert_eq!(back.frame_count(), 5);
+    assert_eq!(back.read_frame(3).unwrap(), src.frames[3]);
+    // A failing writer leaves neither the file nor a partial one behind.
+    let bad = dir.join("bad.glb");
+    let r = cgv::mesh::gltf_out::write_glb(&bad, &src.topology, 5, 30.0, "walk", |i| {
+        if i < 3 {
+            Ok(src.frames[i].clone())
+        } else {
+            Err(Error::Argument("boom".into()))
+        }
+    });
+    assert!(r.is_err());
+    let left: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert_eq!(left.len(), 2, "leftovers: {left:?}");
+}
