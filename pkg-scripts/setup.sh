@@ -1,0 +1,53 @@
+#!/usr/bin/env bash
+# Installs whatever cgv needs that this machine lacks; fast when all is there.
+# Sourced by demo.sh and test.sh (it exports CARGO_TARGET_DIR and PATH).
+#
+#   rustup target wasm32-unknown-unknown     the web build
+#   wasm-bindgen-cli, pinned to Cargo.lock   the web package (installed under ~/.cache/cgv)
+#   nasm                                     openh264's assembly (2-5x faster H.264)
+#   chromium, chromium-driver                browser tests
+#   mesa-vulkan-drivers                      lavapipe, for rendering without a GPU
+set -euo pipefail
+
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+cache="${CGV_CACHE:-$HOME/.cache/cgv}"
+# One build folder outside the clone, shared by the demo, the tests and CI runs.
+export CARGO_TARGET_DIR="${CARGO_TARGET_DIR:-$cache/target}"
+export PATH="$cache/tools/bin:$HOME/.cargo/bin:$PATH"
+export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"
+
+say() { printf '\033[1m[setup]\033[0m %s\n' "$*" >&2; }
+
+if ! command -v cargo >/dev/null; then
+  echo "cargo not found: install Rust with rustup (https://rustup.rs) first" >&2
+  exit 1
+fi
+
+if command -v rustup >/dev/null && ! rustup target list --installed | grep -qx wasm32-unknown-unknown; then
+  say "adding the wasm32-unknown-unknown target"
+  rustup target add wasm32-unknown-unknown
+fi
+
+missing=()
+command -v nasm >/dev/null || missing+=(nasm)
+command -v chromium >/dev/null || missing+=(chromium)
+command -v chromedriver >/dev/null || missing+=(chromium-driver)
+command -v xz >/dev/null || missing+=(xz-utils)
+[ -e /usr/share/vulkan/icd.d/lvp_icd.x86_64.json ] || ls /usr/share/vulkan/icd.d/lvp_icd*.json >/dev/null 2>&1 || missing+=(mesa-vulkan-drivers)
+if [ ${#missing[@]} -gt 0 ]; then
+  say "installing ${missing[*]} with apt"
+  sudo=""; [ "$(id -u)" -eq 0 ] || sudo="sudo"
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq "${missing[@]}" >/dev/null
+fi
+
+# wasm-bindgen-cli must match the wasm-bindgen version in Cargo.lock exactly.
+want="$(awk '/^name = "wasm-bindgen"$/ {getline; gsub(/"/, "", $3); print $3; exit}' "$here/Cargo.lock")"
+have="$(wasm-bindgen --version 2>/dev/null | awk '{print $2}' || true)"
+if [ -n "$want" ] && [ "$have" != "$want" ]; then
+  say "installing wasm-bindgen-cli $want (takes several minutes once)"
+  # Its own build folder, so it does not hold the project's build lock; not
+  # --locked: its lock file pins a crate release the registry lacks.
+  CARGO_TARGET_DIR="$cache/wasm-bindgen-build" cargo install -q wasm-bindgen-cli --version "$want" --root "$cache/tools"
+  rm -rf "$cache/wasm-bindgen-build"
+fi

@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# Set up what is missing, then run every check: formatting, clippy, all
+# native tests (including those on ../shared/data), and the wasm32 build.
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+source pkg-scripts/setup.sh
+
+step() { printf '\n\033[1m== %s\033[0m\n' "$*"; }
+
+step "cargo fmt --check"
+cargo fmt --all -- --check
+
+step "cargo clippy (native, all targets)"
+cargo clippy --release --all-targets -- -D warnings
+
+step "library for wasm32-unknown-unknown"
+cargo build --release --lib --target wasm32-unknown-unknown
+
+step "native tests"
+cargo test --release --all-targets
