@@ -96,3 +96,14 @@ fn default_motion_resamples_closely_and_deterministically() {
         assert!(d.rms / diag < 0.006 && d.max / diag < 0.05, "frame {i}: rms {} max {}", d.rms / diag, d.max / diag);
     }
 }
+
+#[test]
+fn parameterize_rejects_surfaces_that_are_not_spheres() {
+    let (p, mut f) = icosphere(1);
+    f.pop();
+    let e = parameterize(&Topology { vertex_count: p.len(), faces: f }, &p, &ParamOptions::default()).unwrap_err();
+    assert!(matches!(e, cgv::Error::Argument(_)) && e.to_string().contains("boundary loop"), "{e}");
+    let (p, f) = icosphere(1);
+    let opts = ParamOptions { area_correction: 5.0, ..Default::default() };
+    assert!(parameterize(&Topology { vertex_count: p.len(), faces: f }, &p, &opts).is_err());
+}

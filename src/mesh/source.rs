@@ -64,10 +64,12 @@ pub fn open_sequence(spec: &str, opts: &OpenOptions) -> Result<Box<dyn FrameSour
                 Some("gltf") | Some("glb") => {
                     Box::new(super::gltf_in::GltfSource::open(path, opts.fps, opts.animation.as_deref())?)
                 }
-                _ => return Err(Error::Argument(format!(
+                _ => {
+                    return Err(Error::Argument(format!(
                     "{}: unknown input kind (expected a folder of .obj files, .obj, .gltf, .glb or {BUILTIN_DEFAULT})",
                     path.display()
-                ))),
+                )))
+                }
             }
         }
     };

@@ -72,23 +72,31 @@ pub fn face_singular_values(p: [DVec3; 3], q: [DVec2; 3], scale: f64) -> (f64, f
     (s1, s2, det.signum())
 }
 
+/// Area of a surface triangle.
+pub fn surface_area(pos: &[DVec3], f: &[u32; 3]) -> f64 {
+    0.5 * (pos[f[1] as usize] - pos[f[0] as usize]).cross(pos[f[2] as usize] - pos[f[0] as usize]).length()
+}
+
+/// Signed area of a triangle in the plane.
+pub fn signed_area(q: [DVec2; 3]) -> f64 {
+    0.5 * (q[1] - q[0]).perp_dot(q[2] - q[0])
+}
+
+/// Total image area over total surface area: divides image areas so that
+/// σ1 σ2 = 1 means a face gets exactly its share.
+fn image_scale(faces: &[[u32; 3]], pos: &[DVec3], face_uv: &impl Fn(usize) -> [DVec2; 3]) -> f64 {
+    let total3: f64 = faces.iter().map(|f| surface_area(pos, f)).sum();
+    let total2: f64 = (0..faces.len()).map(|f| signed_area(face_uv(f))).sum();
+    (total2 / total3).abs().max(1e-300)
+}
+
 /// Per-face area stretch of the inverse map (square to surface), 1/sqrt(σ1 σ2)
 /// with the image scaled to the surface's total area: above 1 where a face
 /// gets less than its share of the square. (Yoshizawa et al. use the L2
 /// stretch; on samba that leaves 1 % of the surface with under a tenth of
 /// its share and doubles the angle distortion, so we measure area alone.)
 pub fn face_stretch(faces: &[[u32; 3]], pos: &[DVec3], face_uv: impl Fn(usize) -> [DVec2; 3]) -> Vec<f64> {
-    let area3 = |f: &[u32; 3]| {
-        0.5 * (pos[f[1] as usize] - pos[f[0] as usize]).cross(pos[f[2] as usize] - pos[f[0] as usize]).length()
-    };
-    let total3: f64 = faces.iter().map(area3).sum();
-    let total2: f64 = (0..faces.len())
-        .map(|f| {
-            let q = face_uv(f);
-            0.5 * (q[1] - q[0]).perp_dot(q[2] - q[0])
-        })
-        .sum();
-    let scale = (total2 / total3).abs().max(1e-300);
+    let scale = image_scale(faces, pos, &face_uv);
     faces
         .iter()
         .enumerate()
@@ -105,17 +113,9 @@ pub fn face_stretch(faces: &[[u32; 3]], pos: &[DVec3], face_uv: impl Fn(usize) -
 
 /// Measures the map `uv` (per face, as the face sees it) of a surface.
 pub fn measure(faces: &[[u32; 3]], pos: &[DVec3], face_uv: impl Fn(usize) -> [DVec2; 3]) -> Distortion {
-    let area3 = |f: &[u32; 3]| {
-        0.5 * (pos[f[1] as usize] - pos[f[0] as usize]).cross(pos[f[2] as usize] - pos[f[0] as usize]).length()
-    };
+    let area3 = |f: &[u32; 3]| surface_area(pos, f);
     let total3: f64 = faces.iter().map(area3).sum();
-    let total2: f64 = (0..faces.len())
-        .map(|f| {
-            let q = face_uv(f);
-            0.5 * (q[1] - q[0]).perp_dot(q[2] - q[0])
-        })
-        .sum();
-    let scale = (total2 / total3).abs().max(1e-300);
+    let scale = image_scale(faces, pos, &face_uv);
     let mut conf = Vec::with_capacity(faces.len());
     let mut area = Vec::with_capacity(faces.len());
     let mut d = Distortion { area_min: f64::INFINITY, ..Default::default() };

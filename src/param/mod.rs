@@ -101,25 +101,19 @@ pub fn parameterize(topology: &Topology, positions: &[Vec3], opts: &ParamOptions
     if !(opts.area_correction.is_finite() && (0.0..=2.0).contains(&opts.area_correction)) {
         return Err(Error::Argument(format!("area correction {} is not in [0, 2]", opts.area_correction)));
     }
+    if let Err(problem) = crate::mesh::analyze(topology, positions).require_sphere() {
+        return Err(Error::Argument(format!("cannot parameterize: the surface {problem}")));
+    }
     let pos: Vec<DVec3> = positions.iter().map(|p| p.as_dvec3()).collect();
     let adj = Adjacency::build(faces);
-    if !adj.is_manifold() || adj.opposite.contains(&crate::mesh::adjacency::NONE) {
-        return Err(Error::Argument("the surface must be a closed manifold (see `cgv info`)".into()));
-    }
     let graph = Graph::new(nv, faces, &pos);
     let (cones, corner) = match opts.cones {
         Some(c) => c,
         None => cut::choose_cones(&graph, nv),
     };
 
-    let signed_area = |p: &Parameterization| -> f64 {
-        (0..faces.len())
-            .map(|f| {
-                let q = p.face_uv(faces, f);
-                (q[1] - q[0]).perp_dot(q[2] - q[0])
-            })
-            .sum()
-    };
+    let total_image_area =
+        |p: &Parameterization| -> f64 { (0..faces.len()).map(|f| distortion::signed_area(p.face_uv(faces, f))).sum() };
     let weights = orbifold::cotangent_weights(faces, &adj, &pos);
     let mut result = None;
     for mirror in [false, true] {
@@ -135,16 +129,11 @@ pub fn parameterize(topology: &Topology, positions: &[Vec3], opts: &ParamOptions
             distortion: Distortion::default(),
             options: opts.clone(),
         };
-        if signed_area(&p) < 0.0 {
+        if total_image_area(&p) < 0.0 {
             continue;
         }
         p.conformal = distortion::measure(faces, &pos, |f| p.face_uv(faces, f));
-        let area3: Vec<f64> = faces
-            .iter()
-            .map(|f| {
-                0.5 * (pos[f[1] as usize] - pos[f[0] as usize]).cross(pos[f[2] as usize] - pos[f[0] as usize]).length()
-            })
-            .collect();
+        let area3: Vec<f64> = faces.iter().map(|f| distortion::surface_area(&pos, f)).collect();
         let mut w = weights.clone();
         let mut best = p.conformal.area_log_mean;
         for _ in 0..if opts.area_correction > 0.0 { opts.area_passes } else { 0 } {
