@@ -42,7 +42,9 @@ fn bench(c: &mut Criterion) {
         b.iter(|| parameterize(&topo, &frame, &ParamOptions::default()).expect("parameterize"))
     });
     g.bench_function(format!("parameterize-conformal-only/{name}"), |b| {
-        b.iter(|| parameterize(&topo, &frame, &ParamOptions { area_correction: 0.0, ..Default::default() }).expect("param"))
+        b.iter(|| {
+            parameterize(&topo, &frame, &ParamOptions { area_correction: 0.0, ..Default::default() }).expect("param")
+        })
     });
     let param = parameterize(&topo, &frame, &ParamOptions::default()).expect("parameterize");
     for n in [128usize, 256, 512] {
