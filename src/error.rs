@@ -60,6 +60,16 @@ pub enum Error {
     /// A mesh or frame is valid in its format but unusable as a motion.
     #[error("{}: {problem}", path.display())]
     Mesh { path: PathBuf, problem: MeshProblem },
+    /// A `.cgv` file is malformed (see [`crate::container::ContainerError`]).
+    #[error("{}: {source}", path.display())]
+    Container {
+        path: PathBuf,
+        #[source]
+        source: crate::container::ContainerError,
+    },
+    /// An H.264 stream could not be encoded or decoded.
+    #[error("video: {0}")]
+    Video(String),
     /// The caller asked for something that cannot be done.
     #[error("invalid argument: {0}")]
     Argument(String),

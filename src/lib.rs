@@ -7,6 +7,12 @@
 //! geometry images ([`param`], [`grid`], [`resample`]) and metrics
 //! ([`metrics`]). Platform code lives at the edges (the `cgv` binary).
 
+// Numerical kernels index several arrays in lockstep (positions, normals,
+// stencils); index loops say that more plainly than zipped iterators.
+#![allow(clippy::needless_range_loop)]
+
+pub mod codec;
+pub mod container;
 pub mod demo;
 pub mod error;
 pub mod fsutil;
@@ -16,6 +22,7 @@ pub mod mesh;
 pub mod metrics;
 pub mod param;
 pub mod resample;
+pub mod solve;
 pub mod sparse;
 
 pub use error::{Error, MeshProblem, Result};

@@ -18,6 +18,9 @@ pub struct Args {
 }
 
 pub fn run(args: Args) -> Result<()> {
+    if args.input.input.ends_with(".cgv") {
+        return cgv_info(&args);
+    }
     let src = args.input.open()?;
     let first = src.read_frame(0)?;
     let topo = analyze(src.topology(), &first);
@@ -101,6 +104,48 @@ pub fn run(args: Args) -> Result<()> {
             } else {
                 "not usable as is"
             }
+        );
+    }
+    Ok(())
+}
+
+/// `cgv info FILE.cgv`: the header and the size of each stream.
+fn cgv_info(args: &Args) -> Result<()> {
+    let path = std::path::Path::new(&args.input.input);
+    let file = super::decode::read_cgv(path)?;
+    let h = &file.header;
+    let seconds = h.frames as f64 / h.fps as f64;
+    let stream_bytes: Vec<usize> = file.units.iter().map(|u| u.iter().map(|a| a.len()).sum()).collect();
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&serde_json::json!({
+                "file": path, "bytes": file.bytes, "kbps": file.bytes as f64 * 8.0 / 1000.0 / seconds,
+                "header": h, "stream_bytes": stream_bytes,
+            }))?
+        );
+        return Ok(());
+    }
+    println!("{} (.cgv format version {})", path.display(), cgv::container::VERSION);
+    println!("  codec         {:?}, intended solver {}", h.codec, h.solver);
+    println!("  frames        {} at {} fps ({:.2} s)", h.frames, h.fps, seconds);
+    println!("  grid          {0} x {0} ({1})", h.grid, h.seam);
+    println!("  size          {} bytes, {:.1} kbit/s", file.bytes, file.bytes as f64 * 8.0 / 1000.0 / seconds);
+    println!("  key frames    {} ({:?}...)", h.key_frames.len(), &h.key_frames[..h.key_frames.len().min(5)]);
+    println!("  anchors       {:?}", h.anchors);
+    println!(
+        "  settings      QP {}{}, GOP {}, {}, {} layer(s)",
+        h.settings.qp,
+        h.settings.kbps.map(|k| format!(" (target {k} kbit/s)")).unwrap_or_default(),
+        h.settings.gop,
+        if h.settings.cabac { "CABAC" } else { "CAVLC" },
+        h.settings.layers
+    );
+    println!("  source        {} ({} vertices, diagonal {})", h.source.label, h.source.vertices, h.source.diagonal);
+    for (s, b) in h.streams.iter().zip(&stream_bytes) {
+        println!(
+            "  stream {:<7} layer {} {:?} range [{:.4e}, {:.4e}] {:>9} bytes",
+            s.name, s.layer, s.coverage, s.quant.min, s.quant.max, b
         );
     }
     Ok(())

@@ -1,6 +1,8 @@
 //! The native CLI. Each subcommand is one file; this one parses arguments,
 //! reports errors, and holds what the subcommands share.
 
+mod decode;
+mod encode;
 mod info;
 mod remesh;
 
@@ -28,10 +30,14 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Describe a mesh sequence: frames, size, bounds and topology checks.
+    /// Describe a mesh sequence (frames, size, bounds, topology checks) or a .cgv file.
     Info(info::Args),
     /// Parameterize the reference frame and resample every frame onto a seamless N x N grid.
     Remesh(remesh::Args),
+    /// Encode a motion as a .cgv file (CGV or the GV baseline) with H.264.
+    Encode(encode::Args),
+    /// Decode a .cgv file into a mesh sequence (GLB or a folder of OBJ files).
+    Decode(decode::Args),
 }
 
 /// Options shared by the commands that read a mesh sequence.
@@ -79,6 +85,8 @@ pub fn main() -> ExitCode {
     let result = match cli.command {
         Command::Info(a) => info::run(a),
         Command::Remesh(a) => remesh::run(a),
+        Command::Encode(a) => encode::run(a),
+        Command::Decode(a) => decode::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

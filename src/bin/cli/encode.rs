@@ -1,0 +1,129 @@
+//! `cgv encode`: a motion into a `.cgv` file (CGV or GV).
+
+use super::InputArgs;
+use anyhow::{bail, Context, Result};
+use cgv::codec::{encode, h264::VideoSettings, EncodeOptions};
+use cgv::container::CodecKind;
+use cgv::param::ParamOptions;
+use cgv::solve::SolverKind;
+use std::path::PathBuf;
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum Codec {
+    /// Conformal geometry video: mean curvature every frame, intrinsic streams at key frames.
+    Cgv,
+    /// Geometry video: x, y, z every frame (the baseline).
+    Gv,
+}
+
+#[derive(clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    input: InputArgs,
+    /// Output .cgv file.
+    #[arg(short, long)]
+    output: PathBuf,
+    #[arg(long, value_enum, default_value = "cgv")]
+    codec: Codec,
+    /// The decoder recorded as intended (cgv or paper); `cgv decode --solver` overrides it.
+    #[arg(long, default_value = "cgv")]
+    solver: SolverKind,
+    /// Constant H.264 quantization parameter, 0..=51 (lower: larger and finer).
+    #[arg(long, default_value_t = 20, conflicts_with = "kbps")]
+    qp: u8,
+    /// Target total bitrate in kbit/s at the motion's frame rate, instead of a constant QP.
+    #[arg(long)]
+    kbps: Option<f32>,
+    /// A key frame (λ, a, b) every N frames; 0 for the first frame only.
+    #[arg(long, default_value_t = 10)]
+    keyframes: u32,
+    /// Anchor samples stored per frame (float32 positions); at least 4 for CGV.
+    #[arg(long, default_value_t = 4)]
+    anchors: usize,
+    /// Grid size N (even, at least 16).
+    #[arg(long, default_value_t = 128)]
+    grid: usize,
+    /// Frames between H.264 intra frames.
+    #[arg(long, default_value_t = 30)]
+    gop: u32,
+    /// Use CAVLC instead of CABAC entropy coding.
+    #[arg(long)]
+    cavlc: bool,
+    /// 2 adds a residual layer per stream for precision beyond 8 bits.
+    #[arg(long, default_value_t = 1)]
+    layers: u8,
+    /// Range of the residual layer, in base-layer quantization steps.
+    #[arg(long, default_value_t = 8.0)]
+    residual_steps: f32,
+    /// Parameterization: area correction exponent (0 keeps the map conformal).
+    #[arg(long, default_value_t = ParamOptions::default().area_correction)]
+    area_correction: f64,
+    /// Print the report as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    if args.output.extension().is_none_or(|e| e != "cgv") {
+        bail!("{}: the output should end in .cgv", args.output.display());
+    }
+    let src = args.input.open()?;
+    let opts = EncodeOptions {
+        codec: match args.codec {
+            Codec::Cgv => CodecKind::Cgv,
+            Codec::Gv => CodecKind::Gv,
+        },
+        grid: args.grid,
+        video: VideoSettings { qp: args.qp, kbps: args.kbps, gop: args.gop, cabac: !args.cavlc, fps: src.fps() },
+        key_interval: args.keyframes,
+        anchors: args.anchors,
+        layers: args.layers,
+        residual_steps: args.residual_steps,
+        solver: args.solver,
+        param: ParamOptions { area_correction: args.area_correction, ..Default::default() },
+        reference: 0,
+    };
+    let pb = super::progress(src.frame_count(), "encoding", args.json);
+    let (bytes, report) = encode(src.as_ref(), &opts, &mut |stage, done, _| {
+        if done == 1 {
+            pb.set_message(stage.to_string());
+            pb.set_position(0);
+        }
+        pb.set_position(done as u64);
+    })
+    .with_context(|| format!("encoding {}", src.label().display()))?;
+    pb.finish_and_clear();
+    cgv::fsutil::write_atomic(&args.output, &bytes)?;
+    let seconds = report.frames as f64 / src.fps() as f64;
+    let kbps = report.bytes as f64 * 8.0 / 1000.0 / seconds;
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&serde_json::json!({
+                "output": args.output, "bytes": report.bytes, "kbps": kbps, "report": report
+            }))?
+        );
+    } else {
+        println!(
+            "{} -> {} ({} frames, {} bytes, {:.1} kbit/s at {} fps)",
+            src.label().display(),
+            args.output.display(),
+            report.frames,
+            report.bytes,
+            kbps,
+            src.fps()
+        );
+        for (name, b) in &report.stream_bytes {
+            println!("  stream {name:<8} {b:>10} bytes");
+        }
+        println!("  anchors         {:>10} bytes", report.anchor_bytes);
+        println!(
+            "  time: parameterize {:.2} s, H.264 {:.2} s, total {:.2} s ({:.1} ms/frame)",
+            report.seconds_parameterize,
+            report.seconds_video,
+            report.seconds_total,
+            1000.0 * report.seconds_total / report.frames as f64
+        );
+    }
+    Ok(())
+}

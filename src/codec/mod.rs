@@ -1,0 +1,209 @@
+//! The CGV and GV codecs (the paper, sections 3 and 5).
+//!
+//! Both resample the motion on the seamless grid and code scalar streams as
+//! grayscale H.264 ([`quant`] for the samples, `h264` natively, WebCodecs in
+//! the browser). A **GV** file codes the grid's x, y, z every frame. A **CGV**
+//! file codes the mean curvature H every frame; λ, a, b ([`features`]) at key
+//! frames; the positions of a few anchor samples every frame (float32); and,
+//! at frame 0 only, a coarse copy of the positions (`seed_x/y/z`) that the
+//! solvers start from, since a nonlinear solve needs a first guess and the
+//! paper leaves that frame's guess unsaid.
+
+#[cfg(not(target_arch = "wasm32"))]
+mod encode;
+pub mod features;
+#[cfg(not(target_arch = "wasm32"))]
+pub mod h264;
+pub mod quant;
+
+#[cfg(not(target_arch = "wasm32"))]
+pub use encode::{encode, EncodeOptions, EncodeReport};
+
+use crate::container::{CgvFile, CodecKind};
+use crate::error::{Error, Result};
+use crate::grid::Grid;
+use crate::solve::{cgv::CgvSolver, paper::PaperSolver, SolveStats, SolverKind};
+use features::Stencils;
+use glam::Vec3;
+
+/// Decodes one H.264 access unit into its luma samples (row-major,
+/// `width * height`). Natively OpenH264; in the browser, WebCodecs.
+pub trait VideoDecoder {
+    fn decode(&mut self, access_unit: &[u8], width: usize, height: usize) -> Result<Vec<u8>>;
+}
+
+/// Picks anchor samples spread over the surface: farthest-point sampling in
+/// 3D from the sample farthest from the centroid. Four or more such points
+/// on a real body are not coplanar.
+pub fn choose_anchors(grid_positions: &[Vec3], count: usize) -> Vec<u32> {
+    let n = grid_positions.len();
+    if n == 0 || count == 0 {
+        return Vec::new();
+    }
+    let c = grid_positions.iter().copied().sum::<Vec3>() / n as f32;
+    let far = |d: &dyn Fn(usize) -> f32| (0..n).max_by(|&a, &b| d(a).total_cmp(&d(b))).unwrap_or(0);
+    let mut chosen = vec![far(&|i| grid_positions[i].distance(c)) as u32];
+    let mut dist: Vec<f32> = grid_positions.iter().map(|p| p.distance(grid_positions[chosen[0] as usize])).collect();
+    while chosen.len() < count.min(n) {
+        let next = far(&|i| dist[i]);
+        chosen.push(next as u32);
+        for (d, p) in dist.iter_mut().zip(grid_positions) {
+            *d = d.min(p.distance(grid_positions[next]));
+        }
+    }
+    chosen
+}
+
+/// What decoding one frame took.
+#[derive(Debug, Clone, Copy, Default, serde::Serialize)]
+pub struct FrameStats {
+    pub solve: SolveStats,
+    pub video_seconds: f64,
+    pub solve_seconds: f64,
+}
+
+enum Rebuild {
+    Gv,
+    Cgv(CgvSolver),
+    Paper(PaperSolver),
+}
+
+/// The mean curvature of frame `f` and, at frame 0, the seed positions.
+fn cgv_inputs<'a>(get: &impl Fn(&str) -> Option<&'a Vec<f32>>, f: u32) -> Result<(&'a [f32], Option<Vec<Vec3>>)> {
+    let hv = get("H").ok_or_else(|| Error::Argument(format!("frame {f} has no H")))?;
+    let seed = match (get("seed_x"), get("seed_y"), get("seed_z")) {
+        (Some(x), Some(y), Some(z)) => Some(xyz(x, y, z)),
+        _ => None,
+    };
+    Ok((hv, seed))
+}
+
+fn xyz(x: &[f32], y: &[f32], z: &[f32]) -> Vec<Vec3> {
+    x.iter().zip(y).zip(z).map(|((&x, &y), &z)| Vec3::new(x, y, z)).collect()
+}
+
+/// Decodes a `.cgv` file frame by frame, in order.
+pub struct SequenceDecoder<D: VideoDecoder> {
+    pub file: CgvFile,
+    pub grid: Grid,
+    decoders: Vec<D>,
+    rebuild: Rebuild,
+    next: u32,
+}
+
+fn now() -> f64 {
+    #[cfg(not(target_arch = "wasm32"))]
+    {
+        use std::sync::OnceLock;
+        static START: OnceLock<std::time::Instant> = OnceLock::new();
+        START.get_or_init(std::time::Instant::now).elapsed().as_secs_f64()
+    }
+    #[cfg(target_arch = "wasm32")]
+    {
+        0.0
+    }
+}
+
+impl<D: VideoDecoder> SequenceDecoder<D> {
+    /// `make_decoder` creates one video decoder per stream.
+    pub fn new(file: CgvFile, solver: SolverKind, mut make_decoder: impl FnMut() -> Result<D>) -> Result<Self> {
+        let h = &file.header;
+        let grid = Grid::new(h.grid as usize)?;
+        let decoders = (0..h.streams.len()).map(|_| make_decoder()).collect::<Result<Vec<_>>>()?;
+        let rebuild = match h.codec {
+            CodecKind::Gv => {
+                for name in ["x", "y", "z"] {
+                    h.stream(name).ok_or_else(|| Error::Argument(format!("GV file without stream {name}")))?;
+                }
+                Rebuild::Gv
+            }
+            CodecKind::Cgv => {
+                for name in ["H", "lambda", "a", "b", "seed_x", "seed_y", "seed_z"] {
+                    h.stream(name).ok_or_else(|| Error::Argument(format!("CGV file without stream {name}")))?;
+                }
+                let st = Stencils::new(grid);
+                match solver {
+                    SolverKind::Cgv => Rebuild::Cgv(CgvSolver::new(st, h.anchors.clone())),
+                    SolverKind::Paper => Rebuild::Paper(PaperSolver::new(st, h.anchors.clone())),
+                }
+            }
+        };
+        Ok(SequenceDecoder { file, grid, decoders, rebuild, next: 0 })
+    }
+
+    pub fn frame_count(&self) -> usize {
+        self.file.header.frames as usize
+    }
+
+    /// Decodes every stream's access unit at frame `f` into values.
+    fn stream_values(&mut self, f: u32) -> Result<Vec<Option<Vec<f32>>>> {
+        let h = &self.file.header;
+        let n = self.grid.n;
+        let mut out: Vec<Option<Vec<f32>>> = vec![None; h.streams.len()];
+        for s in 0..h.streams.len() {
+            if !h.stream_has_frame(s, f) {
+                continue;
+            }
+            let au = &self.file.units[s][f as usize];
+            let samples = self.decoders[s].decode(au, n, n)?;
+            let q = h.streams[s].quant;
+            let vals: Vec<f32> = samples.iter().map(|&x| q.dequantize(x)).collect();
+            match h.streams[s].refines {
+                Some(base) => {
+                    let b = out[base as usize]
+                        .as_mut()
+                        .ok_or_else(|| Error::Argument("layer 2 without its base".into()))?;
+                    b.iter_mut().zip(&vals).for_each(|(x, r)| *x += r);
+                }
+                None => out[s] = Some(vals),
+            }
+        }
+        Ok(out)
+    }
+
+    /// Decodes the next frame: grid positions and statistics.
+    pub fn next_frame(&mut self) -> Result<(Vec<Vec3>, FrameStats)> {
+        let f = self.next;
+        if f >= self.file.header.frames {
+            return Err(Error::Argument("no frames left".into()));
+        }
+        let t0 = now();
+        let vals = self.stream_values(f)?;
+        let t1 = now();
+        let h = &self.file.header;
+        let get = |name: &str| -> Option<&Vec<f32>> { h.stream(name).and_then(|s| vals[s].as_ref()) };
+        let mut stats = FrameStats { video_seconds: t1 - t0, ..Default::default() };
+        let anchors: Vec<Vec3> =
+            self.file.anchors.get(f as usize).map(|a| a.iter().map(|p| Vec3::from(*p)).collect()).unwrap_or_default();
+        let positions = match &mut self.rebuild {
+            Rebuild::Gv => {
+                let (x, y, z) = (get("x"), get("y"), get("z"));
+                match (x, y, z) {
+                    (Some(x), Some(y), Some(z)) => xyz(x, y, z),
+                    _ => return Err(Error::Argument(format!("GV frame {f} lacks a coordinate stream"))),
+                }
+            }
+            Rebuild::Cgv(solver) => {
+                let (hv, seed) = cgv_inputs(&get, f)?;
+                if let (Some(a), Some(b)) = (get("a"), get("b")) {
+                    solver.set_intrinsics(a, b)?;
+                }
+                let (x, st) = solver.solve_frame(hv, &anchors, seed.as_deref())?;
+                stats.solve = st;
+                x
+            }
+            Rebuild::Paper(solver) => {
+                let (hv, seed) = cgv_inputs(&get, f)?;
+                if let Some(l) = get("lambda") {
+                    solver.set_lambda(l);
+                }
+                let (x, st) = solver.solve_frame(hv, &anchors, seed.as_deref())?;
+                stats.solve = st;
+                x
+            }
+        };
+        stats.solve_seconds = now() - t1;
+        self.next += 1;
+        Ok((positions, stats))
+    }
+}

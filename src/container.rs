@@ -1,0 +1,437 @@
+//! The `.cgv` file format, version 1 (documented in `docs/FORMAT.md`).
+//!
+//! ```text
+//! magic    8 bytes   89 43 47 56 0D 0A 1A 0A   ("\x89CGV\r\n\x1a\n")
+//! version  u16 LE    1
+//! flags    u16 LE    0
+//! length   u32 LE    header length L (at most 1 MiB)
+//! header   L bytes   UTF-8 JSON (serde), see [`Header`]
+//! crc      u32 LE    CRC-32 of version..header
+//! chunks   ...       until an END chunk
+//! ```
+//!
+//! Each chunk: `tag [4] | stream u16 | reserved u16 | frame u32 | length u32 |
+//! payload | crc u32` (CRC-32 of tag..payload). Tags: `AUNT` (one H.264
+//! access unit, Annex-B, of `stream` at `frame`), `ANCH` (the anchors of
+//! `frame`: little-endian f32 x, y, z per anchor), `CEND` (end of file).
+//! Chunks are ordered by frame, so a reader can start on frame 0 before the
+//! rest of the file has arrived.
+
+use crate::codec::quant::Quantizer;
+use serde::{Deserialize, Serialize};
+
+pub const MAGIC: [u8; 8] = [0x89, b'C', b'G', b'V', b'\r', b'\n', 0x1A, b'\n'];
+pub const VERSION: u16 = 1;
+/// Largest header accepted.
+pub const MAX_HEADER: usize = 1 << 20;
+/// Largest chunk payload accepted (an access unit of a 4096² frame at QP 0
+/// stays far below it).
+pub const MAX_CHUNK: usize = 64 << 20;
+pub const MAX_FRAMES: u32 = 10_000_000;
+pub const MAX_STREAMS: usize = 32;
+pub const MAX_ANCHORS: usize = 4096;
+
+pub const TAG_ACCESS_UNIT: [u8; 4] = *b"AUNT";
+pub const TAG_ANCHORS: [u8; 4] = *b"ANCH";
+pub const TAG_END: [u8; 4] = *b"CEND";
+
+/// What is wrong with a `.cgv` file, with the byte offset where it was found.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ContainerError {
+    #[error("not a .cgv file (bad magic number)")]
+    BadMagic,
+    #[error("format version {found} is newer than this reader (it reads up to {VERSION})")]
+    UnsupportedVersion { found: u16 },
+    #[error("truncated at byte {offset}: {what} needs {needed} more bytes")]
+    Truncated { offset: usize, what: &'static str, needed: usize },
+    #[error("corrupted at byte {offset}: {what} fails its CRC check")]
+    BadCrc { offset: usize, what: &'static str },
+    #[error("{what} is {value}, more than the limit {limit}")]
+    TooLarge { what: &'static str, value: u64, limit: u64 },
+    #[error("bad header: {0}")]
+    Header(String),
+    #[error("at byte {offset}: {msg}")]
+    Chunk { offset: usize, msg: String },
+}
+
+/// Which representation the streams carry.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CodecKind {
+    /// Conformal geometry video: H every frame, intrinsic streams at key frames.
+    Cgv,
+    /// Geometry video: x, y, z every frame.
+    Gv,
+}
+
+/// One coded scalar stream.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StreamInfo {
+    /// `H`, `lambda`, `a`, `b`, `seed_x`, `seed_y`, `seed_z` (CGV) or `x`, `y`, `z` (GV).
+    pub name: String,
+    /// 1 for the base layer, 2 for the residual layer refining stream `refines`.
+    pub layer: u8,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub refines: Option<u16>,
+    pub quant: Quantizer,
+    /// Which frames the stream has.
+    pub coverage: Coverage,
+}
+
+/// The frames a stream is coded at.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Coverage {
+    /// Every frame.
+    All,
+    /// The key frames.
+    Key,
+    /// Frame 0 only.
+    First,
+}
+
+/// Encoder settings, recorded for information.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Settings {
+    pub qp: u8,
+    #[serde(default)]
+    pub kbps: Option<f32>,
+    pub gop: u32,
+    pub cabac: bool,
+    pub layers: u8,
+    /// Layer-2 range in layer-1 steps (0 when there is no second layer).
+    #[serde(default)]
+    pub residual_steps: f32,
+}
+
+/// About the input the file was made from.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, Default)]
+pub struct SourceInfo {
+    pub label: String,
+    pub vertices: u32,
+    pub faces: u32,
+    /// Bounding-box diagonal of the first input frame.
+    pub diagonal: f32,
+}
+
+/// The header of a `.cgv` file.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Header {
+    /// Grid size N: frames are N x N samples.
+    pub grid: u32,
+    /// The seam rule of the grid (see `src/grid.rs`).
+    pub seam: String,
+    pub frames: u32,
+    pub fps: f32,
+    pub codec: CodecKind,
+    pub streams: Vec<StreamInfo>,
+    /// Frames at which the key-frame streams are coded (always includes 0).
+    pub key_frames: Vec<u32>,
+    /// Grid samples whose positions are stored (float32) in every frame.
+    pub anchors: Vec<u32>,
+    /// The decoder the encoder intended (`cgv` or `paper`).
+    pub solver: String,
+    pub settings: Settings,
+    #[serde(default)]
+    pub source: SourceInfo,
+}
+
+/// The seam rule written by this version.
+pub const SEAM_RULE: &str = "octahedral-half-turn";
+
+impl Header {
+    /// Checks the header's own consistency and limits.
+    pub fn validate(&self) -> Result<(), ContainerError> {
+        let bad = |m: String| Err(ContainerError::Header(m));
+        if self.grid < 16 || self.grid > crate::grid::MAX_N as u32 || self.grid % 2 != 0 {
+            return bad(format!("grid size {} must be even and in 16..={}", self.grid, crate::grid::MAX_N));
+        }
+        if self.seam != SEAM_RULE {
+            return bad(format!("unknown seam rule '{}'", self.seam));
+        }
+        if self.frames == 0 || self.frames > MAX_FRAMES {
+            return bad(format!("frame count {} is not in 1..={MAX_FRAMES}", self.frames));
+        }
+        if !(self.fps.is_finite() && self.fps > 0.0 && self.fps <= 1000.0) {
+            return bad(format!("frame rate {} is not in (0, 1000]", self.fps));
+        }
+        if self.streams.is_empty() || self.streams.len() > MAX_STREAMS {
+            return bad(format!("{} streams (1..={MAX_STREAMS} allowed)", self.streams.len()));
+        }
+        for (i, s) in self.streams.iter().enumerate() {
+            if !s.quant.is_valid() {
+                return bad(format!("stream {i} has an invalid range"));
+            }
+            match (s.layer, s.refines) {
+                (1, None) => {}
+                (2, Some(r)) if (r as usize) < i && self.streams[r as usize].layer == 1 => {}
+                _ => return bad(format!("stream {i} has an invalid layer {} / refines {:?}", s.layer, s.refines)),
+            }
+        }
+        if self.key_frames.first() != Some(&0)
+            || self.key_frames.windows(2).any(|w| w[1] <= w[0])
+            || self.key_frames.last().is_some_and(|&k| k >= self.frames)
+        {
+            return bad("key frames must start at 0, increase, and lie inside the sequence".into());
+        }
+        let samples = self.grid * self.grid;
+        if self.anchors.len() > MAX_ANCHORS || self.anchors.iter().any(|&a| a >= samples) {
+            return bad(format!("anchors must be at most {MAX_ANCHORS} grid samples below {samples}"));
+        }
+        if self.codec == CodecKind::Cgv && self.anchors.len() < 4 {
+            return bad("a CGV file needs at least 4 anchors".into());
+        }
+        Ok(())
+    }
+
+    pub fn is_key_frame(&self, f: u32) -> bool {
+        self.key_frames.binary_search(&f).is_ok()
+    }
+
+    /// Whether stream `s` has an access unit at frame `f`.
+    pub fn stream_has_frame(&self, s: usize, f: u32) -> bool {
+        match self.streams[s].coverage {
+            Coverage::All => true,
+            Coverage::Key => self.is_key_frame(f),
+            Coverage::First => f == 0,
+        }
+    }
+
+    /// The stream named `name` in layer 1, if present.
+    pub fn stream(&self, name: &str) -> Option<usize> {
+        self.streams.iter().position(|s| s.layer == 1 && s.name == name)
+    }
+
+    /// The layer-2 stream refining stream `base`, if any.
+    pub fn refinement(&self, base: usize) -> Option<usize> {
+        self.streams.iter().position(|s| s.layer == 2 && s.refines == Some(base as u16))
+    }
+
+    /// The number of chunks a complete file has before its END chunk.
+    pub fn expected_chunks(&self) -> u64 {
+        let mut n = 0u64;
+        for f in 0..self.frames {
+            n += (0..self.streams.len()).filter(|&s| self.stream_has_frame(s, f)).count() as u64;
+            n += u64::from(!self.anchors.is_empty());
+        }
+        n
+    }
+}
+
+/// Writes the file prefix (magic, version, header, CRC).
+pub fn write_header(header: &Header) -> Result<Vec<u8>, ContainerError> {
+    header.validate()?;
+    let json = serde_json::to_vec(header).map_err(|e| ContainerError::Header(e.to_string()))?;
+    if json.len() > MAX_HEADER {
+        return Err(ContainerError::TooLarge { what: "header", value: json.len() as u64, limit: MAX_HEADER as u64 });
+    }
+    let mut out = Vec::with_capacity(json.len() + 24);
+    out.extend_from_slice(&MAGIC);
+    out.extend_from_slice(&VERSION.to_le_bytes());
+    out.extend_from_slice(&0u16.to_le_bytes());
+    out.extend_from_slice(&(json.len() as u32).to_le_bytes());
+    out.extend_from_slice(&json);
+    let crc = crc32fast::hash(&out[8..]);
+    out.extend_from_slice(&crc.to_le_bytes());
+    Ok(out)
+}
+
+/// Encodes one chunk.
+pub fn write_chunk(tag: [u8; 4], stream: u16, frame: u32, payload: &[u8]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(payload.len() + 20);
+    out.extend_from_slice(&tag);
+    out.extend_from_slice(&stream.to_le_bytes());
+    out.extend_from_slice(&0u16.to_le_bytes());
+    out.extend_from_slice(&frame.to_le_bytes());
+    out.extend_from_slice(&(payload.len() as u32).to_le_bytes());
+    out.extend_from_slice(payload);
+    let crc = crc32fast::hash(&out);
+    out.extend_from_slice(&crc.to_le_bytes());
+    out
+}
+
+fn u16_at(b: &[u8], o: usize) -> u16 {
+    u16::from_le_bytes([b[o], b[o + 1]])
+}
+fn u32_at(b: &[u8], o: usize) -> u32 {
+    u32::from_le_bytes([b[o], b[o + 1], b[o + 2], b[o + 3]])
+}
+
+/// Parses the file prefix from the start of `bytes`. Returns `Ok(None)` when
+/// more bytes are needed (streaming), else the header and its length in bytes.
+pub fn parse_header(bytes: &[u8]) -> Result<Option<(Header, usize)>, ContainerError> {
+    let have = bytes.len().min(8);
+    if bytes[..have] != MAGIC[..have] {
+        return Err(ContainerError::BadMagic);
+    }
+    if bytes.len() < 16 {
+        return Ok(None);
+    }
+    let version = u16_at(bytes, 8);
+    if version == 0 || version > VERSION {
+        return Err(ContainerError::UnsupportedVersion { found: version });
+    }
+    let len = u32_at(bytes, 12) as usize;
+    if len > MAX_HEADER {
+        return Err(ContainerError::TooLarge { what: "header length", value: len as u64, limit: MAX_HEADER as u64 });
+    }
+    let end = 16 + len + 4;
+    if bytes.len() < end {
+        return Ok(None);
+    }
+    if crc32fast::hash(&bytes[8..16 + len]) != u32_at(bytes, 16 + len) {
+        return Err(ContainerError::BadCrc { offset: 8, what: "the header" });
+    }
+    let header: Header =
+        serde_json::from_slice(&bytes[16..16 + len]).map_err(|e| ContainerError::Header(e.to_string()))?;
+    header.validate()?;
+    Ok(Some((header, end)))
+}
+
+/// One chunk, borrowed from the file's bytes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Chunk<'a> {
+    pub tag: [u8; 4],
+    pub stream: u16,
+    pub frame: u32,
+    pub payload: &'a [u8],
+}
+
+/// Parses the chunk at `bytes[offset..]`. `Ok(None)` means more bytes are
+/// needed; otherwise returns the chunk and the offset after it.
+pub fn parse_chunk(bytes: &[u8], offset: usize) -> Result<Option<(Chunk<'_>, usize)>, ContainerError> {
+    let b = &bytes[offset.min(bytes.len())..];
+    if b.len() < 16 {
+        return Ok(None);
+    }
+    let len = u32_at(b, 12) as usize;
+    if len > MAX_CHUNK {
+        return Err(ContainerError::TooLarge { what: "chunk length", value: len as u64, limit: MAX_CHUNK as u64 });
+    }
+    if b.len() < 16 + len + 4 {
+        return Ok(None);
+    }
+    if crc32fast::hash(&b[..16 + len]) != u32_at(b, 16 + len) {
+        return Err(ContainerError::BadCrc { offset, what: "a chunk" });
+    }
+    let tag = [b[0], b[1], b[2], b[3]];
+    if tag != TAG_ACCESS_UNIT && tag != TAG_ANCHORS && tag != TAG_END {
+        return Err(ContainerError::Chunk {
+            offset,
+            msg: format!("unknown chunk tag {:?}", String::from_utf8_lossy(&tag)),
+        });
+    }
+    let chunk = Chunk { tag, stream: u16_at(b, 4), frame: u32_at(b, 8), payload: &b[16..16 + len] };
+    Ok(Some((chunk, offset + 16 + len + 4)))
+}
+
+/// A whole `.cgv` file in memory, checked: every chunk is where the header
+/// says it must be, with nothing missing or extra.
+#[derive(Debug, Clone)]
+pub struct CgvFile {
+    pub header: Header,
+    /// Access units per stream per frame (empty where the stream has no frame).
+    pub units: Vec<Vec<Vec<u8>>>,
+    /// Anchor positions per frame.
+    pub anchors: Vec<Vec<[f32; 3]>>,
+    /// Size of the file in bytes.
+    pub bytes: usize,
+}
+
+/// Reads and checks a complete `.cgv` file.
+pub fn read(bytes: &[u8]) -> Result<CgvFile, ContainerError> {
+    let truncated = |offset: usize, what| ContainerError::Truncated { offset, what, needed: 1 };
+    let (header, mut offset) = match parse_header(bytes)? {
+        Some(h) => h,
+        None => return Err(truncated(bytes.len(), "the header")),
+    };
+    let nstreams = header.streams.len();
+    // Allocate per frame only as chunks arrive: a header cannot make us reserve
+    // memory the file does not back.
+    let mut units: Vec<Vec<Vec<u8>>> = vec![Vec::new(); nstreams];
+    let mut anchors: Vec<Vec<[f32; 3]>> = Vec::new();
+    // The next chunk expected: frame f, then within it streams in order, then anchors.
+    let mut frame = 0u32;
+    let mut slot = 0usize; // 0..nstreams for streams, nstreams for anchors
+    let advance = |frame: &mut u32, slot: &mut usize| loop {
+        *slot += 1;
+        if *slot > nstreams {
+            *slot = 0;
+            *frame += 1;
+        }
+        if *frame >= header.frames {
+            return;
+        }
+        let ok = if *slot < nstreams { header.stream_has_frame(*slot, *frame) } else { !header.anchors.is_empty() };
+        if ok {
+            return;
+        }
+    };
+    // Position on the first expected chunk.
+    if !header.stream_has_frame(0, 0) {
+        advance(&mut frame, &mut slot);
+    }
+    loop {
+        let (chunk, next) = match parse_chunk(bytes, offset)? {
+            Some(c) => c,
+            None => return Err(truncated(bytes.len(), "a chunk")),
+        };
+        if frame >= header.frames {
+            if chunk.tag != TAG_END {
+                return Err(ContainerError::Chunk { offset, msg: "chunk after the last frame".into() });
+            }
+            if next != bytes.len() {
+                return Err(ContainerError::Chunk { offset: next, msg: "bytes after the end chunk".into() });
+            }
+            break;
+        }
+        let expect = |what: &str| ContainerError::Chunk {
+            offset,
+            msg: format!(
+                "expected {what} of frame {frame}, found a {:?} chunk for frame {}",
+                String::from_utf8_lossy(&chunk.tag),
+                chunk.frame
+            ),
+        };
+        if chunk.frame != frame {
+            return Err(expect(if slot < nstreams { "stream data" } else { "anchors" }));
+        }
+        if slot < nstreams {
+            if chunk.tag != TAG_ACCESS_UNIT || chunk.stream as usize != slot {
+                return Err(expect(&format!("stream {slot}")));
+            }
+            let u = &mut units[slot];
+            u.resize(frame as usize + 1, Vec::new());
+            u[frame as usize] = chunk.payload.to_vec();
+        } else {
+            if chunk.tag != TAG_ANCHORS {
+                return Err(expect("anchors"));
+            }
+            if chunk.payload.len() != header.anchors.len() * 12 {
+                return Err(ContainerError::Chunk {
+                    offset,
+                    msg: format!(
+                        "anchor chunk has {} bytes, expected {}",
+                        chunk.payload.len(),
+                        header.anchors.len() * 12
+                    ),
+                });
+            }
+            let pts: Vec<[f32; 3]> = chunk
+                .payload
+                .chunks_exact(12)
+                .map(|c| [0, 4, 8].map(|o| f32::from_le_bytes([c[o], c[o + 1], c[o + 2], c[o + 3]])))
+                .collect();
+            if pts.iter().flatten().any(|v| !v.is_finite()) {
+                return Err(ContainerError::Chunk { offset, msg: "non-finite anchor position".into() });
+            }
+            anchors.push(pts);
+        }
+        offset = next;
+        advance(&mut frame, &mut slot);
+    }
+    for u in &mut units {
+        u.resize(header.frames as usize, Vec::new());
+    }
+    Ok(CgvFile { header, units, anchors, bytes: bytes.len() })
+}

@@ -1,0 +1,159 @@
+//! The .cgv reader on good, truncated, corrupted and oversized input.
+
+use cgv::codec::quant::Quantizer;
+use cgv::container::{self, CodecKind, ContainerError, Coverage, Header, Settings, StreamInfo};
+
+fn header() -> Header {
+    Header {
+        grid: 16,
+        seam: container::SEAM_RULE.into(),
+        frames: 3,
+        fps: 30.0,
+        codec: CodecKind::Cgv,
+        streams: vec![
+            StreamInfo {
+                name: "H".into(),
+                layer: 1,
+                refines: None,
+                quant: Quantizer::new(-1.0, 1.0),
+                coverage: Coverage::All,
+            },
+            StreamInfo {
+                name: "lambda".into(),
+                layer: 1,
+                refines: None,
+                quant: Quantizer::new(0.0, 1.0),
+                coverage: Coverage::Key,
+            },
+            StreamInfo {
+                name: "H".into(),
+                layer: 2,
+                refines: Some(0),
+                quant: Quantizer::new(-0.1, 0.1),
+                coverage: Coverage::All,
+            },
+        ],
+        key_frames: vec![0, 2],
+        anchors: vec![0, 5, 100, 255],
+        solver: "cgv".into(),
+        settings: Settings { qp: 20, kbps: None, gop: 30, cabac: true, layers: 2, residual_steps: 8.0 },
+        source: Default::default(),
+    }
+}
+
+/// A structurally valid file (the payloads are not real H.264).
+fn file(h: &Header) -> Vec<u8> {
+    let mut out = container::write_header(h).unwrap();
+    for f in 0..h.frames {
+        for s in 0..h.streams.len() {
+            if h.stream_has_frame(s, f) {
+                out.extend(container::write_chunk(
+                    container::TAG_ACCESS_UNIT,
+                    s as u16,
+                    f,
+                    &[0, 0, 0, 1, 9, f as u8, s as u8],
+                ));
+            }
+        }
+        let anchors: Vec<u8> = (0..h.anchors.len() * 3).flat_map(|i| (i as f32 + f as f32).to_le_bytes()).collect();
+        out.extend(container::write_chunk(container::TAG_ANCHORS, 0, f, &anchors));
+    }
+    out.extend(container::write_chunk(container::TAG_END, 0, h.frames, &[]));
+    out
+}
+
+#[test]
+fn reads_what_it_writes() {
+    let h = header();
+    let bytes = file(&h);
+    let f = container::read(&bytes).unwrap();
+    assert_eq!(f.header, h);
+    assert_eq!(f.units[0].len(), 3);
+    assert!(f.units[1][1].is_empty() && !f.units[1][2].is_empty());
+    assert_eq!(f.units[2][1], vec![0, 0, 0, 1, 9, 1, 2]);
+    assert_eq!(f.anchors[2][1], [5.0, 6.0, 7.0]);
+    assert_eq!(h.expected_chunks(), 3 + 2 + 3 + 3);
+}
+
+#[test]
+fn bad_magic_and_versions() {
+    let mut bytes = file(&header());
+    bytes[1] = b'X';
+    assert_eq!(container::read(&bytes).unwrap_err(), ContainerError::BadMagic);
+    assert_eq!(container::read(b"GIF89a").unwrap_err(), ContainerError::BadMagic);
+    let mut bytes = file(&header());
+    bytes[8] = 2;
+    assert_eq!(container::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 2 });
+    bytes[8] = 0;
+    assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 0 }));
+}
+
+#[test]
+fn every_truncation_is_an_error() {
+    let bytes = file(&header());
+    for len in 0..bytes.len() {
+        let e = container::read(&bytes[..len]).unwrap_err();
+        assert!(matches!(e, ContainerError::Truncated { .. } | ContainerError::BadMagic), "length {len}: {e}");
+    }
+}
+
+#[test]
+fn every_flipped_byte_is_an_error() {
+    let bytes = file(&header());
+    for i in 0..bytes.len() {
+        for bit in [0x01u8, 0x80] {
+            let mut b = bytes.clone();
+            b[i] ^= bit;
+            assert!(container::read(&b).is_err(), "flipping bit {bit:#x} of byte {i} went unnoticed");
+        }
+    }
+}
+
+#[test]
+fn absurd_sizes_and_counts_are_refused_without_allocating() {
+    // A header length of 4 GiB.
+    let mut bytes = file(&header());
+    bytes[12..16].copy_from_slice(&u32::MAX.to_le_bytes());
+    assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::TooLarge { what: "header length", .. }));
+    // A chunk claiming 4 GiB.
+    let h = header();
+    let mut bytes = container::write_header(&h).unwrap();
+    let mut chunk = container::write_chunk(container::TAG_ACCESS_UNIT, 0, 0, &[1, 2, 3]);
+    chunk[12..16].copy_from_slice(&u32::MAX.to_le_bytes());
+    bytes.extend(chunk);
+    assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::TooLarge { what: "chunk length", .. }));
+    // Headers with impossible values.
+    for bad in [
+        Header { grid: 1 << 20, ..header() },
+        Header { grid: 17, ..header() },
+        Header { frames: u32::MAX, ..header() },
+        Header { fps: f32::NAN, ..header() },
+        Header { key_frames: vec![1, 2], ..header() },
+        Header { anchors: vec![0, 1, 2, 256], ..header() },
+        Header { anchors: vec![0, 1], ..header() },
+        Header { streams: vec![], ..header() },
+        Header { seam: "torus".into(), ..header() },
+    ] {
+        assert!(matches!(container::write_header(&bad).unwrap_err(), ContainerError::Header(_)), "{bad:?}");
+    }
+    // A valid header promising ten million frames, followed by one frame: an
+    // error, after reading only what is there.
+    let h = Header { frames: container::MAX_FRAMES, ..header() };
+    let mut bytes = container::write_header(&h).unwrap();
+    bytes.extend(container::write_chunk(container::TAG_ACCESS_UNIT, 0, 0, &[1]));
+    assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::Truncated { .. }));
+}
+
+#[test]
+fn chunks_out_of_order_or_extra_are_errors() {
+    let h = header();
+    let mut bytes = container::write_header(&h).unwrap();
+    bytes.extend(container::write_chunk(container::TAG_ACCESS_UNIT, 1, 0, &[1]));
+    assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::Chunk { .. }));
+    let mut bytes = file(&h);
+    bytes.extend(container::write_chunk(container::TAG_END, 0, 3, &[]));
+    assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::Chunk { .. }));
+    let mut bytes = container::write_header(&h).unwrap();
+    bytes.extend(container::write_chunk(*b"JUNK", 0, 0, &[1]));
+    assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::Chunk { .. }));
+}
