@@ -110,3 +110,16 @@ fn exact_cgv_data_is_a_fixed_point_of_the_cgv_solver() {
     let (rms, _) = cgv::metrics::vertex_error(&x, &g);
     assert!(stats.converged && rms / diag < 1e-5, "{stats:?} rms {}", rms / diag);
 }
+
+#[test]
+fn cgv_solver_round_trip_at_high_quality() {
+    // QP 8 with a residual layer on every stream, N = 32, 4 frames of the
+    // default motion: measured 0.034 % .. 0.017 % RMS of the diagonal.
+    let src = cgv::demo::motion(4);
+    let mut opts = EncodeOptions { codec: CodecKind::Cgv, grid: 32, layers: 2, ..Default::default() };
+    opts.video.qp = 8;
+    let (_, errs) = round_trip(&src, &opts, SolverKind::Cgv);
+    for (i, (rms, max)) in errs.iter().enumerate() {
+        assert!(*rms < 1e-3 && *max < 1e-2, "frame {i}: rms {rms} max {max}");
+    }
+}

@@ -15,14 +15,27 @@ use crate::resample::SampleMap;
 use crate::solve::SolverKind;
 use glam::Vec3;
 
+fn median_abs(v: &[f32]) -> f32 {
+    let mut a: Vec<f32> = v.iter().map(|x| x.abs()).collect();
+    if a.is_empty() {
+        return 0.0;
+    }
+    let k = a.len() / 2;
+    *a.select_nth_unstable_by(k, |x, y| x.total_cmp(y)).1
+}
+
 /// How to encode.
 #[derive(Debug, Clone)]
 pub struct EncodeOptions {
     pub codec: CodecKind,
     pub grid: usize,
     pub video: VideoSettings,
-    /// A key frame every this many frames; 0 for the first frame only.
+    /// A key frame (λ) every this many frames; 0 for the first frame only.
     pub key_interval: u32,
+    /// Code the tangential coefficients a, b every frame (else at key frames).
+    /// The project's solver needs them every frame on motions that are not
+    /// isometric (all real ones); see docs/RESULTS.md.
+    pub intrinsics_every_frame: bool,
     pub anchors: usize,
     /// 1, or 2 for a residual layer on every stream but the seeds.
     pub layers: u8,
@@ -42,7 +55,8 @@ impl Default for EncodeOptions {
             grid: 128,
             video: VideoSettings::default(),
             key_interval: 10,
-            anchors: 4,
+            intrinsics_every_frame: true,
+            anchors: 16,
             layers: 1,
             residual_steps: 8.0,
             solver: SolverKind::Cgv,
@@ -135,8 +149,8 @@ pub fn encode(
         CodecKind::Cgv => vec![
             ("H", Coverage::All),
             ("lambda", Coverage::Key),
-            ("a", Coverage::Key),
-            ("b", Coverage::Key),
+            ("a", if opts.intrinsics_every_frame { Coverage::All } else { Coverage::Key }),
+            ("b", if opts.intrinsics_every_frame { Coverage::All } else { Coverage::Key }),
             ("seed_x", Coverage::First),
             ("seed_y", Coverage::First),
             ("seed_z", Coverage::First),
@@ -145,6 +159,7 @@ pub fn encode(
 
     // Pass 1: ranges.
     let mut ranges = vec![Range::default(); names.len()];
+    let mut scales: Vec<Option<f32>> = vec![None; names.len()];
     let mut first_grid = Vec::new();
     let mut scratch = Vec::new();
     for fi in 0..frames {
@@ -158,7 +173,15 @@ pub fn encode(
                 Coverage::First => fi == 0,
             };
             if has {
-                ranges[k].add(values(name, &feats, &g, &mut scratch));
+                let v = values(name, &feats, &g, &mut scratch);
+                if matches!(*name, "a" | "b") {
+                    // Companded: the scale is the median magnitude of the first frame.
+                    let s = *scales[k].get_or_insert_with(|| median_abs(v).max(1e-6));
+                    let y: Vec<f32> = v.iter().map(|x| (x / s).asinh()).collect();
+                    ranges[k].add(&y);
+                } else {
+                    ranges[k].add(v);
+                }
             }
         }
         if fi == 0 {
@@ -171,12 +194,12 @@ pub fn encode(
     // Streams: layer 1 for each name, then layer 2 refinements.
     let mut infos: Vec<StreamInfo> = names
         .iter()
-        .zip(&ranges)
-        .map(|((name, cov), r)| StreamInfo {
+        .zip(ranges.iter().zip(&scales))
+        .map(|((name, cov), (r, s))| StreamInfo {
             name: name.to_string(),
             layer: 1,
             refines: None,
-            quant: r.quantizer(),
+            quant: Quantizer { asinh_scale: *s, ..r.quantizer() },
             coverage: *cov,
         })
         .collect();
@@ -261,12 +284,14 @@ pub fn encode(
             let vals = values(&name, &feats, &g, &mut scratch).to_vec();
             let q: Quantizer = streams[k].info.quant;
             let samples: Vec<u8> = match streams[k].info.refines {
-                None => vals.iter().map(|&v| q.quantize(v)).collect(),
+                None => vals.iter().map(|&v| q.quantize(q.compress(v))).collect(),
                 Some(base) => {
+                    // The residual in the base layer's coded domain.
+                    let bq = streams[base as usize].info.quant;
                     let decoded = base_decoded[base as usize]
                         .take()
                         .ok_or_else(|| Error::Video("layer 2 before its base layer".into()))?;
-                    vals.iter().zip(&decoded).map(|(&v, &d)| q.quantize(v - d)).collect()
+                    vals.iter().zip(&decoded).map(|(&v, &d)| q.quantize(bq.compress(v) - d)).collect()
                 }
             };
             let au = streams[k].enc.encode(&samples)?;

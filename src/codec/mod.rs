@@ -69,12 +69,25 @@ enum Rebuild {
 }
 
 /// The mean curvature of frame `f` and, at frame 0, the seed positions.
-fn cgv_inputs<'a>(get: &impl Fn(&str) -> Option<&'a Vec<f32>>, f: u32) -> Result<(&'a [f32], Option<Vec<Vec3>>)> {
+/// Taubin passes applied to the frame-0 seed.
+const SEED_SMOOTHING_PASSES: usize = 10;
+
+fn cgv_inputs<'a>(
+    get: &impl Fn(&str) -> Option<&'a Vec<f32>>,
+    f: u32,
+    st: &Stencils,
+) -> Result<(&'a [f32], Option<Vec<Vec3>>)> {
     let hv = get("H").ok_or_else(|| Error::Argument(format!("frame {f} has no H")))?;
     let seed = match (get("seed_x"), get("seed_y"), get("seed_z")) {
         (Some(x), Some(y), Some(z)) => Some(xyz(x, y, z)),
         _ => None,
     };
+    // The seed is 8-bit: its quantization steps would tilt every normal the
+    // solvers start from, so smooth them away first.
+    let seed = seed.map(|mut s| {
+        st.taubin_smooth(&mut s, SEED_SMOOTHING_PASSES);
+        s
+    });
     Ok((hv, seed))
 }
 
@@ -87,6 +100,7 @@ pub struct SequenceDecoder<D: VideoDecoder> {
     pub file: CgvFile,
     pub grid: Grid,
     decoders: Vec<D>,
+    stencils: Stencils,
     rebuild: Rebuild,
     next: u32,
 }
@@ -128,7 +142,7 @@ impl<D: VideoDecoder> SequenceDecoder<D> {
                 }
             }
         };
-        Ok(SequenceDecoder { file, grid, decoders, rebuild, next: 0 })
+        Ok(SequenceDecoder { file, grid, decoders, stencils: Stencils::new(grid), rebuild, next: 0 })
     }
 
     pub fn frame_count(&self) -> usize {
@@ -136,7 +150,7 @@ impl<D: VideoDecoder> SequenceDecoder<D> {
     }
 
     /// Decodes every stream's access unit at frame `f` into values.
-    fn stream_values(&mut self, f: u32) -> Result<Vec<Option<Vec<f32>>>> {
+    pub fn stream_values(&mut self, f: u32) -> Result<Vec<Option<Vec<f32>>>> {
         let h = &self.file.header;
         let n = self.grid.n;
         let mut out: Vec<Option<Vec<f32>>> = vec![None; h.streams.len()];
@@ -158,6 +172,13 @@ impl<D: VideoDecoder> SequenceDecoder<D> {
                 None => out[s] = Some(vals),
             }
         }
+        // Leave the coded domain once every layer has been added.
+        for (s, v) in out.iter_mut().enumerate() {
+            let q = h.streams[s].quant;
+            if let (Some(v), Some(_)) = (v.as_mut(), q.asinh_scale) {
+                v.iter_mut().for_each(|x| *x = q.expand(*x));
+            }
+        }
         Ok(out)
     }
 
@@ -173,6 +194,7 @@ impl<D: VideoDecoder> SequenceDecoder<D> {
         let h = &self.file.header;
         let get = |name: &str| -> Option<&Vec<f32>> { h.stream(name).and_then(|s| vals[s].as_ref()) };
         let mut stats = FrameStats { video_seconds: t1 - t0, ..Default::default() };
+        let stencils = &self.stencils;
         let anchors: Vec<Vec3> =
             self.file.anchors.get(f as usize).map(|a| a.iter().map(|p| Vec3::from(*p)).collect()).unwrap_or_default();
         let positions = match &mut self.rebuild {
@@ -184,7 +206,7 @@ impl<D: VideoDecoder> SequenceDecoder<D> {
                 }
             }
             Rebuild::Cgv(solver) => {
-                let (hv, seed) = cgv_inputs(&get, f)?;
+                let (hv, seed) = cgv_inputs(&get, f, stencils)?;
                 if let (Some(a), Some(b)) = (get("a"), get("b")) {
                     solver.set_intrinsics(a, b)?;
                 }
@@ -193,7 +215,7 @@ impl<D: VideoDecoder> SequenceDecoder<D> {
                 x
             }
             Rebuild::Paper(solver) => {
-                let (hv, seed) = cgv_inputs(&get, f)?;
+                let (hv, seed) = cgv_inputs(&get, f, stencils)?;
                 if let Some(l) = get("lambda") {
                     solver.set_lambda(l);
                 }

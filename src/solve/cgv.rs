@@ -45,11 +45,13 @@ struct Linear {
     xv: Vec<glam::DVec3>,
     n: Vec<glam::DVec3>,
     inv_m: Vec<f64>,
-    c: Vec<f64>,
+    /// t = a x_u + b x_v, the tangential part the coefficients predict.
+    t: Vec<glam::DVec3>,
+    h: Vec<f64>,
 }
 
 /// Conjugate-gradient iterations per Newton step, and their relative tolerance.
-const CG_ITERATIONS: usize = 100;
+const CG_ITERATIONS: usize = 300;
 const CG_TOLERANCE: f64 = 1e-8;
 
 pub struct CgvSolver {
@@ -126,7 +128,8 @@ impl CgvSolver {
             xv: Vec::with_capacity(n),
             n: Vec::with_capacity(n),
             inv_m: Vec::with_capacity(n),
-            c: Vec::with_capacity(n),
+            t: Vec::with_capacity(n),
+            h: h.iter().map(|&x| x as f64).collect(),
         };
         for v in 0..n {
             let s = self.st.nbr[v];
@@ -134,15 +137,36 @@ impl CgvSolver {
             let xv = (at(s[1] as usize) - at(s[3] as usize)) * 0.5;
             let m = xu.cross(xv);
             let len = m.length();
-            let nv = if len > 0.0 { m / len } else { glam::DVec3::ZERO };
-            let c = h[v] as f64 - (xu * self.a[v] as f64 + xv * self.b[v] as f64).dot(nv);
+            lin.n.push(if len > 0.0 { m / len } else { glam::DVec3::ZERO });
+            lin.inv_m.push(if len > 0.0 { 1.0 / len } else { 0.0 });
+            lin.t.push(xu * self.a[v] as f64 + xv * self.b[v] as f64);
             lin.xu.push(xu);
             lin.xv.push(xv);
-            lin.n.push(nv);
-            lin.inv_m.push(if len > 0.0 { 1.0 / len } else { 0.0 });
-            lin.c.push(c);
         }
         lin
+    }
+
+    /// The residual r_v = Δx_v − (I − n nᵀ) t_v − H_v n_v and the anchor
+    /// misfit; returns the merit |r|² + w |P X − A|².
+    fn residual(&self, xs: &[f64], lin: &Linear, anchors: &[Vec3], r: &mut [f64]) -> f64 {
+        let n = self.st.grid.len();
+        let at = |i: usize| glam::DVec3::new(xs[i], xs[n + i], xs[2 * n + i]);
+        let mut f = 0.0;
+        for v in 0..n {
+            let s = self.st.nbr[v];
+            let lap = at(v) - (at(s[0] as usize) + at(s[1] as usize) + at(s[2] as usize) + at(s[3] as usize)) * 0.25;
+            let (nv, t) = (lin.n[v], lin.t[v]);
+            let rv = lap - (t - nv * nv.dot(t)) - nv * lin.h[v];
+            r[v] = rv.x;
+            r[n + v] = rv.y;
+            r[2 * n + v] = rv.z;
+            f += rv.length_squared();
+        }
+        for (k, &an) in self.anchors.iter().enumerate() {
+            let d = at(an as usize) - anchors[k].as_dvec3();
+            f += ANCHOR_WEIGHT * d.length_squared();
+        }
+        f
     }
 
     /// Solves (JᵀJ + w PᵀP) d = -g with K⁻¹ as preconditioner.
@@ -194,30 +218,30 @@ impl CgvSolver {
         x
     }
 
-    /// J v: the linearized residual for the position change `d` (3n, x
-    /// block then y then z), at the state in `lin`.
+    /// J d: the change of the residual for a position change `d` (3n: x
+    /// block, then y, then z) at the state `lin`:
+    /// J d = Δd − (I − n nᵀ)(a d_u + b d_v) + δn (n·t − H) + n (δn·t),
+    /// δn = (I − n nᵀ)(d_u × x_v + x_u × d_v) / |x_u × x_v|.
     fn apply_j(&self, lin: &Linear, d: &[f64], out: &mut [f64]) {
         let n = self.st.grid.len();
-        let at = |d: &[f64], i: usize| glam::DVec3::new(d[i], d[n + i], d[2 * n + i]);
+        let at = |i: usize| glam::DVec3::new(d[i], d[n + i], d[2 * n + i]);
         for v in 0..n {
-            let mut acc = glam::DVec3::ZERO;
-            for &(i, m) in &self.rows[v] {
-                acc += at(d, i as usize) * m;
-            }
             let s = self.st.nbr[v];
-            let du = (at(d, s[0] as usize) - at(d, s[2] as usize)) * 0.5;
-            let dv = (at(d, s[1] as usize) - at(d, s[3] as usize)) * 0.5;
-            let dm = du.cross(lin.xv[v]) + lin.xu[v].cross(dv);
+            let (d0, d1, d2, d3) = (at(s[0] as usize), at(s[1] as usize), at(s[2] as usize), at(s[3] as usize));
+            let lap = at(v) - (d0 + d1 + d2 + d3) * 0.25;
+            let (du, dv) = ((d0 - d2) * 0.5, (d1 - d3) * 0.5);
             let nv = lin.n[v];
-            let dn = (dm - nv * nv.dot(dm)) * lin.inv_m[v];
-            let r = acc - dn * lin.c[v];
+            let proj = |x: glam::DVec3| x - nv * nv.dot(x);
+            let dn = proj(du.cross(lin.xv[v]) + lin.xu[v].cross(dv)) * lin.inv_m[v];
+            let dt = du * self.a[v] as f64 + dv * self.b[v] as f64;
+            let r = lap - proj(dt) + dn * (nv.dot(lin.t[v]) - lin.h[v]) + nv * dn.dot(lin.t[v]);
             out[v] = r.x;
             out[n + v] = r.y;
             out[2 * n + v] = r.z;
         }
     }
 
-    /// Jᵀ y, accumulated into `out` (which is cleared first).
+    /// Jᵀ y into `out` (cleared first).
     fn apply_jt(&self, lin: &Linear, y: &[f64], out: &mut [f64]) {
         let n = self.st.grid.len();
         out.iter_mut().for_each(|o| *o = 0.0);
@@ -228,19 +252,27 @@ impl CgvSolver {
         };
         for v in 0..n {
             let yv = glam::DVec3::new(y[v], y[n + v], y[2 * n + v]);
-            for &(i, m) in &self.rows[v] {
-                add(out, i as usize, yv * m);
-            }
-            // Adjoint of -c P (du × xv + xu × dv) / |m|.
-            let nv = lin.n[v];
-            let z = (yv - nv * nv.dot(yv)) * (-lin.c[v] * lin.inv_m[v]);
-            let gu = lin.xv[v].cross(z) * 0.5;
-            let gv = z.cross(lin.xu[v]) * 0.5;
             let s = self.st.nbr[v];
-            add(out, s[0] as usize, gu);
-            add(out, s[2] as usize, -gu);
-            add(out, s[1] as usize, gv);
-            add(out, s[3] as usize, -gv);
+            // Laplacian.
+            add(out, v, yv);
+            for &k in &s {
+                add(out, k as usize, yv * -0.25);
+            }
+            let nv = lin.n[v];
+            let proj = |x: glam::DVec3| x - nv * nv.dot(x);
+            // −P(a d_u + b d_v).
+            let z1 = -proj(yv);
+            let mut gu = z1 * self.a[v] as f64;
+            let mut gv = z1 * self.b[v] as f64;
+            // δn (n·t − H) + n (δn·t): the adjoint of δn applied to z.
+            let z = yv * (nv.dot(lin.t[v]) - lin.h[v]) + lin.t[v] * nv.dot(yv);
+            let w = proj(z) * lin.inv_m[v];
+            gu += lin.xv[v].cross(w);
+            gv += w.cross(lin.xu[v]);
+            add(out, s[0] as usize, gu * 0.5);
+            add(out, s[2] as usize, gu * -0.5);
+            add(out, s[1] as usize, gv * 0.5);
+            add(out, s[3] as usize, gv * -0.5);
         }
     }
 
@@ -278,22 +310,10 @@ impl CgvSolver {
         }
         let mut r = vec![0.0; 3 * n];
         let mut g = vec![0.0; 3 * n];
+        let mut lin = self.linearize(&xs, h);
+        let mut merit = self.residual(&xs, &lin, anchors, &mut r);
         for it in 0..MAX_ITERATIONS {
-            let lin = self.linearize(&xs, h);
-            // r = M X - c n; gradient g = Jᵀ r + w Pᵀ (P X - A).
-            let mut mx = vec![0.0; 3 * n];
-            for v in 0..n {
-                for &(i, m) in &self.rows[v] {
-                    let i = i as usize;
-                    mx[v] += m * xs[i];
-                    mx[n + v] += m * xs[n + i];
-                    mx[2 * n + v] += m * xs[2 * n + i];
-                }
-                let cn = lin.n[v] * lin.c[v];
-                r[v] = mx[v] - cn.x;
-                r[n + v] = mx[n + v] - cn.y;
-                r[2 * n + v] = mx[2 * n + v] - cn.z;
-            }
+            // Gradient of the merit: Jᵀ r + w Pᵀ (P X − A).
             self.apply_jt(&lin, &r, &mut g);
             for (k, &an) in self.anchors.iter().enumerate() {
                 let a = an as usize;
@@ -301,15 +321,35 @@ impl CgvSolver {
                 g[n + a] += ANCHOR_WEIGHT * (xs[n + a] - anchors[k].y as f64);
                 g[2 * n + a] += ANCHOR_WEIGHT * (xs[2 * n + a] - anchors[k].z as f64);
             }
-            // Solve (JᵀJ + w PᵀP) d = -g by preconditioned conjugate gradients.
+            // Gauss–Newton step: (JᵀJ + w PᵀP) d = −g by preconditioned CG,
+            // then backtracking until the merit decreases.
             let d = self.pcg(chol, &lin, &g);
-            let step = (0..n)
-                .map(|v| (d[v] * d[v] + d[n + v] * d[n + v] + d[2 * n + v] * d[2 * n + v]).sqrt())
-                .fold(0.0, f64::max);
-            for (xi, di) in xs.iter_mut().zip(&d) {
-                *xi += di;
+            let mut t = 1.0;
+            let mut accepted = None;
+            for _ in 0..10 {
+                let trial: Vec<f64> = xs.iter().zip(&d).map(|(x, d)| x + t * d).collect();
+                let tl = self.linearize(&trial, h);
+                let mut tr = vec![0.0; 3 * n];
+                let tm = self.residual(&trial, &tl, anchors, &mut tr);
+                if tm < merit {
+                    accepted = Some((trial, tl, tr, tm));
+                    break;
+                }
+                t *= 0.5;
             }
             stats.iterations = it + 1;
+            let Some((trial, tl, tr, tm)) = accepted else {
+                // No decrease along the step: at a (local) minimum to working precision.
+                stats.converged = true;
+                break;
+            };
+            let step = (0..n)
+                .map(|v| t * (d[v] * d[v] + d[n + v] * d[n + v] + d[2 * n + v] * d[2 * n + v]).sqrt())
+                .fold(0.0, f64::max);
+            xs = trial;
+            lin = tl;
+            r = tr;
+            merit = tm;
             stats.residual = step / scale;
             if stats.residual < TOLERANCE {
                 stats.converged = true;

@@ -38,8 +38,12 @@ pub struct Args {
     #[arg(long, default_value_t = 10)]
     keyframes: u32,
     /// Anchor samples stored per frame (float32 positions); at least 4 for CGV.
-    #[arg(long, default_value_t = 4)]
+    #[arg(long, default_value_t = 16)]
     anchors: usize,
+    /// CGV: code the tangential coefficients a, b only at key frames (smaller,
+    /// but the cgv solver then drifts on motions that are not isometric).
+    #[arg(long)]
+    intrinsics_at_key_frames: bool,
     /// Grid size N (even, at least 16).
     #[arg(long, default_value_t = 128)]
     grid: usize,
@@ -76,6 +80,7 @@ pub fn run(args: Args) -> Result<()> {
         grid: args.grid,
         video: VideoSettings { qp: args.qp, kbps: args.kbps, gop: args.gop, cabac: !args.cavlc, fps: src.fps() },
         key_interval: args.keyframes,
+        intrinsics_every_frame: !args.intrinsics_at_key_frames,
         anchors: args.anchors,
         layers: args.layers,
         residual_steps: args.residual_steps,
