@@ -29,3 +29,48 @@ fn pcow_resamples_within_bounds() {
         assert!(rms < 0.0025 && max < 0.03, "frame {i}: rms {rms:.5} max {max:.5}");
     }
 }
+
+/// A few frames of pcow, both codecs and both solvers, at high quality.
+#[test]
+fn pcow_round_trips() {
+    use cgv::codec::{encode, h264, EncodeOptions, SequenceDecoder};
+    use cgv::container::{self, CodecKind};
+    use cgv::mesh::InMemory;
+    use cgv::solve::SolverKind;
+    let dir = common::real_sequence("pcow");
+    let full = open_sequence(dir.to_str().unwrap(), &OpenOptions::default()).unwrap();
+    // The first 4 frames, as an in-memory sequence.
+    let src = InMemory {
+        label: dir.clone(),
+        fps: 30.0,
+        topology: full.topology().clone(),
+        frames: (0..4).map(|i| full.read_frame(i).unwrap()).collect(),
+    };
+    let grid = Grid::new(32).unwrap();
+    // Bounds per frame. GV: 8-bit plus a residual layer at QP 8. CGV with
+    // the project's solver: the current state, not the goal (issue 3 is
+    // open): exact to 0.07 % on the first two frames, then drifting (measured
+    // 0.06, 0.07, 0.27, 1.2 %). The paper's solver drifts faster.
+    let cases: [(CodecKind, SolverKind, [f64; 4]); 3] = [
+        (CodecKind::Gv, SolverKind::Cgv, [2e-3; 4]),
+        (CodecKind::Cgv, SolverKind::Cgv, [1e-3, 1e-3, 1e-2, 3e-2]),
+        (CodecKind::Cgv, SolverKind::Paper, [0.2; 4]),
+    ];
+    for (codec, solver, bounds) in cases {
+        let mut opts = EncodeOptions { codec, grid: 32, layers: 2, ..Default::default() };
+        opts.video.qp = 8;
+        let (bytes, _) = encode(&src, &opts, &mut |_, _, _| {}).unwrap();
+        let file = container::read(&bytes).unwrap();
+        let mut dec = SequenceDecoder::new(file, solver, h264::Decoder::new).unwrap();
+        let param = parameterize(&src.topology, &src.frames[0], &opts.param).unwrap();
+        let map = SampleMap::build(grid, &src.topology.faces, &param).unwrap();
+        for (i, f) in src.frames.iter().enumerate() {
+            let truth = map.apply(f);
+            let (x, _) = dec.next_frame().unwrap();
+            let (rms, _) = cgv::metrics::vertex_error(&x, &truth);
+            let rel = rms / Bounds::of(f).diagonal() as f64;
+            eprintln!("pcow {codec:?}/{solver} frame {i}: RMS {rel:.2e} of the diagonal");
+            assert!(rel < bounds[i], "{codec:?}/{solver} frame {i}: {rel}");
+        }
+    }
+}

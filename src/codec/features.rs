@@ -64,23 +64,6 @@ impl Stencils {
         self.nbr[v].iter().map(|&s| x[v].distance(x[s as usize])).sum::<f32>() * 0.25
     }
 
-    /// Taubin's λ|μ smoothing (Taubin 1995, "A signal processing approach to
-    /// fair surface design"): removes high-frequency noise, such as 8-bit
-    /// quantization steps, without shrinking the surface.
-    pub fn taubin_smooth(&self, x: &mut Vec<Vec3>, passes: usize) {
-        const LAMBDA: f32 = 0.5;
-        const MU: f32 = -0.53;
-        let mut next = x.clone();
-        for _ in 0..passes {
-            for factor in [LAMBDA, MU] {
-                for v in 0..x.len() {
-                    next[v] = x[v] - self.laplacian(x, v) * factor;
-                }
-                std::mem::swap(x, &mut next);
-            }
-        }
-    }
-
     /// Everything a CGV frame stores about grid positions `x`.
     pub fn features(&self, x: &[Vec3]) -> Features {
         let n = x.len();

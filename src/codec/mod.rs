@@ -69,25 +69,13 @@ enum Rebuild {
 }
 
 /// The mean curvature of frame `f` and, at frame 0, the seed positions.
-/// Taubin passes applied to the frame-0 seed.
-const SEED_SMOOTHING_PASSES: usize = 10;
-
-fn cgv_inputs<'a>(
-    get: &impl Fn(&str) -> Option<&'a Vec<f32>>,
-    f: u32,
-    st: &Stencils,
-) -> Result<(&'a [f32], Option<Vec<Vec3>>)> {
+fn cgv_inputs<'a>(get: &impl Fn(&str) -> Option<&'a Vec<f32>>, f: u32) -> Result<(&'a [f32], Option<Vec<Vec3>>)> {
     let hv = get("H").ok_or_else(|| Error::Argument(format!("frame {f} has no H")))?;
     let seed = match (get("seed_x"), get("seed_y"), get("seed_z")) {
         (Some(x), Some(y), Some(z)) => Some(xyz(x, y, z)),
         _ => None,
     };
-    // The seed is 8-bit: its quantization steps would tilt every normal the
-    // solvers start from, so smooth them away first.
-    let seed = seed.map(|mut s| {
-        st.taubin_smooth(&mut s, SEED_SMOOTHING_PASSES);
-        s
-    });
+
     Ok((hv, seed))
 }
 
@@ -100,7 +88,6 @@ pub struct SequenceDecoder<D: VideoDecoder> {
     pub file: CgvFile,
     pub grid: Grid,
     decoders: Vec<D>,
-    stencils: Stencils,
     rebuild: Rebuild,
     next: u32,
 }
@@ -142,7 +129,7 @@ impl<D: VideoDecoder> SequenceDecoder<D> {
                 }
             }
         };
-        Ok(SequenceDecoder { file, grid, decoders, stencils: Stencils::new(grid), rebuild, next: 0 })
+        Ok(SequenceDecoder { file, grid, decoders, rebuild, next: 0 })
     }
 
     pub fn frame_count(&self) -> usize {
@@ -194,7 +181,6 @@ impl<D: VideoDecoder> SequenceDecoder<D> {
         let h = &self.file.header;
         let get = |name: &str| -> Option<&Vec<f32>> { h.stream(name).and_then(|s| vals[s].as_ref()) };
         let mut stats = FrameStats { video_seconds: t1 - t0, ..Default::default() };
-        let stencils = &self.stencils;
         let anchors: Vec<Vec3> =
             self.file.anchors.get(f as usize).map(|a| a.iter().map(|p| Vec3::from(*p)).collect()).unwrap_or_default();
         let positions = match &mut self.rebuild {
@@ -206,7 +192,7 @@ impl<D: VideoDecoder> SequenceDecoder<D> {
                 }
             }
             Rebuild::Cgv(solver) => {
-                let (hv, seed) = cgv_inputs(&get, f, stencils)?;
+                let (hv, seed) = cgv_inputs(&get, f)?;
                 if let (Some(a), Some(b)) = (get("a"), get("b")) {
                     solver.set_intrinsics(a, b)?;
                 }
@@ -215,7 +201,7 @@ impl<D: VideoDecoder> SequenceDecoder<D> {
                 x
             }
             Rebuild::Paper(solver) => {
-                let (hv, seed) = cgv_inputs(&get, f, stencils)?;
+                let (hv, seed) = cgv_inputs(&get, f)?;
                 if let Some(l) = get("lambda") {
                     solver.set_lambda(l);
                 }
