@@ -1,0 +1,71 @@
+//! Codec speed: H.264 encode and decode of one grid frame per stream, and
+//! reconstruction of one frame by each solver (the paper: 12 s/frame to
+//! compress, 23 s/frame to reconstruct, on a 2011 PC). Default motion.
+//!
+//! Run: `cargo bench --bench codec`
+
+use cgv::codec::features::Stencils;
+use cgv::codec::h264::{Decoder, Encoder, VideoSettings};
+use cgv::codec::quant::Quantizer;
+use cgv::codec::{choose_anchors, VideoDecoder};
+use cgv::grid::Grid;
+use cgv::param::{parameterize, ParamOptions};
+use cgv::resample::SampleMap;
+use cgv::solve::{cgv::CgvSolver, paper::PaperSolver};
+use criterion::{criterion_group, criterion_main, Criterion};
+use glam::Vec3;
+
+fn bench(c: &mut Criterion) {
+    let m = cgv::demo::motion(2);
+    let param = parameterize(&m.topology, &m.frames[0], &ParamOptions::default()).expect("parameterize");
+    let mut g = c.benchmark_group("codec");
+    g.sample_size(10);
+    for n in [64usize, 128, 256] {
+        let grid = Grid::new(n).expect("grid");
+        let map = SampleMap::build(grid, &m.topology.faces, &param).expect("locate");
+        let st = Stencils::new(grid);
+        let (g0, g1) = (map.apply(&m.frames[0]), map.apply(&m.frames[1]));
+        let (f0, f1) = (st.features(&g0), st.features(&g1));
+        // H.264: the H stream of two frames (an IDR frame, then a P frame).
+        let q = Quantizer::new(-0.05, 0.05);
+        let s0: Vec<u8> = f0.h.iter().map(|&x| q.quantize(x)).collect();
+        let s1: Vec<u8> = f1.h.iter().map(|&x| q.quantize(x)).collect();
+        g.bench_function(format!("h264-encode-2-frames/{n}"), |b| {
+            b.iter(|| {
+                let mut e = Encoder::new(n, n, &VideoSettings::default()).expect("encoder");
+                (e.encode(&s0).expect("encode"), e.encode(&s1).expect("encode"))
+            })
+        });
+        let mut e = Encoder::new(n, n, &VideoSettings::default()).expect("encoder");
+        let (a0, a1) = (e.encode(&s0).expect("encode"), e.encode(&s1).expect("encode"));
+        g.bench_function(format!("h264-decode-2-frames/{n}"), |b| {
+            b.iter(|| {
+                let mut d = Decoder::new().expect("decoder");
+                (d.decode(&a0, n, n).expect("decode"), d.decode(&a1, n, n).expect("decode"))
+            })
+        });
+        if n > 128 {
+            continue; // The solvers take minutes per frame at 256 today.
+        }
+        let anchors = choose_anchors(&g0, 16);
+        let at = |g: &[Vec3]| -> Vec<Vec3> { anchors.iter().map(|&i| g[i as usize]).collect() };
+        g.bench_function(format!("reconstruct-cgv/{n}"), |b| {
+            b.iter(|| {
+                let mut s = CgvSolver::new(st.clone(), anchors.clone());
+                s.set_intrinsics(&f1.a, &f1.b).expect("factor");
+                s.solve_frame(&f1.h, &at(&g1), Some(&g0)).expect("solve")
+            })
+        });
+        g.bench_function(format!("reconstruct-paper/{n}"), |b| {
+            b.iter(|| {
+                let mut s = PaperSolver::new(st.clone(), anchors.clone());
+                s.set_lambda(&f1.lambda);
+                s.solve_frame(&f1.h, &at(&g1), Some(&g0)).expect("solve")
+            })
+        });
+    }
+    g.finish();
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
