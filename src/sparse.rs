@@ -17,20 +17,8 @@ pub struct Cholesky {
 
 /// Sums duplicate entries and keeps the lower triangle.
 fn assemble(n: usize, entries: &[(u32, u32, f64)]) -> Result<SparseColMat<usize, f64>> {
-    let mut e: Vec<(u32, u32, f64)> =
-        entries.iter().map(|&(r, c, v)| if r >= c { (c, r, v) } else { (r, c, v) }).collect();
-    e.sort_unstable_by_key(|&(c, r, _)| (c, r));
-    let mut trip: Vec<Triplet<usize, usize, f64>> = Vec::with_capacity(e.len());
-    for (c, r, v) in e {
-        if r as usize >= n || c as usize >= n {
-            return Err(Error::Numerical(format!("matrix entry ({r}, {c}) outside a {n} x {n} system")));
-        }
-        match trip.last_mut() {
-            Some(t) if t.row == r as usize && t.col == c as usize => t.val += v,
-            _ => trip.push(Triplet::new(r as usize, c as usize, v)),
-        }
-    }
-    SparseColMat::try_new_from_triplets(n, n, &trip).map_err(|e| Error::Numerical(format!("sparse assembly: {e:?}")))
+    let lower: Vec<(u32, u32, f64)> = entries.iter().map(|&(r, c, v)| (r.max(c), r.min(c), v)).collect();
+    assemble_general(n, &lower)
 }
 
 impl Cholesky {
@@ -71,7 +59,7 @@ impl Cholesky {
     }
 }
 
-/// Sums duplicate entries of a general (unsymmetric) matrix.
+/// Sums duplicate (row, column, value) entries into a sparse matrix.
 fn assemble_general(n: usize, entries: &[(u32, u32, f64)]) -> Result<SparseColMat<usize, f64>> {
     let mut e = entries.to_vec();
     e.sort_unstable_by_key(|&(r, c, _)| (c, r));

@@ -25,7 +25,7 @@
 //! of Lipman, Sorkine, Levin & Cohen-Or 2005, "Linear rotation-invariant
 //! coordinates for meshes").
 
-use super::{rigid, SolveStats};
+use super::SolveStats;
 use crate::codec::features::Stencils;
 use crate::error::{Error, Result};
 use crate::sparse::Cholesky;
@@ -289,14 +289,7 @@ impl CgvSolver {
         if h.len() != n || anchors.len() != self.anchors.len() {
             return Err(Error::Argument("frame data does not match the grid or anchors".into()));
         }
-        let mut x: Vec<Vec3> = match (init, &self.prev) {
-            (Some(i), _) => i.to_vec(),
-            (None, Some((px, pa))) => {
-                let m = rigid::fit(pa, anchors);
-                px.iter().map(|&p| m.apply(p)).collect()
-            }
-            (None, None) => return Err(Error::Argument("the first frame needs an initial guess".into())),
-        };
+        let mut x: Vec<Vec3> = super::warm_start(init, &self.prev, anchors)?;
         let scale = {
             let b = crate::mesh::Bounds::of(anchors);
             (b.diagonal() as f64).max(1e-12)

@@ -10,7 +10,27 @@ pub mod cgv;
 pub mod paper;
 pub mod rigid;
 
+use crate::error::{Error, Result};
+use glam::Vec3;
 use serde::{Deserialize, Serialize};
+
+/// The first guess for a frame: `init` when given (frame 0's seed), else the
+/// previous decoded frame moved by the rigid motion that best maps its
+/// anchors onto this frame's (the paper, section 5.3).
+pub(crate) fn warm_start(
+    init: Option<&[Vec3]>,
+    prev: &Option<(Vec<Vec3>, Vec<Vec3>)>,
+    anchors: &[Vec3],
+) -> Result<Vec<Vec3>> {
+    match (init, prev) {
+        (Some(i), _) => Ok(i.to_vec()),
+        (None, Some((px, pa))) => {
+            let m = rigid::fit(pa, anchors);
+            Ok(px.iter().map(|&p| m.apply(p)).collect())
+        }
+        (None, None) => Err(Error::Argument("the first frame needs an initial guess".into())),
+    }
+}
 
 /// Which decoder to run on a CGV file.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]

@@ -10,7 +10,7 @@
 //! the sign of H and the direction of Δv, so this decoder drifts; it is kept
 //! so that the difference can be measured.
 
-use super::{rigid, SolveStats};
+use super::SolveStats;
 use crate::codec::features::Stencils;
 use crate::error::{Error, Result};
 use glam::Vec3;
@@ -99,14 +99,7 @@ impl PaperSolver {
         if h.len() != n || anchors.len() != self.anchors.len() || self.lambda.len() != n {
             return Err(Error::Argument("frame data does not match the grid, anchors or key frame".into()));
         }
-        let mut x: Vec<Vec3> = match (init, &self.prev) {
-            (Some(i), _) => i.to_vec(),
-            (None, Some((px, pa))) => {
-                let m = rigid::fit(pa, anchors);
-                px.iter().map(|&p| m.apply(p)).collect()
-            }
-            (None, None) => return Err(Error::Argument("the first frame needs an initial guess".into())),
-        };
+        let mut x: Vec<Vec3> = super::warm_start(init, &self.prev, anchors)?;
         for (k, &a) in self.anchors.iter().enumerate() {
             x[a as usize] = anchors[k];
         }
