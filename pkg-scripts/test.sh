@@ -18,4 +18,9 @@ step "library for wasm32-unknown-unknown"
 cargo build --release --lib --target wasm32-unknown-unknown
 
 step "native tests"
-cargo test --release
+log="$(mktemp)"
+trap 'rm -f "$log"' EXIT
+cargo test --release 2>&1 | tee "$log"
+# One closing line for the whole run (cargo prints one per test binary).
+awk '/^test result:/ { for (i = 2; i <= NF; i++) { if ($i == "passed;") p += $(i-1); if ($i == "failed;") f += $(i-1) } }
+     END { printf "tests: %d passed, %d failed\n", p, f }' "$log"
