@@ -54,3 +54,39 @@ fn bad_input_fails_clearly_and_leaves_nothing() {
     let out = cgv(&["remesh", "builtin:walk", "-o", out_glb.to_str().unwrap(), "--grid", "33"]);
     assert!(String::from_utf8_lossy(&out.stderr).contains("grid size 33"));
 }
+
+#[test]
+fn encode_info_and_decode_a_gv_file() {
+    let dir = common::temp_dir("cli-codec");
+    let cgv_file = dir.join("walk.cgv");
+    let out =
+        cgv(&["encode", "builtin:walk", "--codec", "gv", "--grid", "16", "-o", cgv_file.to_str().unwrap(), "--json"]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["report"]["frames"], 72);
+    let info = cgv(&["info", cgv_file.to_str().unwrap(), "--json"]);
+    assert!(info.status.success(), "{}", String::from_utf8_lossy(&info.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    assert_eq!(v["header"]["codec"], "gv");
+    assert_eq!(v["header"]["grid"], 16);
+    let glb = dir.join("decoded.glb");
+    let dec = cgv(&["decode", cgv_file.to_str().unwrap(), "-o", glb.to_str().unwrap()]);
+    assert!(dec.status.success(), "{}", String::from_utf8_lossy(&dec.stderr));
+    let back = cgv::mesh::open_sequence(glb.to_str().unwrap(), &Default::default()).unwrap();
+    assert_eq!((back.frame_count(), back.topology().vertex_count), (72, 256));
+
+    // A damaged file: a clear error naming it, and no output left behind.
+    let mut bytes = std::fs::read(&cgv_file).unwrap();
+    let mid = bytes.len() / 2;
+    bytes[mid] ^= 0x40;
+    let bad = dir.join("bad.cgv");
+    std::fs::write(&bad, &bytes).unwrap();
+    let bad_out = dir.join("bad.glb");
+    let dec = cgv(&["decode", bad.to_str().unwrap(), "-o", bad_out.to_str().unwrap()]);
+    assert!(!dec.status.success());
+    let err = String::from_utf8_lossy(&dec.stderr);
+    assert!(err.contains("bad.cgv") && err.contains("CRC"), "{err}");
+    assert!(!bad_out.exists());
+    let e = cgv(&["encode", "builtin:walk", "-o", dir.join("x.mp4").to_str().unwrap()]);
+    assert!(String::from_utf8_lossy(&e.stderr).contains(".cgv"));
+}
