@@ -49,16 +49,6 @@ impl Stencils {
         ((x[s[0] as usize] - x[s[2] as usize]) * 0.5, (x[s[1] as usize] - x[s[3] as usize]) * 0.5)
     }
 
-    /// Unit normal x_u × x_v (zero where the tangents are parallel).
-    pub fn normal(&self, x: &[Vec3], v: usize) -> Vec3 {
-        let (xu, xv) = self.tangents(x, v);
-        xu.cross(xv).normalize_or_zero()
-    }
-
-    pub fn normals(&self, x: &[Vec3]) -> Vec<Vec3> {
-        (0..x.len()).map(|v| self.normal(x, v)).collect()
-    }
-
     /// λ(v): mean length of the four stencil edges.
     pub fn lambda(&self, x: &[Vec3], v: usize) -> f32 {
         self.nbr[v].iter().map(|&s| x[v].distance(x[s as usize])).sum::<f32>() * 0.25

@@ -54,14 +54,3 @@ impl Bounds {
 pub fn triangle_area_vector(a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
     (b - a).cross(c - a)
 }
-
-/// Total surface area of a frame.
-pub fn surface_area(positions: &[Vec3], faces: &[[u32; 3]]) -> f64 {
-    faces
-        .iter()
-        .map(|f| {
-            let [a, b, c] = f.map(|i| positions[i as usize]);
-            0.5 * triangle_area_vector(a, b, c).length() as f64
-        })
-        .sum()
-}

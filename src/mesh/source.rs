@@ -151,10 +151,6 @@ impl ObjFolder {
         check_frame(&files[0], &topology, &positions, None)?;
         Ok(ObjFolder { label: label.to_path_buf(), files, fps, topology })
     }
-
-    pub fn files(&self) -> &[PathBuf] {
-        &self.files
-    }
 }
 
 impl FrameSource for ObjFolder {

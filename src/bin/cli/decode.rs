@@ -1,6 +1,6 @@
 //! `cgv decode`: a `.cgv` file back into a mesh sequence (GLB or OBJ folder).
 
-use anyhow::{bail, Result};
+use anyhow::Result;
 use cgv::codec::{h264, SequenceDecoder};
 use cgv::solve::SolverKind;
 use std::path::PathBuf;
@@ -46,13 +46,7 @@ pub fn run(args: Args) -> Result<()> {
         Ok(x)
     };
     let out = &args.output;
-    if out.extension().is_some_and(|e| e.eq_ignore_ascii_case("glb")) {
-        cgv::mesh::gltf_out::write_glb(out, &topo, frames, fps, "cgv", &mut next)?;
-    } else if out.extension().is_none() || out.is_dir() {
-        cgv::mesh::gltf_out::write_obj_folder(out, &topo, frames, &mut next)?;
-    } else {
-        bail!("{}: output must be a .glb file or a folder", out.display());
-    }
+    super::write_sequence(out, &topo, frames, fps, "cgv", &mut next)?;
     pb.finish_and_clear();
     let video: f64 = stats.iter().map(|s| s.video_seconds).sum();
     let solve: f64 = stats.iter().map(|s| s.solve_seconds).sum();

@@ -65,6 +65,31 @@ impl InputArgs {
     }
 }
 
+/// Whether `path` names a `.glb` file.
+pub fn is_glb(path: &std::path::Path) -> bool {
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("glb"))
+}
+
+/// Writes `frames` frames from `next` to `out`: a `.glb` (morph-target
+/// animation) or a folder of numbered OBJ files.
+pub fn write_sequence(
+    out: &std::path::Path,
+    topology: &cgv::mesh::Topology,
+    frames: usize,
+    fps: f32,
+    name: &str,
+    next: impl FnMut(usize) -> cgv::Result<Vec<glam::Vec3>>,
+) -> anyhow::Result<()> {
+    if is_glb(out) {
+        cgv::mesh::gltf_out::write_glb(out, topology, frames, fps, name, next)?;
+    } else if out.extension().is_none() || out.is_dir() {
+        cgv::mesh::gltf_out::write_obj_folder(out, topology, frames, next)?;
+    } else {
+        anyhow::bail!("{}: output must be a .glb file or a folder", out.display());
+    }
+    Ok(())
+}
+
 /// A progress bar on stderr, hidden when `quiet` or stderr is not a terminal.
 pub fn progress(len: usize, msg: &'static str, quiet: bool) -> ProgressBar {
     if quiet {

@@ -113,18 +113,11 @@ pub fn run(args: Args) -> Result<()> {
         Ok(g)
     };
     let out = &args.output;
-    let is_glb = out.extension().is_some_and(|e| e.eq_ignore_ascii_case("glb"));
     let name = src.label().file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "motion".into());
-    if is_glb {
-        cgv::mesh::gltf_out::write_glb(out, &grid_topo, n_frames, src.fps(), &name, &mut next)?;
-    } else if out.extension().is_none() || out.is_dir() {
-        cgv::mesh::gltf_out::write_obj_folder(out, &grid_topo, n_frames, &mut next)?;
-    } else {
-        bail!("{}: output must be a .glb file or a folder", out.display());
-    }
+    super::write_sequence(out, &grid_topo, n_frames, src.fps(), &name, &mut next)?;
     pb.finish_and_clear();
     let png = args.png.clone().unwrap_or_else(|| {
-        if is_glb {
+        if super::is_glb(out) {
             out.with_extension("png")
         } else {
             let mut s = out.clone().into_os_string();
