@@ -104,7 +104,11 @@ impl QuadMesh {
         let mut f_sum = vec![Vec3::ZERO; nv];
         let mut r_sum = vec![Vec3::ZERO; nv];
         let mut valence = vec![0f32; nv];
-        for (&(a, b), (id, fs)) in &edges {
+        // In creation order: summing in the map's (random) order would make
+        // the motion differ in the last bit from run to run.
+        let mut ordered: Vec<_> = edges.iter().collect();
+        ordered.sort_unstable_by_key(|e| e.1 .0);
+        for (&(a, b), (id, fs)) in ordered {
             let (pa, pb) = (self.verts[a as usize], self.verts[b as usize]);
             let fp: Vec3 = fs.iter().map(|&f| face_pts[f]).sum::<Vec3>() / fs.len() as f32;
             verts[nv + self.quads.len() + *id as usize] = (pa + pb + 2.0 * fp) / 4.0;

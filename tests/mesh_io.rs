@@ -115,3 +115,25 @@ fn glb_and_obj_output_round_trip() {
     let left: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
     assert_eq!(left.len(), 2, "leftovers: {left:?}");
 }
+
+#[test]
+fn frame_selections_parse_and_slice() {
+    use cgv::mesh::source::FrameSelection;
+    let p = |s: &str| s.parse::<FrameSelection>();
+    assert_eq!(p("2..5"), Ok(FrameSelection { start: 2, end: Some(5) }));
+    assert_eq!(p("2..=5"), Ok(FrameSelection { start: 2, end: Some(6) }));
+    assert_eq!(p("..5"), Ok(FrameSelection { start: 0, end: Some(5) }));
+    assert_eq!(p("7.."), Ok(FrameSelection { start: 7, end: None }));
+    for bad in ["", "5", "a..b", "5..2", "3..3", "-1..2"] {
+        assert!(p(bad).is_err(), "{bad}");
+    }
+    let opts = |f: &str| cgv::mesh::OpenOptions { frames: Some(p(f).unwrap()), ..Default::default() };
+    let all = cgv::mesh::open_sequence("builtin:walk", &Default::default()).unwrap();
+    let some = cgv::mesh::open_sequence("builtin:walk", &opts("10..13")).unwrap();
+    assert_eq!(some.frame_count(), 3);
+    let same = |a: usize, b: usize| some.read_frame(a).unwrap() == all.read_frame(b).unwrap();
+    assert!(same(0, 10) && same(1, 11) && same(2, 12) && !same(1, 1));
+    assert!(some.read_frame(3).is_err());
+    let e = cgv::mesh::open_sequence("builtin:walk", &opts("70..80")).err().unwrap();
+    assert!(e.to_string().contains("has 72"), "{e}");
+}

@@ -33,11 +33,47 @@ pub struct OpenOptions {
     pub animation: Option<String>,
     /// Close boundary loops (see [`HoleFill`]).
     pub fill_holes: bool,
+    /// Keep only these frames (the first kept frame becomes frame 0).
+    pub frames: Option<FrameSelection>,
+}
+
+/// A range of frames, `A..B` (B excluded), `A..`, `..B` or `A..=B`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FrameSelection {
+    pub start: usize,
+    /// One past the last frame; `None` for the end of the sequence.
+    pub end: Option<usize>,
+}
+
+impl std::str::FromStr for FrameSelection {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        let bad = || format!("'{s}' is not a frame range (expected A..B, A.., ..B or A..=B)");
+        let (a, b, inclusive) = if let Some((a, b)) = s.split_once("..=") {
+            (a, Some(b), true)
+        } else if let Some((a, b)) = s.split_once("..") {
+            (a, if b.is_empty() { None } else { Some(b) }, false)
+        } else {
+            return Err(bad());
+        };
+        let start = if a.is_empty() { 0 } else { a.trim().parse().map_err(|_| bad())? };
+        let end = match b {
+            Some(b) => {
+                let e: usize = b.trim().parse().map_err(|_| bad())?;
+                Some(if inclusive { e + 1 } else { e })
+            }
+            None => None,
+        };
+        if end.is_some_and(|e| e <= start) {
+            return Err(format!("frame range '{s}' is empty"));
+        }
+        Ok(FrameSelection { start, end })
+    }
 }
 
 impl Default for OpenOptions {
     fn default() -> Self {
-        OpenOptions { fps: 30.0, animation: None, fill_holes: false }
+        OpenOptions { fps: 30.0, animation: None, fill_holes: false, frames: None }
     }
 }
 
@@ -73,13 +109,57 @@ pub fn open_sequence(spec: &str, opts: &OpenOptions) -> Result<Box<dyn FrameSour
             }
         }
     };
+    let mut source = source;
     if opts.fill_holes {
         let plan = HoleFill::plan(source.topology());
         if !plan.loops.is_empty() {
-            return Ok(Box::new(FilledHoles { inner: source, plan }));
+            source = Box::new(FilledHoles { inner: source, plan });
         }
     }
+    if let Some(sel) = opts.frames {
+        let count = source.frame_count();
+        let end = sel.end.unwrap_or(count);
+        if end > count {
+            return Err(Error::Argument(format!(
+                "{}: frames {}..{end} asked for, but the sequence has {count}",
+                source.label().display(),
+                sel.start
+            )));
+        }
+        source = Box::new(Slice { inner: source, start: sel.start, len: end - sel.start });
+    }
     Ok(source)
+}
+
+/// Frames `start..start + len` of another sequence.
+struct Slice {
+    inner: Box<dyn FrameSource>,
+    start: usize,
+    len: usize,
+}
+
+impl FrameSource for Slice {
+    fn label(&self) -> &Path {
+        self.inner.label()
+    }
+    fn frame_count(&self) -> usize {
+        self.len
+    }
+    fn fps(&self) -> f32 {
+        self.inner.fps()
+    }
+    fn topology(&self) -> &Topology {
+        self.inner.topology()
+    }
+    fn kind(&self) -> &'static str {
+        self.inner.kind()
+    }
+    fn read_frame(&self, i: usize) -> Result<Frame> {
+        if i >= self.len {
+            return Err(Error::Argument(format!("frame {i} is past the last selected frame {}", self.len as i64 - 1)));
+        }
+        self.inner.read_frame(self.start + i)
+    }
 }
 
 /// Checks a frame against the sequence's first frame.

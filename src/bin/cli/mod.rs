@@ -54,13 +54,21 @@ pub struct InputArgs {
     /// glTF: the animation to bake, by index or name (default: the first).
     #[arg(long)]
     pub animation: Option<String>,
+    /// Use only these frames: A..B (B excluded), A.., ..B or A..=B, counted from 0.
+    #[arg(long, value_name = "A..B")]
+    pub frames: Option<cgv::mesh::source::FrameSelection>,
 }
 
 impl InputArgs {
     pub fn open(&self) -> cgv::Result<Box<dyn cgv::mesh::FrameSource>> {
         cgv::mesh::open_sequence(
             &self.input,
-            &cgv::mesh::OpenOptions { fps: self.fps, animation: self.animation.clone(), fill_holes: self.fill_holes },
+            &cgv::mesh::OpenOptions {
+                fps: self.fps,
+                animation: self.animation.clone(),
+                fill_holes: self.fill_holes,
+                frames: self.frames,
+            },
         )
     }
 }
