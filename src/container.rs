@@ -11,11 +11,11 @@
 //! ```
 //!
 //! Each chunk: `tag [4] | stream u16 | reserved u16 | frame u32 | length u32 |
-//! payload | crc u32` (CRC-32 of tag..payload). Tags: `AUNT` (one H.264
-//! access unit, Annex-B, of `stream` at `frame`), `ANCH` (the anchors of
-//! `frame`: little-endian f32 x, y, z per anchor), `CEND` (end of file).
-//! Chunks are ordered by frame, so a reader can start on frame 0 before the
-//! rest of the file has arrived.
+//! payload | crc u32` (CRC-32 of tag..payload). Tags: `FRAM` (what a frame
+//! needs besides its video: predictor, correction scale, anchors; first in
+//! each frame, see [`FrameInfo`]), `AUNT` (one H.264 access unit, Annex-B, of
+//! `stream` at `frame`), `CEND` (end of file). Chunks are ordered by frame,
+//! so a reader can start on frame 0 before the rest of the file has arrived.
 
 use crate::codec::quant::Quantizer;
 use serde::{Deserialize, Serialize};
@@ -32,7 +32,7 @@ pub const MAX_STREAMS: usize = 32;
 pub const MAX_ANCHORS: usize = 4096;
 
 pub const TAG_ACCESS_UNIT: [u8; 4] = *b"AUNT";
-pub const TAG_ANCHORS: [u8; 4] = *b"ANCH";
+pub const TAG_FRAME: [u8; 4] = *b"FRAM";
 pub const TAG_END: [u8; 4] = *b"CEND";
 
 /// What is wrong with a `.cgv` file, with the byte offset where it was found.
@@ -76,7 +76,59 @@ pub struct StreamInfo {
     pub quant: Quantizer,
     /// Which frames the stream has.
     pub coverage: Coverage,
+    /// The decoded values are multiplied by the frame's correction scale
+    /// ([`FrameInfo::correction_scale`]): the closed-loop corrections.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub scaled: bool,
 }
+
+/// Per-frame side data (the `FRAM` chunk). Payload: `predictor u8 |
+/// reserved [u8; 3] (zero) | correction_scale f32 | anchors (f32 x, y, z
+/// each)`, little-endian.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct FrameInfo {
+    /// How the `cgv` decoder predicts this frame before its correction is
+    /// added (see `crate::solve::cgv::PredictorCode`): bits 0..=1 choose the
+    /// extrapolation (0: the previous frame moved rigidly onto the anchors,
+    /// 1: constant velocity, 2: smoothed velocity; 3 is invalid), bits 2..=3
+    /// the number of mean-curvature steps.
+    pub predictor: u8,
+    /// Scale of the correction streams at this frame (0 without corrections).
+    pub correction_scale: f32,
+    pub anchors: Vec<[f32; 3]>,
+}
+
+impl FrameInfo {
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut out = vec![self.predictor, 0, 0, 0];
+        out.extend_from_slice(&self.correction_scale.to_le_bytes());
+        out.extend(self.anchors.iter().flatten().flat_map(|v| v.to_le_bytes()));
+        out
+    }
+
+    fn parse(payload: &[u8], anchors: usize, offset: usize) -> Result<FrameInfo, ContainerError> {
+        let bad = |msg: String| ContainerError::Chunk { offset, msg };
+        if payload.len() != 8 + anchors * 12 {
+            return Err(bad(format!("frame chunk has {} bytes, expected {}", payload.len(), 8 + anchors * 12)));
+        }
+        if payload[0] > MAX_PREDICTOR || payload[0] & 3 == 3 || payload[1..4] != [0, 0, 0] {
+            return Err(bad(format!("unknown predictor {:?}", &payload[..4])));
+        }
+        let f32_at = |o: usize| f32::from_le_bytes([payload[o], payload[o + 1], payload[o + 2], payload[o + 3]]);
+        let correction_scale = f32_at(4);
+        if !(correction_scale.is_finite() && correction_scale >= 0.0) {
+            return Err(bad(format!("correction scale {correction_scale} is not a finite non-negative number")));
+        }
+        let anchors: Vec<[f32; 3]> = (0..anchors).map(|k| [0, 4, 8].map(|o| f32_at(8 + 12 * k + o))).collect();
+        if anchors.iter().flatten().any(|v| !v.is_finite()) {
+            return Err(bad("non-finite anchor position".into()));
+        }
+        Ok(FrameInfo { predictor: payload[0], correction_scale, anchors })
+    }
+}
+
+/// Largest predictor code (bits 0..=1: extrapolation 0..=2, bits 2..=3: steps 0..=3).
+pub const MAX_PREDICTOR: u8 = 0b1110;
 
 /// The frames a stream is coded at.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -211,8 +263,7 @@ impl Header {
     pub fn expected_chunks(&self) -> u64 {
         let mut n = 0u64;
         for f in 0..self.frames {
-            n += (0..self.streams.len()).filter(|&s| self.stream_has_frame(s, f)).count() as u64;
-            n += u64::from(!self.anchors.is_empty());
+            n += 1 + (0..self.streams.len()).filter(|&s| self.stream_has_frame(s, f)).count() as u64;
         }
         n
     }
@@ -315,7 +366,7 @@ pub fn parse_chunk(bytes: &[u8], offset: usize) -> Result<Option<(Chunk<'_>, usi
         return Err(ContainerError::BadCrc { offset, what: "a chunk" });
     }
     let tag = [b[0], b[1], b[2], b[3]];
-    if tag != TAG_ACCESS_UNIT && tag != TAG_ANCHORS && tag != TAG_END {
+    if tag != TAG_ACCESS_UNIT && tag != TAG_FRAME && tag != TAG_END {
         return Err(ContainerError::Chunk {
             offset,
             msg: format!("unknown chunk tag {:?}", String::from_utf8_lossy(&tag)),
@@ -332,8 +383,8 @@ pub struct CgvFile {
     pub header: Header,
     /// Access units per stream per frame (empty where the stream has no frame).
     pub units: Vec<Vec<Vec<u8>>>,
-    /// Anchor positions per frame.
-    pub anchors: Vec<Vec<[f32; 3]>>,
+    /// Side data per frame.
+    pub frames: Vec<FrameInfo>,
     /// Size of the file in bytes.
     pub bytes: usize,
 }
@@ -349,28 +400,20 @@ pub fn read(bytes: &[u8]) -> Result<CgvFile, ContainerError> {
     // Allocate per frame only as chunks arrive: a header cannot make us reserve
     // memory the file does not back.
     let mut units: Vec<Vec<Vec<u8>>> = vec![Vec::new(); nstreams];
-    let mut anchors: Vec<Vec<[f32; 3]>> = Vec::new();
-    // The next chunk expected: frame f, then within it streams in order, then anchors.
+    let mut frames: Vec<FrameInfo> = Vec::new();
+    // The next chunk expected: frame f, slot 0 its FRAM chunk, slot 1 + s stream s.
     let mut frame = 0u32;
-    let mut slot = 0usize; // 0..nstreams for streams, nstreams for anchors
+    let mut slot = 0usize;
     let advance = |frame: &mut u32, slot: &mut usize| loop {
         *slot += 1;
         if *slot > nstreams {
             *slot = 0;
             *frame += 1;
         }
-        if *frame >= header.frames {
-            return;
-        }
-        let ok = if *slot < nstreams { header.stream_has_frame(*slot, *frame) } else { !header.anchors.is_empty() };
-        if ok {
+        if *frame >= header.frames || *slot == 0 || header.stream_has_frame(*slot - 1, *frame) {
             return;
         }
     };
-    // Position on the first expected chunk.
-    if !header.stream_has_frame(0, 0) {
-        advance(&mut frame, &mut slot);
-    }
     loop {
         let (chunk, next) = match parse_chunk(bytes, offset)? {
             Some(c) => c,
@@ -394,38 +437,21 @@ pub fn read(bytes: &[u8]) -> Result<CgvFile, ContainerError> {
             ),
         };
         if chunk.frame != frame {
-            return Err(expect(if slot < nstreams { "stream data" } else { "anchors" }));
+            return Err(expect(if slot > 0 { "stream data" } else { "the frame chunk" }));
         }
-        if slot < nstreams {
-            if chunk.tag != TAG_ACCESS_UNIT || chunk.stream as usize != slot {
-                return Err(expect(&format!("stream {slot}")));
+        if slot > 0 {
+            let s = slot - 1;
+            if chunk.tag != TAG_ACCESS_UNIT || chunk.stream as usize != s {
+                return Err(expect(&format!("stream {s}")));
             }
-            let u = &mut units[slot];
+            let u = &mut units[s];
             u.resize(frame as usize + 1, Vec::new());
             u[frame as usize] = chunk.payload.to_vec();
         } else {
-            if chunk.tag != TAG_ANCHORS {
-                return Err(expect("anchors"));
+            if chunk.tag != TAG_FRAME {
+                return Err(expect("the frame chunk"));
             }
-            if chunk.payload.len() != header.anchors.len() * 12 {
-                return Err(ContainerError::Chunk {
-                    offset,
-                    msg: format!(
-                        "anchor chunk has {} bytes, expected {}",
-                        chunk.payload.len(),
-                        header.anchors.len() * 12
-                    ),
-                });
-            }
-            let pts: Vec<[f32; 3]> = chunk
-                .payload
-                .chunks_exact(12)
-                .map(|c| [0, 4, 8].map(|o| f32::from_le_bytes([c[o], c[o + 1], c[o + 2], c[o + 3]])))
-                .collect();
-            if pts.iter().flatten().any(|v| !v.is_finite()) {
-                return Err(ContainerError::Chunk { offset, msg: "non-finite anchor position".into() });
-            }
-            anchors.push(pts);
+            frames.push(FrameInfo::parse(chunk.payload, header.anchors.len(), offset)?);
         }
         offset = next;
         advance(&mut frame, &mut slot);
@@ -433,5 +459,5 @@ pub fn read(bytes: &[u8]) -> Result<CgvFile, ContainerError> {
     for u in &mut units {
         u.resize(header.frames as usize, Vec::new());
     }
-    Ok(CgvFile { header, units, anchors, bytes: bytes.len() })
+    Ok(CgvFile { header, units, frames, bytes: bytes.len() })
 }

@@ -17,6 +17,7 @@ fn header() -> Header {
                 refines: None,
                 quant: Quantizer::new(-1.0, 1.0),
                 coverage: Coverage::All,
+                scaled: false,
             },
             StreamInfo {
                 name: "lambda".into(),
@@ -24,6 +25,7 @@ fn header() -> Header {
                 refines: None,
                 quant: Quantizer::new(0.0, 1.0),
                 coverage: Coverage::Key,
+                scaled: false,
             },
             StreamInfo {
                 name: "H".into(),
@@ -31,6 +33,7 @@ fn header() -> Header {
                 refines: Some(0),
                 quant: Quantizer::new(-0.1, 0.1),
                 coverage: Coverage::All,
+                scaled: false,
             },
         ],
         key_frames: vec![0, 2],
@@ -45,6 +48,9 @@ fn header() -> Header {
 fn file(h: &Header) -> Vec<u8> {
     let mut out = container::write_header(h).unwrap();
     for f in 0..h.frames {
+        let anchors = (0..h.anchors.len()).map(|i| [0, 1, 2].map(|c| (3 * i + c) as f32 + f as f32)).collect();
+        let info = container::FrameInfo { predictor: 6, correction_scale: 0.5, anchors };
+        out.extend(container::write_chunk(container::TAG_FRAME, 0, f, &info.to_bytes()));
         for s in 0..h.streams.len() {
             if h.stream_has_frame(s, f) {
                 out.extend(container::write_chunk(
@@ -55,8 +61,6 @@ fn file(h: &Header) -> Vec<u8> {
                 ));
             }
         }
-        let anchors: Vec<u8> = (0..h.anchors.len() * 3).flat_map(|i| (i as f32 + f as f32).to_le_bytes()).collect();
-        out.extend(container::write_chunk(container::TAG_ANCHORS, 0, f, &anchors));
     }
     out.extend(container::write_chunk(container::TAG_END, 0, h.frames, &[]));
     out
@@ -71,7 +75,8 @@ fn reads_what_it_writes() {
     assert_eq!(f.units[0].len(), 3);
     assert!(f.units[1][1].is_empty() && !f.units[1][2].is_empty());
     assert_eq!(f.units[2][1], vec![0, 0, 0, 1, 9, 1, 2]);
-    assert_eq!(f.anchors[2][1], [5.0, 6.0, 7.0]);
+    assert_eq!(f.frames[2].anchors[1], [5.0, 6.0, 7.0]);
+    assert_eq!((f.frames[1].predictor, f.frames[1].correction_scale), (6, 0.5));
     assert_eq!(h.expected_chunks(), 3 + 2 + 3 + 3);
 }
 
@@ -140,6 +145,8 @@ fn absurd_sizes_and_counts_are_refused_without_allocating() {
     // error, after reading only what is there.
     let h = Header { frames: container::MAX_FRAMES, ..header() };
     let mut bytes = container::write_header(&h).unwrap();
+    let info = container::FrameInfo { anchors: vec![[0.0; 3]; 4], ..Default::default() };
+    bytes.extend(container::write_chunk(container::TAG_FRAME, 0, 0, &info.to_bytes()));
     bytes.extend(container::write_chunk(container::TAG_ACCESS_UNIT, 0, 0, &[1]));
     assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::Truncated { .. }));
 }
@@ -156,4 +163,28 @@ fn chunks_out_of_order_or_extra_are_errors() {
     let mut bytes = container::write_header(&h).unwrap();
     bytes.extend(container::write_chunk(*b"JUNK", 0, 0, &[1]));
     assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::Chunk { .. }));
+}
+
+#[test]
+fn bad_frame_chunks_are_errors() {
+    let h = header();
+    let good = container::FrameInfo { predictor: 1, correction_scale: 1.0, anchors: vec![[0.0; 3]; 4] };
+    let mut bad_bytes = good.to_bytes();
+    bad_bytes.pop();
+    let cases: Vec<Vec<u8>> = vec![
+        container::FrameInfo { predictor: container::MAX_PREDICTOR + 1, ..good.clone() }.to_bytes(),
+        container::FrameInfo { predictor: 3, ..good.clone() }.to_bytes(),
+        container::FrameInfo { correction_scale: -1.0, ..good.clone() }.to_bytes(),
+        container::FrameInfo { correction_scale: f32::INFINITY, ..good.clone() }.to_bytes(),
+        container::FrameInfo { anchors: vec![[f32::NAN, 0.0, 0.0]; 4], ..good.clone() }.to_bytes(),
+        container::FrameInfo { anchors: vec![[0.0; 3]; 5], ..good.clone() }.to_bytes(),
+        bad_bytes,
+    ];
+    for payload in cases {
+        let mut bytes = container::write_header(&h).unwrap();
+        bytes.extend(container::write_chunk(container::TAG_FRAME, 0, 0, &payload));
+        bytes.extend(container::write_chunk(container::TAG_ACCESS_UNIT, 0, 0, &[1]));
+        let e = container::read(&bytes).unwrap_err();
+        assert!(matches!(e, ContainerError::Chunk { .. }), "{payload:?}: {e}");
+    }
 }

@@ -1,28 +1,30 @@
 //! The encoder (native: it drives OpenH264). Two passes over the input, so
 //! no more than one frame is held at a time: the first finds each stream's
-//! range, the second quantizes and codes.
+//! range, the second quantizes and codes; for the `cgv` decoder it also runs
+//! that decoder on what it coded (closed loop, see [`crate::solve::cgv`]).
 
 use super::features::{Features, Stencils};
 use super::h264::{Decoder as H264Decoder, Encoder as H264Encoder, VideoSettings};
 use super::quant::{Quantizer, Range};
-use super::{choose_anchors, VideoDecoder};
-use crate::container::{self, CodecKind, Coverage, Header, Settings, SourceInfo, StreamInfo};
+use super::{choose_anchors, VideoDecoder, CORRECTION, SEED};
+use crate::container::{self, CodecKind, Coverage, FrameInfo, Header, Settings, SourceInfo, StreamInfo};
 use crate::error::{Error, Result};
 use crate::grid::Grid;
 use crate::mesh::{analyze, Bounds, FrameSource};
 use crate::param::{parameterize, ParamOptions, Parameterization};
 use crate::resample::SampleMap;
+use crate::solve::cgv::{Predictor, PredictorCode};
 use crate::solve::SolverKind;
 use glam::Vec3;
 
-fn median_abs(v: &[f32]) -> f32 {
-    let mut a: Vec<f32> = v.iter().map(|x| x.abs()).collect();
-    if a.is_empty() {
-        return 0.0;
-    }
-    let k = a.len() / 2;
-    *a.select_nth_unstable_by(k, |x, y| x.total_cmp(y)).1
-}
+/// How much finer (in QP) the frame-0 seed is coded than the other streams,
+/// and the finest QP it gets. Measured on the default motion at N = 64: at
+/// QP 40 frame 0 was 3.5x the sequence's mean error with the seed at QP 40,
+/// 1.2x at QP 16; but a seed at QP 0 leaves white 8-bit rounding noise that
+/// the correction streams cannot code (frame 0 at 0.078 % of the diagonal
+/// at QP 20, against 0.028 % with the seed at QP 8).
+pub const SEED_QP_OFFSET: u8 = 24;
+pub const SEED_MIN_QP: u8 = 8;
 
 /// How to encode.
 #[derive(Debug, Clone)]
@@ -32,11 +34,12 @@ pub struct EncodeOptions {
     pub video: VideoSettings,
     /// A key frame (λ) every this many frames; 0 for the first frame only.
     pub key_interval: u32,
-    /// Code the tangential coefficients a, b every frame (else at key frames).
-    /// The project's solver needs them every frame on motions that are not
-    /// isometric (all real ones); see docs/RESULTS.md.
-    pub intrinsics_every_frame: bool,
     pub anchors: usize,
+    /// CGV for the `cgv` decoder: code the closed-loop corrections (else the
+    /// decoder runs open loop on H and the anchors alone, and drifts).
+    pub correction: bool,
+    /// CGV: most mean-curvature steps a frame's predictor may take.
+    pub max_steps: u8,
     /// 1, or 2 for a residual layer on every stream but the seeds.
     pub layers: u8,
     /// Layer-2 range, in layer-1 quantization steps.
@@ -55,8 +58,9 @@ impl Default for EncodeOptions {
             grid: 128,
             video: VideoSettings::default(),
             key_interval: 10,
-            intrinsics_every_frame: true,
             anchors: 16,
+            correction: true,
+            max_steps: 1,
             layers: 1,
             residual_steps: 8.0,
             solver: SolverKind::Cgv,
@@ -73,18 +77,18 @@ pub struct EncodeReport {
     pub frames: usize,
     /// Bytes of H.264 per stream.
     pub stream_bytes: Vec<(String, usize)>,
-    pub anchor_bytes: usize,
+    pub side_bytes: usize,
     pub parameterization: Parameterization,
     pub seconds_parameterize: f64,
-    pub seconds_video: f64,
+    pub seconds_coding: f64,
     pub seconds_total: f64,
 }
 
 struct Stream {
     info: StreamInfo,
     enc: H264Encoder,
-    /// For a base layer with a refinement: a decoder to see what H.264 kept.
-    dec: Option<H264Decoder>,
+    /// What H.264 kept, as the decoder will see it.
+    dec: H264Decoder,
     bytes: usize,
 }
 
@@ -92,8 +96,6 @@ fn values<'a>(name: &str, f: &'a Features, g: &'a [Vec3], scratch: &'a mut Vec<f
     match name {
         "H" => &f.h,
         "lambda" => &f.lambda,
-        "a" => &f.a,
-        "b" => &f.b,
         _ => {
             let c = match name {
                 "x" | "seed_x" => 0,
@@ -144,22 +146,22 @@ pub fn encode(
     let st = Stencils::new(grid);
     let key_frames: Vec<u32> =
         if opts.key_interval == 0 { vec![0] } else { (0..frames as u32).step_by(opts.key_interval as usize).collect() };
-    let names: Vec<(&str, Coverage)> = match opts.codec {
+    let closed_loop = opts.codec == CodecKind::Cgv && opts.solver == SolverKind::Cgv && opts.correction;
+    let mut names: Vec<(&str, Coverage)> = match opts.codec {
         CodecKind::Gv => vec![("x", Coverage::All), ("y", Coverage::All), ("z", Coverage::All)],
-        CodecKind::Cgv => vec![
-            ("H", Coverage::All),
-            ("lambda", Coverage::Key),
-            ("a", if opts.intrinsics_every_frame { Coverage::All } else { Coverage::Key }),
-            ("b", if opts.intrinsics_every_frame { Coverage::All } else { Coverage::Key }),
-            ("seed_x", Coverage::First),
-            ("seed_y", Coverage::First),
-            ("seed_z", Coverage::First),
-        ],
+        CodecKind::Cgv => {
+            let mut v = vec![("H", Coverage::All), ("lambda", Coverage::Key)];
+            v.extend(SEED.map(|s| (s, Coverage::First)));
+            v
+        }
     };
+    if closed_loop {
+        names.extend(CORRECTION.map(|s| (s, Coverage::All)));
+    }
+    let is_correction = |name: &str| CORRECTION.contains(&name);
 
-    // Pass 1: ranges.
+    // Pass 1: ranges (the corrections are scaled per frame instead).
     let mut ranges = vec![Range::default(); names.len()];
-    let mut scales: Vec<Option<f32>> = vec![None; names.len()];
     let mut first_grid = Vec::new();
     let mut scratch = Vec::new();
     for fi in 0..frames {
@@ -172,16 +174,8 @@ pub fn encode(
                 Coverage::Key => key,
                 Coverage::First => fi == 0,
             };
-            if has {
-                let v = values(name, &feats, &g, &mut scratch);
-                if matches!(*name, "a" | "b") {
-                    // Companded: the scale is the median magnitude of the first frame.
-                    let s = *scales[k].get_or_insert_with(|| median_abs(v).max(1e-6));
-                    let y: Vec<f32> = v.iter().map(|x| (x / s).asinh()).collect();
-                    ranges[k].add(&y);
-                } else {
-                    ranges[k].add(v);
-                }
+            if has && !is_correction(name) {
+                ranges[k].add(values(name, &feats, &g, &mut scratch));
             }
         }
         if fi == 0 {
@@ -189,18 +183,19 @@ pub fn encode(
         }
         progress("analysing", fi + 1, frames);
     }
-    let anchors = choose_anchors(&first_grid, opts.anchors);
+    let anchors = if opts.codec == CodecKind::Cgv { choose_anchors(&first_grid, opts.anchors) } else { Vec::new() };
 
     // Streams: layer 1 for each name, then layer 2 refinements.
     let mut infos: Vec<StreamInfo> = names
         .iter()
-        .zip(ranges.iter().zip(&scales))
-        .map(|((name, cov), (r, s))| StreamInfo {
+        .zip(&ranges)
+        .map(|((name, cov), r)| StreamInfo {
             name: name.to_string(),
             layer: 1,
             refines: None,
-            quant: Quantizer { asinh_scale: *s, ..r.quantizer() },
+            quant: if is_correction(name) { Quantizer::new(-1.0, 1.0) } else { r.quantizer() },
             coverage: *cov,
+            scaled: is_correction(name),
         })
         .collect();
     if opts.layers == 2 {
@@ -214,6 +209,7 @@ pub fn encode(
                 refines: Some(k as u16),
                 quant: infos[k].quant.residual(opts.residual_steps),
                 coverage: names[k].1,
+                scaled: false,
             });
         }
     }
@@ -225,17 +221,21 @@ pub fn encode(
     };
     let total_weight: f32 = infos.iter().map(|i| weight(i.coverage)).sum();
     let mut streams: Vec<Stream> = Vec::with_capacity(infos.len());
-    for (k, info) in infos.iter().enumerate() {
+    for info in &infos {
         let mut vs = opts.video;
         vs.fps = src.fps();
-        if let Some(kbps) = opts.video.kbps {
+        if info.coverage == Coverage::First {
+            // The seed is one frame that every later frame is predicted
+            // from: finer than the rest, at a constant QP.
+            vs.qp = vs.qp.saturating_sub(SEED_QP_OFFSET).max(SEED_MIN_QP);
+            vs.kbps = None;
+        } else if let Some(kbps) = opts.video.kbps {
             vs.kbps = Some((kbps * weight(info.coverage) / total_weight).max(1.0));
         }
-        let refined = infos.iter().any(|i| i.refines == Some(k as u16));
         streams.push(Stream {
             info: info.clone(),
             enc: H264Encoder::new(grid.n, grid.n, &vs)?,
-            dec: if refined { Some(H264Decoder::new()?) } else { None },
+            dec: H264Decoder::new()?,
             bytes: 0,
         });
     }
@@ -268,46 +268,70 @@ pub fn encode(
     let mut out =
         container::write_header(&header).map_err(|e| Error::Container { path: src.label().into(), source: e })?;
 
-    // Pass 2: code.
-    let mut seconds_video = 0.0;
-    let mut anchor_bytes = 0;
-    let mut base_decoded: Vec<Option<Vec<f32>>> = vec![None; streams.len()];
+    // Pass 2: code. With corrections the encoder runs the decoder's
+    // predictor on the decoded data (closed loop), so what it corrects is
+    // exactly what the decoder will have.
+    let mut predictor = Predictor::new(st.clone(), anchors.clone());
+    let mut seconds_coding = 0.0;
+    let mut side_bytes = 0;
+    let (pre, post): (Vec<usize>, Vec<usize>) = (0..streams.len()).partition(|&k| {
+        let base = streams[k].info.refines.map_or(k, usize::from);
+        !is_correction(&streams[base].info.name)
+    });
     for fi in 0..frames {
         let g = map.apply(&src.read_frame(fi)?);
         let feats = if opts.codec == CodecKind::Cgv { st.features(&g) } else { Features::default() };
         let t = std::time::Instant::now();
-        for k in 0..streams.len() {
-            if !header.stream_has_frame(k, fi as u32) {
-                continue;
-            }
-            let name = streams[k].info.name.clone();
-            let vals = values(&name, &feats, &g, &mut scratch).to_vec();
-            let q: Quantizer = streams[k].info.quant;
-            let samples: Vec<u8> = match streams[k].info.refines {
-                None => vals.iter().map(|&v| q.quantize(q.compress(v))).collect(),
-                Some(base) => {
-                    // The residual in the base layer's coded domain.
-                    let bq = streams[base as usize].info.quant;
-                    let decoded = base_decoded[base as usize]
-                        .take()
-                        .ok_or_else(|| Error::Video("layer 2 before its base layer".into()))?;
-                    vals.iter().zip(&decoded).map(|(&v, &d)| q.quantize(bq.compress(v) - d)).collect()
+        let mut coder = FrameCoder {
+            header: &header,
+            frame: fi as u32,
+            decoded: vec![None; streams.len()],
+            units: vec![None; streams.len()],
+        };
+        coder.code(&mut streams, &pre, &|name| values(name, &feats, &g, &mut Vec::new()).to_vec())?;
+        let anchor_pos: Vec<Vec3> = anchors.iter().map(|&a| g[a as usize]).collect();
+        let mut info = FrameInfo {
+            predictor: 0,
+            correction_scale: 0.0,
+            anchors: anchor_pos.iter().map(|p| p.to_array()).collect(),
+        };
+        if closed_loop {
+            let vals = super::frame_values(&header, &coder.decoded, 0.0)?;
+            let get = |name: &str| -> Option<&Vec<f32>> { header.stream(name).and_then(|s| vals[s].as_ref()) };
+            let seed = super::positions(&get, SEED);
+            let hv = get("H").ok_or_else(|| Error::Video("H was not coded".into()))?;
+            // Choose the predictor that lands closest to the true frame.
+            let mut best: Option<(f64, PredictorCode, Vec<Vec3>)> = None;
+            predictor.candidates(opts.max_steps, seed.as_deref(), hv, &anchor_pos, &mut |code, x| {
+                let e: f64 = x.iter().zip(&g).map(|(p, q)| p.distance_squared(*q) as f64).sum();
+                if best.as_ref().is_none_or(|b| e < b.0) {
+                    best = Some((e, code, x.to_vec()));
                 }
-            };
-            let au = streams[k].enc.encode(&samples)?;
-            if let Some(dec) = streams[k].dec.as_mut() {
-                let back = dec.decode(&au, grid.n, grid.n)?;
-                base_decoded[k] = Some(back.iter().map(|&s| q.dequantize(s)).collect());
-            }
-            streams[k].bytes += au.len();
-            out.extend_from_slice(&container::write_chunk(container::TAG_ACCESS_UNIT, k as u16, fi as u32, &au));
+            })?;
+            let (_, code, pred) = best.ok_or_else(|| Error::Numerical("no prediction".into()))?;
+            let err: Vec<Vec3> = g.iter().zip(&pred).map(|(p, q)| *p - *q).collect();
+            let scale = correction_scale(&err);
+            coder.code(&mut streams, &post, &|name| {
+                let c = CORRECTION.iter().position(|&n| n == name).unwrap_or(0);
+                err.iter().map(|e| e[c] / scale).collect()
+            })?;
+            let vals = super::frame_values(&header, &coder.decoded, scale)?;
+            let get = |name: &str| -> Option<&Vec<f32>> { header.stream(name).and_then(|s| vals[s].as_ref()) };
+            let d =
+                super::positions(&get, CORRECTION).ok_or_else(|| Error::Video("corrections were not coded".into()))?;
+            predictor.commit(pred.iter().zip(d).map(|(p, d)| *p + d).collect(), &anchor_pos);
+            info.predictor = code.to_byte();
+            info.correction_scale = scale;
         }
-        seconds_video += t.elapsed().as_secs_f64();
-        if !anchors.is_empty() {
-            let payload: Vec<u8> =
-                anchors.iter().flat_map(|&a| g[a as usize].to_array()).flat_map(f32::to_le_bytes).collect();
-            anchor_bytes += payload.len();
-            out.extend_from_slice(&container::write_chunk(container::TAG_ANCHORS, 0, fi as u32, &payload));
+        seconds_coding += t.elapsed().as_secs_f64();
+        let side = info.to_bytes();
+        side_bytes += side.len();
+        out.extend_from_slice(&container::write_chunk(container::TAG_FRAME, 0, fi as u32, &side));
+        for (k, au) in coder.units.into_iter().enumerate() {
+            if let Some(au) = au {
+                streams[k].bytes += au.len();
+                out.extend_from_slice(&container::write_chunk(container::TAG_ACCESS_UNIT, k as u16, fi as u32, &au));
+            }
         }
         progress("encoding", fi + 1, frames);
     }
@@ -319,11 +343,63 @@ pub fn encode(
             .iter()
             .map(|s| (format!("{}{}", s.info.name, if s.info.layer == 2 { "/2" } else { "" }), s.bytes))
             .collect(),
-        anchor_bytes,
+        side_bytes,
         parameterization: param,
         seconds_parameterize,
-        seconds_video,
+        seconds_coding,
         seconds_total: t_start.elapsed().as_secs_f64(),
     };
     Ok((out, report))
+}
+
+/// The correction scale: the largest error component, rounded up to a power
+/// of 2^(1/4), so that consecutive frames usually share it (H.264 predicts
+/// across frames best when sample values mean the same thing). Clipping the
+/// largest errors instead (a 99.5 % quantile) was measured worse: what is
+/// clipped comes back doubled through the velocity extrapolation.
+fn correction_scale(err: &[Vec3]) -> f32 {
+    let m = err.iter().map(|e| e.abs().max_element()).filter(|m| m.is_finite()).fold(0.0, f32::max);
+    if m <= 0.0 {
+        return f32::MIN_POSITIVE.sqrt();
+    }
+    2f32.powf((m.log2() * 4.0).ceil() / 4.0).max(m)
+}
+
+/// One frame's coding: its access units and what the decoder will see.
+struct FrameCoder<'a> {
+    header: &'a Header,
+    frame: u32,
+    /// Decoded 8-bit samples per stream (as a decoder gets them).
+    decoded: Vec<Option<Vec<u8>>>,
+    units: Vec<Option<Vec<u8>>>,
+}
+
+impl FrameCoder<'_> {
+    /// Codes streams `ks` (each layer 2 after its base) with the values
+    /// `value_of(name)`, in the natural domain.
+    fn code(&mut self, streams: &mut [Stream], ks: &[usize], value_of: &dyn Fn(&str) -> Vec<f32>) -> Result<()> {
+        let n = self.header.grid as usize;
+        for &k in ks {
+            if !self.header.stream_has_frame(k, self.frame) {
+                continue;
+            }
+            let info = &streams[k].info;
+            let q = info.quant;
+            let samples: Vec<u8> = match info.refines {
+                None => value_of(&info.name).iter().map(|&v| q.quantize(v)).collect(),
+                Some(base) => {
+                    // What layer 1 left.
+                    let bq = streams[base as usize].info.quant;
+                    let b = self.decoded[base as usize]
+                        .as_ref()
+                        .ok_or_else(|| Error::Video("layer 2 before its base layer".into()))?;
+                    value_of(&info.name).iter().zip(b).map(|(&v, &d)| q.quantize(v - bq.dequantize(d))).collect()
+                }
+            };
+            let au = streams[k].enc.encode(&samples)?;
+            self.decoded[k] = Some(streams[k].dec.decode(&au, n, n)?);
+            self.units[k] = Some(au);
+        }
+        Ok(())
+    }
 }

@@ -3,11 +3,12 @@
 //! Both resample the motion on the seamless grid and code scalar streams as
 //! grayscale H.264 ([`quant`] for the samples, `h264` natively, WebCodecs in
 //! the browser). A **GV** file codes the grid's x, y, z every frame. A **CGV**
-//! file codes the mean curvature H every frame; λ, a, b ([`features`]) at key
-//! frames; the positions of a few anchor samples every frame (float32); and,
-//! at frame 0 only, a coarse copy of the positions (`seed_x/y/z`) that the
-//! solvers start from, since a nonlinear solve needs a first guess and the
-//! paper leaves that frame's guess unsaid.
+//! file codes the mean curvature H every frame; λ ([`features`]) at key
+//! frames; the positions of a few anchor samples every frame (float32); at
+//! frame 0 only, a coarse copy of the positions (`seed_x/y/z`) that the
+//! solvers start from, since a solve needs a first guess and the paper leaves
+//! that frame's guess unsaid; and, for the project's decoder, the closed-loop
+//! corrections `dx/dy/dz` (see [`crate::solve::cgv`]).
 
 #[cfg(not(target_arch = "wasm32"))]
 mod encode;
@@ -19,10 +20,11 @@ pub mod quant;
 #[cfg(not(target_arch = "wasm32"))]
 pub use encode::{encode, EncodeOptions, EncodeReport};
 
-use crate::container::{CgvFile, CodecKind};
+use crate::container::{CgvFile, CodecKind, Header};
 use crate::error::{Error, Result};
 use crate::grid::Grid;
-use crate::solve::{cgv::CgvSolver, paper::PaperSolver, SolveStats, SolverKind};
+use crate::solve::cgv::{Predictor, PredictorCode};
+use crate::solve::{paper::PaperSolver, SolveStats, SolverKind};
 use features::Stencils;
 use glam::Vec3;
 
@@ -64,23 +66,50 @@ pub struct FrameStats {
 
 enum Rebuild {
     Gv,
-    Cgv(CgvSolver),
+    Cgv(Predictor),
     Paper(PaperSolver),
-}
-
-/// The mean curvature of frame `f` and, at frame 0, the seed positions.
-fn cgv_inputs<'a>(get: &impl Fn(&str) -> Option<&'a Vec<f32>>, f: u32) -> Result<(&'a [f32], Option<Vec<Vec3>>)> {
-    let hv = get("H").ok_or_else(|| Error::Argument(format!("frame {f} has no H")))?;
-    let seed = match (get("seed_x"), get("seed_y"), get("seed_z")) {
-        (Some(x), Some(y), Some(z)) => Some(xyz(x, y, z)),
-        _ => None,
-    };
-
-    Ok((hv, seed))
 }
 
 fn xyz(x: &[f32], y: &[f32], z: &[f32]) -> Vec<Vec3> {
     x.iter().zip(y).zip(z).map(|((&x, &y), &z)| Vec3::new(x, y, z)).collect()
+}
+
+/// The three streams `names` of one frame as positions, if all are there.
+pub(crate) fn positions<'a>(get: &impl Fn(&str) -> Option<&'a Vec<f32>>, names: [&str; 3]) -> Option<Vec<Vec3>> {
+    Some(xyz(get(names[0])?, get(names[1])?, get(names[2])?))
+}
+
+/// Names of the correction streams.
+pub const CORRECTION: [&str; 3] = ["dx", "dy", "dz"];
+/// Names of the frame-0 seed streams.
+pub const SEED: [&str; 3] = ["seed_x", "seed_y", "seed_z"];
+
+/// Turns one frame's decoded 8-bit samples (per stream, `None` where the
+/// stream has no frame) into values: dequantize, add each layer 2 to its
+/// base, and scale the
+/// correction streams by the frame's scale. Shared by the decoder and the
+/// encoder's closed loop, so both see the same numbers.
+pub fn frame_values(h: &Header, samples: &[Option<Vec<u8>>], scale: f32) -> Result<Vec<Option<Vec<f32>>>> {
+    let mut out: Vec<Option<Vec<f32>>> = vec![None; h.streams.len()];
+    for (s, smp) in samples.iter().enumerate() {
+        let Some(smp) = smp else { continue };
+        let q = h.streams[s].quant;
+        let vals = smp.iter().map(|&x| q.dequantize(x));
+        match h.streams[s].refines {
+            Some(base) => {
+                let b =
+                    out[base as usize].as_mut().ok_or_else(|| Error::Argument("layer 2 without its base".into()))?;
+                b.iter_mut().zip(vals).for_each(|(x, r)| *x += r);
+            }
+            None => out[s] = Some(vals.collect()),
+        }
+    }
+    for (s, v) in out.iter_mut().enumerate() {
+        if let (Some(v), true) = (v.as_mut(), h.streams[s].scaled) {
+            v.iter_mut().for_each(|x| *x *= scale);
+        }
+    }
+    Ok(out)
 }
 
 /// Decodes a `.cgv` file frame by frame, in order.
@@ -111,20 +140,26 @@ impl<D: VideoDecoder> SequenceDecoder<D> {
         let h = &file.header;
         let grid = Grid::new(h.grid as usize)?;
         let decoders = (0..h.streams.len()).map(|_| make_decoder()).collect::<Result<Vec<_>>>()?;
+        let require = |names: &[&str]| -> Result<()> {
+            for name in names {
+                h.stream(name).ok_or_else(|| Error::Argument(format!("{:?} file without stream {name}", h.codec)))?;
+            }
+            Ok(())
+        };
         let rebuild = match h.codec {
             CodecKind::Gv => {
-                for name in ["x", "y", "z"] {
-                    h.stream(name).ok_or_else(|| Error::Argument(format!("GV file without stream {name}")))?;
-                }
+                require(&["x", "y", "z"])?;
                 Rebuild::Gv
             }
             CodecKind::Cgv => {
-                for name in ["H", "lambda", "a", "b", "seed_x", "seed_y", "seed_z"] {
-                    h.stream(name).ok_or_else(|| Error::Argument(format!("CGV file without stream {name}")))?;
+                require(&["H", "lambda"])?;
+                require(&SEED)?;
+                if CORRECTION.iter().any(|n| h.stream(n).is_some()) {
+                    require(&CORRECTION)?;
                 }
                 let st = Stencils::new(grid);
                 match solver {
-                    SolverKind::Cgv => Rebuild::Cgv(CgvSolver::new(st, h.anchors.clone())),
+                    SolverKind::Cgv => Rebuild::Cgv(Predictor::new(st, h.anchors.clone())),
                     SolverKind::Paper => Rebuild::Paper(PaperSolver::new(st, h.anchors.clone())),
                 }
             }
@@ -140,33 +175,14 @@ impl<D: VideoDecoder> SequenceDecoder<D> {
     pub fn stream_values(&mut self, f: u32) -> Result<Vec<Option<Vec<f32>>>> {
         let h = &self.file.header;
         let n = self.grid.n;
-        let mut out: Vec<Option<Vec<f32>>> = vec![None; h.streams.len()];
-        for s in 0..h.streams.len() {
-            if !h.stream_has_frame(s, f) {
-                continue;
-            }
-            let au = &self.file.units[s][f as usize];
-            let samples = self.decoders[s].decode(au, n, n)?;
-            let q = h.streams[s].quant;
-            let vals: Vec<f32> = samples.iter().map(|&x| q.dequantize(x)).collect();
-            match h.streams[s].refines {
-                Some(base) => {
-                    let b = out[base as usize]
-                        .as_mut()
-                        .ok_or_else(|| Error::Argument("layer 2 without its base".into()))?;
-                    b.iter_mut().zip(&vals).for_each(|(x, r)| *x += r);
-                }
-                None => out[s] = Some(vals),
+        let mut samples: Vec<Option<Vec<u8>>> = vec![None; h.streams.len()];
+        for (s, out) in samples.iter_mut().enumerate() {
+            if h.stream_has_frame(s, f) {
+                *out = Some(self.decoders[s].decode(&self.file.units[s][f as usize], n, n)?);
             }
         }
-        // Leave the coded domain once every layer has been added.
-        for (s, v) in out.iter_mut().enumerate() {
-            let q = h.streams[s].quant;
-            if let (Some(v), Some(_)) = (v.as_mut(), q.asinh_scale) {
-                v.iter_mut().for_each(|x| *x = q.expand(*x));
-            }
-        }
-        Ok(out)
+        let scale = self.file.frames.get(f as usize).map_or(0.0, |i| i.correction_scale);
+        frame_values(h, &samples, scale)
     }
 
     /// Decodes the next frame: grid positions and statistics.
@@ -181,31 +197,29 @@ impl<D: VideoDecoder> SequenceDecoder<D> {
         let h = &self.file.header;
         let get = |name: &str| -> Option<&Vec<f32>> { h.stream(name).and_then(|s| vals[s].as_ref()) };
         let mut stats = FrameStats { video_seconds: t1 - t0, ..Default::default() };
-        let anchors: Vec<Vec3> =
-            self.file.anchors.get(f as usize).map(|a| a.iter().map(|p| Vec3::from(*p)).collect()).unwrap_or_default();
+        let info =
+            self.file.frames.get(f as usize).ok_or_else(|| Error::Argument(format!("frame {f} has no side data")))?;
+        let anchors: Vec<Vec3> = info.anchors.iter().map(|p| Vec3::from(*p)).collect();
+        let seed = positions(&get, SEED);
+        let hv = || get("H").ok_or_else(|| Error::Argument(format!("frame {f} has no H")));
         let positions = match &mut self.rebuild {
-            Rebuild::Gv => {
-                let (x, y, z) = (get("x"), get("y"), get("z"));
-                match (x, y, z) {
-                    (Some(x), Some(y), Some(z)) => xyz(x, y, z),
-                    _ => return Err(Error::Argument(format!("GV frame {f} lacks a coordinate stream"))),
+            Rebuild::Gv => positions(&get, ["x", "y", "z"])
+                .ok_or_else(|| Error::Argument(format!("GV frame {f} lacks a coordinate stream")))?,
+            Rebuild::Cgv(pred) => {
+                let code = PredictorCode::from_byte(info.predictor)?;
+                let mut x = pred.predict(code, seed.as_deref(), hv()?, &anchors)?;
+                if let Some(d) = positions(&get, CORRECTION) {
+                    x.iter_mut().zip(d).for_each(|(p, d)| *p += d);
                 }
-            }
-            Rebuild::Cgv(solver) => {
-                let (hv, seed) = cgv_inputs(&get, f)?;
-                if let (Some(a), Some(b)) = (get("a"), get("b")) {
-                    solver.set_intrinsics(a, b)?;
-                }
-                let (x, st) = solver.solve_frame(hv, &anchors, seed.as_deref())?;
-                stats.solve = st;
+                pred.commit(x.clone(), &anchors);
+                stats.solve = SolveStats { iterations: code.steps as usize, residual: 0.0, converged: true };
                 x
             }
             Rebuild::Paper(solver) => {
-                let (hv, seed) = cgv_inputs(&get, f)?;
                 if let Some(l) = get("lambda") {
                     solver.set_lambda(l);
                 }
-                let (x, st) = solver.solve_frame(hv, &anchors, seed.as_deref())?;
+                let (x, st) = solver.solve_frame(hv()?, &anchors, seed.as_deref())?;
                 stats.solve = st;
                 x
             }

@@ -1,8 +1,5 @@
 //! Scalar streams as 8-bit video samples: a value in [min, max] becomes the
-//! nearest of 256 levels. Streams with heavy tails (the tangential
-//! coefficients a, b: small almost everywhere, large beside the cones) are
-//! first companded with y = asinh(x / s), fine near zero and coarse far out,
-//! so neither the tail is clipped nor the bulk starved of levels. An optional second layer carries the first layer's
+//! nearest of 256 levels. An optional second layer carries the first layer's
 //! residual, amplified: after H.264 has coded (and distorted) layer 1, the
 //! encoder decodes it, and layer 2 codes `value - decoded`, clipped to
 //! ±`residual_steps` layer-1 steps and spread over its own 256 levels, so the
@@ -14,9 +11,6 @@ pub struct Quantizer {
     /// Range of the (companded) values.
     pub min: f32,
     pub max: f32,
-    /// Companding scale s: values are coded as asinh(x / s).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub asinh_scale: Option<f32>,
 }
 
 impl Quantizer {
@@ -24,23 +18,7 @@ impl Quantizer {
     /// that every value still maps to a level.
     pub fn new(min: f32, max: f32) -> Quantizer {
         let (min, max) = if max > min { (min, max) } else { (min - 0.5, min + 0.5) };
-        Quantizer { min, max, asinh_scale: None }
-    }
-
-    /// Maps a value into the coded domain (identity unless companded).
-    pub fn compress(&self, x: f32) -> f32 {
-        match self.asinh_scale {
-            Some(s) => (x / s).asinh(),
-            None => x,
-        }
-    }
-
-    /// Maps a coded-domain value back.
-    pub fn expand(&self, y: f32) -> f32 {
-        match self.asinh_scale {
-            Some(s) => s * y.sinh(),
-            None => y,
-        }
+        Quantizer { min, max }
     }
 
     /// Size of one level.
@@ -59,14 +37,11 @@ impl Quantizer {
     /// The quantizer of a second layer refining this one (in its coded domain).
     pub fn residual(&self, residual_steps: f32) -> Quantizer {
         let r = self.step() * residual_steps;
-        Quantizer { min: -r, max: r, asinh_scale: None }
+        Quantizer { min: -r, max: r }
     }
 
     pub fn is_valid(&self) -> bool {
-        self.min.is_finite()
-            && self.max.is_finite()
-            && self.max > self.min
-            && self.asinh_scale.is_none_or(|s| s.is_finite() && s > 0.0)
+        self.min.is_finite() && self.max.is_finite() && self.max > self.min
     }
 }
 

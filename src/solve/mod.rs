@@ -2,8 +2,10 @@
 //!
 //! - [`paper`]: the paper's Eq. 1 as written (squared magnitudes), solved by
 //!   L-BFGS from the previous frame moved rigidly onto the new anchors.
-//! - [`cgv`]: the project's formulation, a fixed point of sparse linear solves
-//!   with one factorization per key-frame segment.
+//! - [`cgv`]: the project's decoder: each frame predicted from the decoded
+//!   past (rigid or velocity extrapolation, then mean-curvature steps with a
+//!   matrix factored once per sequence), plus the encoder's closed-loop
+//!   corrections.
 //! - [`rigid`]: the rigid motion between anchor sets (Horn 1987).
 
 pub mod cgv;

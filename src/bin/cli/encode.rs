@@ -10,7 +10,7 @@ use std::path::PathBuf;
 
 #[derive(Clone, Copy, clap::ValueEnum)]
 enum Codec {
-    /// Conformal geometry video: mean curvature every frame, intrinsic streams at key frames.
+    /// Conformal geometry video: mean curvature every frame, λ at key frames, anchors, closed-loop corrections.
     Cgv,
     /// Geometry video: x, y, z every frame (the baseline).
     Gv,
@@ -34,16 +34,19 @@ pub struct Args {
     /// Target total bitrate in kbit/s at the motion's frame rate, instead of a constant QP.
     #[arg(long)]
     kbps: Option<f32>,
-    /// A key frame (λ, a, b) every N frames; 0 for the first frame only.
+    /// A key frame (λ) every N frames; 0 for the first frame only.
     #[arg(long, default_value_t = 10)]
     keyframes: u32,
     /// Anchor samples stored per frame (float32 positions); at least 4 for CGV.
     #[arg(long, default_value_t = 16)]
     anchors: usize,
-    /// CGV: code the tangential coefficients a, b only at key frames (smaller,
-    /// but the cgv solver then drifts on motions that are not isometric).
+    /// CGV: leave out the closed-loop corrections, so the cgv decoder runs on
+    /// H and the anchors alone (smaller, but it drifts; for measurement).
     #[arg(long)]
-    intrinsics_at_key_frames: bool,
+    no_correction: bool,
+    /// CGV: most mean-curvature steps the encoder may choose per frame (0..=3).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(0..=3))]
+    max_steps: u8,
     /// Grid size N (even, at least 16).
     #[arg(long, default_value_t = 128)]
     grid: usize,
@@ -80,7 +83,8 @@ pub fn run(args: Args) -> Result<()> {
         grid: args.grid,
         video: VideoSettings { qp: args.qp, kbps: args.kbps, gop: args.gop, cabac: !args.cavlc, fps: src.fps() },
         key_interval: args.keyframes,
-        intrinsics_every_frame: !args.intrinsics_at_key_frames,
+        correction: !args.no_correction,
+        max_steps: args.max_steps,
         anchors: args.anchors,
         layers: args.layers,
         residual_steps: args.residual_steps,
@@ -121,11 +125,11 @@ pub fn run(args: Args) -> Result<()> {
         for (name, b) in &report.stream_bytes {
             println!("  stream {name:<8} {b:>10} bytes");
         }
-        println!("  anchors         {:>10} bytes", report.anchor_bytes);
+        println!("  frame chunks    {:>10} bytes (anchors, predictor, scale)", report.side_bytes);
         println!(
-            "  time: parameterize {:.2} s, H.264 {:.2} s, total {:.2} s ({:.1} ms/frame)",
+            "  time: parameterize {:.2} s, coding {:.2} s, total {:.2} s ({:.1} ms/frame)",
             report.seconds_parameterize,
-            report.seconds_video,
+            report.seconds_coding,
             report.seconds_total,
             1000.0 * report.seconds_total / report.frames as f64
         );

@@ -122,6 +122,8 @@ fn cgv_info(args: &Args) -> Result<()> {
             serde_json::to_string_pretty(&serde_json::json!({
                 "file": path, "bytes": file.bytes, "kbps": file.bytes as f64 * 8.0 / 1000.0 / seconds,
                 "header": h, "stream_bytes": stream_bytes,
+                "predictors": file.frames.iter().map(|f| f.predictor).collect::<Vec<_>>(),
+                "correction_scales": file.frames.iter().map(|f| f.correction_scale).collect::<Vec<_>>(),
             }))?
         );
         return Ok(());
@@ -144,8 +146,27 @@ fn cgv_info(args: &Args) -> Result<()> {
     println!("  source        {} ({} vertices, diagonal {})", h.source.label, h.source.vertices, h.source.diagonal);
     for (s, b) in h.streams.iter().zip(&stream_bytes) {
         println!(
-            "  stream {:<7} layer {} {:?} range [{:.4e}, {:.4e}] {:>9} bytes",
-            s.name, s.layer, s.coverage, s.quant.min, s.quant.max, b
+            "  stream {:<7} layer {} {:?} range [{:.4e}, {:.4e}]{} {:>9} bytes",
+            s.name,
+            s.layer,
+            s.coverage,
+            s.quant.min,
+            s.quant.max,
+            if s.scaled { " x frame scale" } else { "" },
+            b
+        );
+    }
+    if h.streams.iter().any(|s| s.scaled) {
+        // How the encoder chose to predict each frame (see src/solve/cgv.rs).
+        let mut counts = [0usize; 3];
+        let mut with_h = 0;
+        for f in &file.frames {
+            counts[(f.predictor & 3).min(2) as usize] += 1;
+            with_h += usize::from(f.predictor >> 2 > 0);
+        }
+        println!(
+            "  predictors    rigid {}, velocity {}, smoothed velocity {}; with mean-curvature steps {}",
+            counts[0], counts[1], counts[2], with_h
         );
     }
     Ok(())
