@@ -1,0 +1,70 @@
+//! Frozen `.cgv` files (docs/FORMAT.md, "Compatibility"): every later
+//! version must read each file in `tests/fixtures/v*/` and decode the same
+//! positions, which are stored beside it (`NAME.SOLVER.positions`: f32
+//! little-endian x, y, z per grid sample, frame after frame).
+//!
+//! The files were written by `cgv encode` (the commands are in
+//! tests/fixtures/README.md) and must never be regenerated: a change that
+//! breaks this test breaks the compatibility promise. A missing expected
+//! file is written only when `CGV_BLESS_FIXTURES=1` (when adding a fixture).
+//!
+//! Tolerances, relative to the source's bounding-box diagonal: GV is a
+//! dequantization, exact up to f32 rounding (1e-6); the cgv decoder adds
+//! sparse solves whose summation order may differ between platforms (1e-5);
+//! the paper's solver is an iterative L-BFGS whose stopping point can move
+//! with rounding (1e-4).
+
+use cgv::codec::{h264, SequenceDecoder};
+use cgv::container::{self, CodecKind};
+use cgv::solve::SolverKind;
+use std::path::{Path, PathBuf};
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/v1").join(name)
+}
+
+fn decode(path: &Path, solver: SolverKind) -> Vec<f32> {
+    let bytes = std::fs::read(path).unwrap();
+    let file = container::read(&bytes).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let mut dec = SequenceDecoder::new(file, solver, h264::Decoder::new).unwrap();
+    let mut out = Vec::new();
+    for _ in 0..dec.frame_count() {
+        let (x, _) = dec.next_frame().unwrap();
+        out.extend(x.iter().flat_map(|p| p.to_array()));
+    }
+    out
+}
+
+fn check(name: &str, solver: SolverKind, tolerance: f64) {
+    let path = fixture(name);
+    let got = decode(&path, solver);
+    let expected_path = fixture(&format!("{name}.{solver}.positions"));
+    if !expected_path.exists() && std::env::var("CGV_BLESS_FIXTURES").is_ok_and(|v| v == "1") {
+        let bytes: Vec<u8> = got.iter().flat_map(|v| v.to_le_bytes()).collect();
+        std::fs::write(&expected_path, bytes).unwrap();
+    }
+    let bytes = std::fs::read(&expected_path)
+        .unwrap_or_else(|e| panic!("{}: {e} (see the note at the top of this file)", expected_path.display()));
+    let expected: Vec<f32> = bytes.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+    assert_eq!(got.len(), expected.len(), "{name}: sample count");
+    let diag = container::read(&std::fs::read(&path).unwrap()).unwrap().header.source.diagonal as f64;
+    let worst = got.iter().zip(&expected).map(|(a, b)| (a - b).abs() as f64).fold(0.0, f64::max);
+    assert!(worst <= tolerance * diag, "{name} ({solver}): differs by {worst} (> {tolerance} of {diag})");
+}
+
+#[test]
+fn v1_gv_fixture_decodes_as_frozen() {
+    let f = container::read(&std::fs::read(fixture("walk-gv.cgv")).unwrap()).unwrap();
+    assert_eq!((f.header.codec, f.header.grid, f.header.frames), (CodecKind::Gv, 16, 4));
+    check("walk-gv.cgv", SolverKind::Cgv, 1e-6);
+}
+
+#[test]
+fn v1_cgv_fixture_decodes_as_frozen_with_both_solvers() {
+    let f = container::read(&std::fs::read(fixture("walk-cgv.cgv")).unwrap()).unwrap();
+    assert_eq!((f.header.codec, f.header.grid, f.header.frames), (CodecKind::Cgv, 16, 4));
+    assert_eq!(f.header.key_frames, vec![0, 2]);
+    assert!(f.header.streams.iter().any(|s| s.layer == 2 && s.name == "dx"));
+    check("walk-cgv.cgv", SolverKind::Cgv, 1e-5);
+    check("walk-cgv.cgv", SolverKind::Paper, 1e-4);
+}
