@@ -230,8 +230,11 @@ impl Header {
         if self.anchors.len() > MAX_ANCHORS || self.anchors.iter().any(|&a| a >= samples) {
             return bad(format!("anchors must be at most {MAX_ANCHORS} grid samples below {samples}"));
         }
-        if self.codec == CodecKind::Cgv && self.anchors.len() < 4 {
-            return bad("a CGV file needs at least 4 anchors".into());
+        // The paper's solver needs anchors; the closed loop (correction
+        // streams) does not.
+        let closed_loop = self.streams.iter().any(|s| s.scaled);
+        if self.codec == CodecKind::Cgv && self.anchors.len() < 4 && !closed_loop {
+            return bad("a CGV file without correction streams needs at least 4 anchors".into());
         }
         Ok(())
     }

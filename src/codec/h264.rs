@@ -16,6 +16,10 @@ pub struct VideoSettings {
     pub qp: u8,
     /// Target bitrate of this stream in kbit/s at `fps`, instead of a constant QP.
     pub kbps: Option<f32>,
+    /// With `kbps`: let the rate control use only QPs `qp..=qp_max` (by
+    /// default it may use 0..=51). `cgv eval` brackets two adjacent QPs
+    /// this way to hit a file size between them.
+    pub qp_max: Option<u8>,
     /// Frames between intra (IDR) frames.
     pub gop: u32,
     /// CABAC entropy coding (else CAVLC).
@@ -25,7 +29,7 @@ pub struct VideoSettings {
 
 impl Default for VideoSettings {
     fn default() -> Self {
-        VideoSettings { qp: 20, kbps: None, gop: 30, cabac: true, fps: 30.0 }
+        VideoSettings { qp: 20, kbps: None, qp_max: None, gop: 30, cabac: true, fps: 30.0 }
     }
 }
 
@@ -96,8 +100,10 @@ impl Encoder {
             let bps = match s.kbps {
                 Some(k) => {
                     p.iRCMode = sys::RC_BITRATE_MODE;
-                    p.iMinQp = 0;
-                    p.iMaxQp = 51;
+                    (p.iMinQp, p.iMaxQp) = match s.qp_max {
+                        Some(m) => (s.qp as i32, m.clamp(s.qp, 51) as i32),
+                        None => (0, 51),
+                    };
                     (k * 1000.0).clamp(1000.0, 2.5e8) as i32
                 }
                 None => {

@@ -18,7 +18,7 @@ pub mod h264;
 pub mod quant;
 
 #[cfg(not(target_arch = "wasm32"))]
-pub use encode::{encode, EncodeOptions, EncodeReport};
+pub use encode::{encode, encode_prepared, prepare, EncodeOptions, EncodeReport, Prepared, PAPER_ANCHORS};
 
 use crate::container::{CgvFile, CodecKind, Header};
 use crate::error::{Error, Result};

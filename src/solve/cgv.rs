@@ -44,13 +44,19 @@ use glam::Vec3;
 /// about 1): large enough that the anchors hold to about 1e-4 of the step's
 /// right-hand side, small enough that `LᵀL + w PᵀP` stays well conditioned.
 pub const ANCHOR_WEIGHT: f64 = 1e4;
+/// Fewer anchors than this cannot fix a rigid motion; the step then pulls
+/// every sample towards the current guess with [`GUESS_WEIGHT`] (small
+/// against the Laplacian rows, so it only removes the null space).
+pub const MIN_ANCHORS: usize = 4;
+pub const GUESS_WEIGHT: f64 = 1e-4;
 /// Most mean-curvature steps a predictor code can ask for.
 pub const MAX_STEPS: u8 = MAX_PREDICTOR >> 2;
 
 /// How a frame is extrapolated from the decoded past.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Extrapolation {
-    /// The previous frame moved by the rigid motion of its anchors.
+    /// The previous frame moved by the rigid motion of its anchors (the
+    /// previous frame itself when there are fewer than 3 anchors).
     Rigid,
     /// Constant velocity: 2 x₋₁ − x₋₂.
     Velocity,
@@ -133,6 +139,13 @@ impl Predictor {
             for &a in &self.anchors {
                 entries.push((a, a, ANCHOR_WEIGHT));
             }
+            if self.anchors.len() < MIN_ANCHORS {
+                // Too few anchors to fix the translation (and rotation):
+                // pull gently towards the current guess instead.
+                for v in 0..n as u32 {
+                    entries.push((v, v, GUESS_WEIGHT));
+                }
+            }
             self.chol = Some(Cholesky::factor(n, &entries)?);
         }
         self.chol.as_ref().ok_or_else(|| Error::Numerical("no factorization".into()))
@@ -158,6 +171,7 @@ impl Predictor {
                 }
                 Ok(p.iter().zip(&v).map(|(a, d)| *a + *d).collect())
             }
+            (Some((p, _)), _, _) if self.anchors.len() < 3 => Ok(p.clone()),
             (Some((p, pa)), _, _) => {
                 let m = rigid::fit(pa, anchors);
                 Ok(p.iter().map(|&q| m.apply(q)).collect())
@@ -189,6 +203,13 @@ impl Predictor {
         for (&i, p) in self.anchors.iter().zip(anchors) {
             for c in 0..3 {
                 rhs[c * n + i as usize] += ANCHOR_WEIGHT * p[c] as f64;
+            }
+        }
+        if self.anchors.len() < MIN_ANCHORS {
+            for (v, p) in x.iter().enumerate() {
+                for c in 0..3 {
+                    rhs[c * n + v] += GUESS_WEIGHT * p[c] as f64;
+                }
             }
         }
         self.factor()?.solve(&mut rhs, 3);
@@ -224,24 +245,34 @@ impl Predictor {
         Ok(x)
     }
 
-    /// Every prediction with at most `max_steps` steps, for the encoder to
-    /// choose from: `visit(code, prediction)`.
+    /// Predictions for the encoder to choose from: every extrapolation, then
+    /// 1..=`max_steps` H steps from the extrapolation closest to `truth`
+    /// (steps cost a sparse solve each; from the other extrapolations they
+    /// were never measured to win). `visit(code, prediction)` sees each.
     pub fn candidates(
         &mut self,
         max_steps: u8,
         seed: Option<&[Vec3]>,
         h: &[f32],
         anchors: &[Vec3],
+        truth: &[Vec3],
         visit: &mut dyn FnMut(PredictorCode, &[Vec3]),
     ) -> Result<()> {
-        self.check(h, anchors)?;
         use Extrapolation::*;
+        self.check(h, anchors)?;
         // Without two past frames every extrapolation is the rigid one.
         let extrapolations: &[Extrapolation] =
             if self.prev2.is_some() { &[Rigid, Velocity, SmoothVelocity] } else { &[Rigid] };
+        let mut best: Option<(f64, Extrapolation, Vec<Vec3>)> = None;
         for &extrapolation in extrapolations {
-            let mut x = self.extrapolate(extrapolation, seed, anchors)?;
+            let x = self.extrapolate(extrapolation, seed, anchors)?;
             visit(PredictorCode { extrapolation, steps: 0 }, &x);
+            let e = squared_distance(&x, truth);
+            if best.as_ref().is_none_or(|b| e < b.0) {
+                best = Some((e, extrapolation, x));
+            }
+        }
+        if let Some((_, extrapolation, mut x)) = best {
             for steps in 1..=max_steps.min(MAX_STEPS) {
                 self.step(&mut x, h, anchors)?;
                 visit(PredictorCode { extrapolation, steps }, &x);
@@ -257,4 +288,9 @@ impl Predictor {
         self.prev2 = self.prev.take().map(|(p, _)| p);
         self.prev = Some((x, anchors.to_vec()));
     }
+}
+
+/// Sum of squared distances between corresponding points.
+pub fn squared_distance(a: &[Vec3], b: &[Vec3]) -> f64 {
+    a.iter().zip(b).map(|(p, q)| p.distance_squared(*q) as f64).sum()
 }

@@ -37,9 +37,10 @@ pub struct Args {
     /// A key frame (λ) every N frames; 0 for the first frame only.
     #[arg(long, default_value_t = 10)]
     keyframes: u32,
-    /// Anchor samples stored per frame (float32 positions); at least 4 for CGV.
-    #[arg(long, default_value_t = 16)]
-    anchors: usize,
+    /// Anchor samples stored per frame (float32 positions). Default: 16 for CGV
+    /// without corrections or for the paper solver (at least 4), none otherwise.
+    #[arg(long)]
+    anchors: Option<usize>,
     /// CGV: leave out the closed-loop corrections, so the cgv decoder runs on
     /// H and the anchors alone (smaller, but it drifts; for measurement).
     #[arg(long)]
@@ -81,7 +82,14 @@ pub fn run(args: Args) -> Result<()> {
             Codec::Gv => CodecKind::Gv,
         },
         grid: args.grid,
-        video: VideoSettings { qp: args.qp, kbps: args.kbps, gop: args.gop, cabac: !args.cavlc, fps: src.fps() },
+        video: VideoSettings {
+            qp: args.qp,
+            kbps: args.kbps,
+            gop: args.gop,
+            cabac: !args.cavlc,
+            fps: src.fps(),
+            ..Default::default()
+        },
         key_interval: args.keyframes,
         correction: !args.no_correction,
         max_steps: args.max_steps,
