@@ -76,6 +76,9 @@ pub enum Error {
     /// A numerical step failed (a singular system, a map that folds over).
     #[error("{0}")]
     Numerical(String),
+    /// A chart could not be drawn (`cgv eval --plot`).
+    #[error("plot: {0}")]
+    Plot(String),
 }
 
 impl Error {

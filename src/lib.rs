@@ -15,6 +15,8 @@ pub mod codec;
 pub mod container;
 pub mod demo;
 pub mod error;
+#[cfg(not(target_arch = "wasm32"))]
+pub mod eval;
 pub mod fsutil;
 pub mod grid;
 pub mod image;

@@ -90,3 +90,48 @@ fn encode_info_and_decode_a_gv_file() {
     let e = cgv(&["encode", "builtin:walk", "-o", dir.join("x.mp4").to_str().unwrap()]);
     assert!(String::from_utf8_lossy(&e.stderr).contains(".cgv"));
 }
+
+#[test]
+fn eval_writes_reports_and_plots_or_nothing() {
+    let dir = common::temp_dir("cli-eval");
+    let p = |n: &str| dir.join(n).to_str().unwrap().to_string();
+    // A bad plot name is refused before any work, and nothing is written.
+    let out =
+        cgv(&["eval", "builtin:walk", "--frames", "0..4", "--grid", "32", "--md", &p("r.md"), "--plot", &p("r.gif")]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains(".svg or .png"));
+    assert!(!dir.join("r.md").exists());
+    let out = cgv(&[
+        "eval",
+        "builtin:walk",
+        "--frames",
+        "0..6",
+        "--grid",
+        "32",
+        "--codecs",
+        "gv,cgv",
+        "--rates",
+        "medium,high",
+        "--surface-every",
+        "3",
+        "--md",
+        &p("r.md"),
+        "--json",
+        &p("r.json"),
+        "--plot",
+        &p("r.svg"),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let v: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("r.json")).unwrap()).unwrap();
+    assert_eq!(v["points"].as_array().unwrap().len(), 2);
+    assert_eq!(v["frames"], 6);
+    assert!(std::fs::read_to_string(dir.join("r.md")).unwrap().contains("Table 2"));
+    for svg in ["r.svg", "r-frames.svg"] {
+        let s = std::fs::read_to_string(dir.join(svg)).unwrap();
+        assert!(s.starts_with("<svg") && s.contains("cgv"), "{svg}");
+    }
+    // No temporary files left beside the reports.
+    let names: Vec<String> =
+        std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
+    assert_eq!(names.len(), 4, "{names:?}");
+}

@@ -17,3 +17,45 @@ pub fn vertex_error(a: &[Vec3], b: &[Vec3]) -> (f64, f64) {
     }
     ((sum / a.len().max(1) as f64).sqrt(), max)
 }
+
+/// The paper's smoothness metric, before normalization:
+/// sqrt(mean over grid samples of |Δv − Δv'|²), Δ the uniform grid
+/// Laplacian, v the uncompressed grid and v' the decoded one. A rigid
+/// translation of the whole grid gives 0; the paper's Table 2 divides it by
+/// the bounding-box diagonal and reports units of 1e-4.
+pub fn smoothness(st: &crate::codec::features::Stencils, v: &[Vec3], decoded: &[Vec3]) -> f64 {
+    assert_eq!(v.len(), decoded.len(), "smoothness needs two grids of one size");
+    let n = v.len().max(1);
+    let sum: f64 = (0..v.len()).map(|i| (st.laplacian(v, i) - st.laplacian(decoded, i)).length_squared() as f64).sum();
+    (sum / n as f64).sqrt()
+}
+
+/// The KG error of Karni & Gotsman (2004), "Compression of soft-body
+/// animation sequences": 100 ‖A − A'‖_F / ‖A − E(A)‖_F, A the 3V x F matrix
+/// of a sequence's coordinates, A' the decoded one, and E(A) each frame's
+/// centroid repeated over its vertices. Fed one frame at a time.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct KgError {
+    diff: f64,
+    spread: f64,
+}
+
+impl KgError {
+    pub fn add_frame(&mut self, original: &[Vec3], decoded: &[Vec3]) {
+        assert_eq!(original.len(), decoded.len(), "KG error needs corresponding points");
+        let c = original.iter().map(|p| p.as_dvec3()).sum::<glam::DVec3>() / original.len().max(1) as f64;
+        for (p, q) in original.iter().zip(decoded) {
+            self.diff += (p.as_dvec3() - q.as_dvec3()).length_squared();
+            self.spread += (p.as_dvec3() - c).length_squared();
+        }
+    }
+
+    /// The error in percent (0 for identical sequences).
+    pub fn value(&self) -> f64 {
+        if self.spread > 0.0 {
+            100.0 * (self.diff / self.spread).sqrt()
+        } else {
+            0.0
+        }
+    }
+}

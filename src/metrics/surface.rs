@@ -40,25 +40,36 @@ impl Target {
     }
 }
 
-/// (RMS, max) of the distance from surface A to `target`.
+/// (RMS, max) of the distance from surface A to `target`. Faces are split
+/// among threads (rayon); the sums are combined in a fixed order, so the
+/// result does not depend on the thread count beyond rounding.
 pub fn one_sided(positions: &[Vec3], faces: &[[u32; 3]], target: &Target) -> (f64, f64) {
-    let mut sum = 0.0;
-    let mut area = 0.0;
-    let mut max: f64 = 0.0;
-    for f in faces {
-        let [a, b, c] = f.map(|i| positions[i as usize]);
-        let w = 0.5 * (b - a).cross(c - a).length() as f64 / 3.0;
-        for (x, y, z) in [(a, b, c), (b, c, a), (c, a, b)] {
-            let p = x * (2.0 / 3.0) + y * (1.0 / 6.0) + z * (1.0 / 6.0);
-            let d = target.distance(p);
-            sum += w * d * d;
-            area += w;
-            max = max.max(d);
-        }
+    use rayon::prelude::*;
+    let parts: Vec<(f64, f64, f64)> = faces
+        .par_chunks(4096)
+        .map(|chunk| {
+            let (mut sum, mut area, mut max) = (0.0, 0.0, 0.0f64);
+            for f in chunk {
+                let [a, b, c] = f.map(|i| positions[i as usize]);
+                let w = 0.5 * (b - a).cross(c - a).length() as f64 / 3.0;
+                for (x, y, z) in [(a, b, c), (b, c, a), (c, a, b)] {
+                    let p = x * (2.0 / 3.0) + y * (1.0 / 6.0) + z * (1.0 / 6.0);
+                    let d = target.distance(p);
+                    sum += w * d * d;
+                    area += w;
+                    max = max.max(d);
+                }
+            }
+            (sum, area, max)
+        })
+        .collect();
+    let (mut sum, mut area, mut max) = (0.0, 0.0, 0.0f64);
+    for (s, a, m) in parts {
+        sum += s;
+        area += a;
+        max = max.max(m);
     }
-    for p in positions {
-        max = max.max(target.distance(*p));
-    }
+    max = positions.par_iter().map(|p| target.distance(*p)).reduce(|| max, f64::max);
     ((sum / area.max(f64::MIN_POSITIVE)).sqrt(), max)
 }
 

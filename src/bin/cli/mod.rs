@@ -3,6 +3,7 @@
 
 mod decode;
 mod encode;
+mod eval;
 mod info;
 mod remesh;
 
@@ -38,6 +39,8 @@ enum Command {
     Encode(encode::Args),
     /// Decode a .cgv file into a mesh sequence (GLB or a folder of OBJ files).
     Decode(decode::Args),
+    /// Compare GV, the paper's CGV and the project's CGV at matched bitrates (tables, JSON, plots).
+    Eval(eval::Args),
 }
 
 /// Options shared by the commands that read a mesh sequence.
@@ -120,6 +123,7 @@ pub fn main() -> ExitCode {
         Command::Remesh(a) => remesh::run(a),
         Command::Encode(a) => encode::run(a),
         Command::Decode(a) => decode::run(a),
+        Command::Eval(a) => eval::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,120 @@
+//! `cgv eval`: GV, the paper's CGV and the project's CGV at matched
+//! bitrates, with the paper's smoothness metric and the errors it did not
+//! report (see `cgv::eval`).
+
+use super::InputArgs;
+use anyhow::{bail, Context, Result};
+use cgv::codec::EncodeOptions;
+use cgv::eval::{self, EvalCodec, EvalOptions, Rates};
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+#[command(after_help = "Rate points are file sizes. The presets are the sizes GV reaches at a QP \
+    (low 36, medium 28, high 20, max 12); --kbps gives bitrates at 30 fps instead, like the paper's \
+    Table 1. For each codec the QP (and a second layer when needed) is searched until the file is \
+    within --tolerance of the target. Four or more points give a BD-rate against GV.\n\n\
+    Examples:\n  cgv eval builtin:walk --frames 0..24 --grid 64 --md walk.md --plot walk.svg\n  \
+    cgv eval data/samba --grid 128 --kbps 1500,2600,5600 --json samba.json")]
+pub struct Args {
+    #[command(flatten)]
+    input: InputArgs,
+    /// Grid size N.
+    #[arg(long, default_value_t = 128)]
+    grid: usize,
+    /// Named rate points (low, medium, high, max).
+    #[arg(long, value_delimiter = ',', default_value = "low,medium,high,max", conflicts_with = "kbps")]
+    rates: Vec<String>,
+    /// Rate points in kbit/s at 30 fps.
+    #[arg(long, value_delimiter = ',')]
+    kbps: Option<Vec<f64>>,
+    /// Codecs to compare: gv, paper (the paper's CGV and Eq. 1 solver), cgv (the project's).
+    #[arg(long, value_delimiter = ',', default_value = "gv,paper,cgv")]
+    codecs: Vec<EvalCodec>,
+    /// Measure the surface distance to the original frames on every K-th frame (0: never; it is the slow part).
+    #[arg(long, default_value_t = 1, value_name = "K")]
+    surface_every: usize,
+    /// Relative tolerance of the bitrate matching.
+    #[arg(long, default_value_t = 0.05)]
+    tolerance: f64,
+    /// Frames between H.264 intra frames.
+    #[arg(long, default_value_t = 30)]
+    gop: u32,
+    /// CGV: a key frame (λ) every N frames; 0 for the first frame only.
+    #[arg(long, default_value_t = 10)]
+    keyframes: u32,
+    /// CGV: anchor samples per frame (default: 16 for the paper codec, none for cgv).
+    #[arg(long)]
+    anchors: Option<usize>,
+    /// Write the report as JSON.
+    #[arg(long, value_name = "OUT.json")]
+    json: Option<PathBuf>,
+    /// Write the report as Markdown (printed to stdout when neither --md nor --json is given).
+    #[arg(long, value_name = "OUT.md")]
+    md: Option<PathBuf>,
+    /// Write the rate-distortion chart (.svg or .png) and, beside it, the per-frame chart (NAME-frames.EXT).
+    #[arg(long, value_name = "OUT.svg|png")]
+    plot: Option<PathBuf>,
+}
+
+fn plot_paths(p: &std::path::Path) -> Result<(PathBuf, PathBuf, bool)> {
+    let ext = p.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    let png = match ext.as_deref() {
+        Some("svg") => false,
+        Some("png") => true,
+        _ => bail!("{}: the plot must end in .svg or .png", p.display()),
+    };
+    let stem = p.file_stem().and_then(|s| s.to_str()).unwrap_or("plot");
+    let frames = p.with_file_name(format!("{stem}-frames.{}", if png { "png" } else { "svg" }));
+    Ok((p.to_path_buf(), frames, png))
+}
+
+pub fn run(args: Args) -> Result<()> {
+    for p in [&args.json, &args.md].into_iter().flatten() {
+        if p.parent().is_some_and(|d| !d.as_os_str().is_empty() && !d.is_dir()) {
+            bail!("{}: its folder does not exist", p.display());
+        }
+    }
+    let plots = args.plot.as_deref().map(plot_paths).transpose()?;
+    let src = args.input.open()?;
+    let mut base =
+        EncodeOptions { grid: args.grid, key_interval: args.keyframes, anchors: args.anchors, ..Default::default() };
+    base.video.gop = args.gop;
+    let opts = EvalOptions {
+        base,
+        codecs: args.codecs.clone(),
+        rates: match &args.kbps {
+            Some(k) => Rates::Kbps(k.clone()),
+            None => Rates::Presets(args.rates.clone()),
+        },
+        surface_every: args.surface_every,
+        tolerance: args.tolerance,
+    };
+    let pb = indicatif::ProgressBar::new_spinner();
+    pb.enable_steady_tick(std::time::Duration::from_millis(200));
+    pb.set_message(format!("evaluating {} ({} frames)", src.label().display(), src.frame_count()));
+    let report = eval::run(src.as_ref(), &opts, &|m| pb.set_message(m.to_string()))
+        .with_context(|| format!("evaluating {}", src.label().display()))?;
+    pb.finish_and_clear();
+    let md = eval::report::markdown(&report);
+    // Render everything first, then write: an interrupted or failed run
+    // leaves no half-written report.
+    let mut outputs: Vec<(PathBuf, Vec<u8>)> = Vec::new();
+    if let Some(p) = &args.json {
+        outputs.push((p.clone(), serde_json::to_vec_pretty(&report)?));
+    }
+    if let Some(p) = &args.md {
+        outputs.push((p.clone(), md.clone().into_bytes()));
+    }
+    if let Some((rd, frames, png)) = plots {
+        outputs.push((rd, eval::plot::render(&report, eval::plot::Chart::RateDistortion, png)?));
+        outputs.push((frames, eval::plot::render(&report, eval::plot::Chart::PerFrame, png)?));
+    }
+    for (p, bytes) in &outputs {
+        cgv::fsutil::write_atomic(p, bytes)?;
+        eprintln!("wrote {}", p.display());
+    }
+    if args.json.is_none() && args.md.is_none() {
+        print!("{md}");
+    }
+    Ok(())
+}

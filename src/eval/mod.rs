@@ -1,0 +1,507 @@
+//! `cgv eval`: encodes a motion with each codec at matched bitrates,
+//! decodes it, and measures what the paper measured (its Tables 1 and 2)
+//! and what it did not (errors against the original surface).
+//!
+//! Native only (it encodes with OpenH264 and measures with parry3d).
+//!
+//! Rate points are file sizes: a preset is the size GV reaches at a given
+//! QP, or a bitrate is given in kbit/s at 30 frames per second (as the
+//! paper's Table 1). For each codec the QP (and, when one layer cannot
+//! reach the size, a second layer) is searched until the file is within
+//! the tolerance (5 %) of the target; when integer QPs straddle it,
+//! OpenH264's rate control is asked for the bitrate instead. A point that
+//! cannot be reached is reported as such, with the nearest size found.
+
+pub mod bdrate;
+pub mod plot;
+pub mod report;
+
+use crate::codec::features::Stencils;
+use crate::codec::{encode_prepared, h264, EncodeOptions, Prepared, SequenceDecoder};
+use crate::container::{self, CodecKind};
+use crate::error::{Error, Result};
+use crate::grid::Grid;
+use crate::mesh::{Bounds, FrameSource, InMemory};
+use crate::metrics::{self, surface};
+use crate::solve::SolverKind;
+use glam::Vec3;
+use rayon::prelude::*;
+use serde::Serialize;
+
+/// A codec as `cgv eval` runs it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum EvalCodec {
+    /// Geometry video: x, y, z.
+    Gv,
+    /// CGV as the paper stores it (H, λ at key frames, anchors, seed),
+    /// decoded by the paper's Eq. 1 solver.
+    Paper,
+    /// The project's CGV: closed-loop prediction and corrections.
+    Cgv,
+}
+
+impl EvalCodec {
+    pub const ALL: [EvalCodec; 3] = [EvalCodec::Gv, EvalCodec::Paper, EvalCodec::Cgv];
+
+    fn options(self, base: &EncodeOptions) -> EncodeOptions {
+        let (codec, solver) = match self {
+            EvalCodec::Gv => (CodecKind::Gv, SolverKind::Cgv),
+            EvalCodec::Paper => (CodecKind::Cgv, SolverKind::Paper),
+            EvalCodec::Cgv => (CodecKind::Cgv, SolverKind::Cgv),
+        };
+        EncodeOptions { codec, solver, ..base.clone() }
+    }
+
+    fn solver(self) -> SolverKind {
+        match self {
+            EvalCodec::Paper => SolverKind::Paper,
+            _ => SolverKind::Cgv,
+        }
+    }
+}
+
+impl std::str::FromStr for EvalCodec {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        match s {
+            "gv" => Ok(EvalCodec::Gv),
+            "paper" => Ok(EvalCodec::Paper),
+            "cgv" => Ok(EvalCodec::Cgv),
+            _ => Err(format!("unknown codec '{s}' (expected gv, paper or cgv)")),
+        }
+    }
+}
+
+impl std::fmt::Display for EvalCodec {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            EvalCodec::Gv => "gv",
+            EvalCodec::Paper => "paper",
+            EvalCodec::Cgv => "cgv",
+        })
+    }
+}
+
+/// Named rate points: the file size GV reaches at this QP (one layer).
+pub const PRESETS: [(&str, u8); 4] = [("low", 36), ("medium", 28), ("high", 20), ("max", 12)];
+
+/// Where the rate points come from.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Rates {
+    /// Names from [`PRESETS`].
+    Presets(Vec<String>),
+    /// Bitrates in kbit/s at 30 frames per second.
+    Kbps(Vec<f64>),
+}
+
+/// How to evaluate.
+#[derive(Debug, Clone)]
+pub struct EvalOptions {
+    /// Grid size, GOP, entropy coder, anchors, key frames: shared by all codecs.
+    pub base: EncodeOptions,
+    pub codecs: Vec<EvalCodec>,
+    pub rates: Rates,
+    /// Measure the surface distance on every this many frames (0: never).
+    pub surface_every: usize,
+    /// Relative size tolerance of the bitrate matching.
+    pub tolerance: f64,
+}
+
+impl Default for EvalOptions {
+    fn default() -> Self {
+        EvalOptions {
+            base: EncodeOptions::default(),
+            codecs: EvalCodec::ALL.to_vec(),
+            rates: Rates::Presets(PRESETS.iter().map(|p| p.0.to_string()).collect()),
+            surface_every: 1,
+            tolerance: 0.05,
+        }
+    }
+}
+
+/// Errors of one decoded frame, relative to the bounding-box diagonal.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct FrameMetrics {
+    pub frame: usize,
+    pub vertex_rms: f64,
+    pub vertex_max: f64,
+    pub smoothness: f64,
+    pub surface_rms: Option<f64>,
+    pub surface_max: Option<f64>,
+}
+
+/// One codec at one rate point.
+#[derive(Debug, Clone, Serialize)]
+pub struct CodecResult {
+    pub codec: EvalCodec,
+    pub qp: u8,
+    pub layers: u8,
+    /// The rate-control target (kbit/s at the sequence's rate) when a
+    /// constant QP could not match the size.
+    pub rate_control_kbps: Option<f32>,
+    /// Within the tolerance of the target.
+    pub matched: bool,
+    pub bytes: usize,
+    pub kbps: f64,
+    pub kbps_30fps: f64,
+    pub bits_per_input_vertex: f64,
+    pub bits_per_grid_sample: f64,
+    /// Means over frames, relative to the diagonal (smoothness as well).
+    pub smoothness: f64,
+    pub vertex_rms: f64,
+    pub vertex_max: f64,
+    pub surface_rms: Option<f64>,
+    pub surface_max: Option<f64>,
+    /// Worst frame's surface RMS (vertex RMS without surface distances)
+    /// divided by the mean: 1 is flat, large means drift or spikes.
+    pub worst_over_mean: f64,
+    /// Karni & Gotsman, percent, over the grid samples against the uncompressed grid.
+    pub kg: f64,
+    pub encode_ms_per_frame: f64,
+    pub video_decode_ms_per_frame: f64,
+    pub reconstruct_ms_per_frame: f64,
+    pub encodes_tried: usize,
+    pub frames: Vec<FrameMetrics>,
+}
+
+/// One rate point.
+#[derive(Debug, Clone, Serialize)]
+pub struct RatePoint {
+    pub name: String,
+    pub target_bytes: usize,
+    pub target_kbps_30fps: f64,
+    pub results: Vec<CodecResult>,
+}
+
+/// A BD-rate figure of one codec against GV.
+#[derive(Debug, Clone, Serialize)]
+pub struct BdRate {
+    pub codec: EvalCodec,
+    pub metric: &'static str,
+    pub percent: Option<f64>,
+}
+
+/// Everything `cgv eval` measured.
+#[derive(Debug, Clone, Serialize)]
+pub struct Report {
+    pub input: String,
+    pub input_vertices: usize,
+    pub frames: usize,
+    pub fps: f32,
+    pub grid: usize,
+    pub diagonal: f64,
+    pub surface_every: usize,
+    pub normalization: &'static str,
+    pub points: Vec<RatePoint>,
+    pub bd_rates: Vec<BdRate>,
+    pub seconds: f64,
+}
+
+pub const NORMALIZATION: &str = "errors and the smoothness metric are divided by the bounding-box diagonal of \
+     the first input frame; smoothness = sqrt(mean |Δv − Δv'|²) over grid samples (the paper's Table 2 is in \
+     units of 1e-4 of that); vertex errors and KG are against the uncompressed grid, surface distances \
+     (symmetric, RMS and max) against the original input frames";
+
+/// The encoded file of one try.
+struct Try {
+    qp: u8,
+    layers: u8,
+    rc: Option<f32>,
+    bytes: Vec<u8>,
+    encode_seconds: f64,
+}
+
+/// Runs the evaluation. `progress(message)` is called as jobs finish.
+pub fn run(src: &dyn FrameSource, opts: &EvalOptions, progress: &(dyn Fn(&str) + Sync)) -> Result<Report> {
+    let t0 = std::time::Instant::now();
+    if opts.codecs.is_empty() {
+        return Err(Error::Argument("no codecs to evaluate".into()));
+    }
+    if !(opts.tolerance > 0.0 && opts.tolerance < 1.0) {
+        return Err(Error::Argument(format!("tolerance {} is not in (0, 1)", opts.tolerance)));
+    }
+    // Everything in memory once: the input frames and the uncompressed grids.
+    let frames = src.frame_count();
+    let input: Vec<Vec<Vec3>> = (0..frames).map(|i| src.read_frame(i)).collect::<Result<_>>()?;
+    let mem =
+        InMemory { label: src.label().to_path_buf(), fps: src.fps(), topology: src.topology().clone(), frames: input };
+    let prepared = crate::codec::prepare(&mem, &opts.base)?;
+    let grid = Grid::new(opts.base.grid)?;
+    let truth: Vec<Vec<Vec3>> = mem.frames.iter().map(|f| prepared.map.apply(f)).collect();
+    let diagonal = Bounds::of(&mem.frames[0]).diagonal() as f64;
+    progress(&format!("parameterized in {:.1} s", prepared.seconds));
+
+    // Targets.
+    let bytes_for_kbps30 = |k: f64| (k * 1000.0 / 8.0 * frames as f64 / 30.0).round() as usize;
+    let targets: Vec<(String, usize)> = match &opts.rates {
+        Rates::Kbps(k) => k.iter().map(|&k| (format!("{k} kbit/s"), bytes_for_kbps30(k))).collect(),
+        Rates::Presets(names) => names
+            .par_iter()
+            .map(|name| {
+                let qp = PRESETS.iter().find(|p| p.0 == name).map(|p| p.1).ok_or_else(|| {
+                    Error::Argument(format!("unknown rate '{name}' (expected low, medium, high or max)"))
+                })?;
+                let mut o = EvalCodec::Gv.options(&opts.base);
+                o.video.qp = qp;
+                o.video.kbps = None;
+                o.layers = 1;
+                let (bytes, _) = encode_prepared(&mem, &o, &prepared, &mut |_, _, _| {})?;
+                Ok((format!("{name} (GV at QP {qp})"), bytes.len()))
+            })
+            .collect::<Result<_>>()?,
+    };
+    if targets.is_empty() {
+        return Err(Error::Argument("no rate points".into()));
+    }
+    progress(&format!("{} rate points, {} codecs", targets.len(), opts.codecs.len()));
+
+    let jobs: Vec<(usize, EvalCodec)> =
+        (0..targets.len()).flat_map(|p| opts.codecs.iter().map(move |&c| (p, c))).collect();
+    let done = std::sync::atomic::AtomicUsize::new(0);
+    let ctx = Ctx { mem: &mem, prepared: &prepared, truth: &truth, grid, diagonal, opts };
+    let results: Vec<CodecResult> = jobs
+        .par_iter()
+        .map(|&(p, codec)| {
+            let r = ctx.job(codec, targets[p].1);
+            let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+            progress(&format!("{n}/{} done: {codec} at {}", jobs.len(), targets[p].0));
+            r
+        })
+        .collect::<Result<_>>()?;
+    let mut points: Vec<RatePoint> = targets
+        .iter()
+        .map(|(name, b)| RatePoint {
+            name: name.clone(),
+            target_bytes: *b,
+            target_kbps_30fps: *b as f64 * 8.0 / 1000.0 * 30.0 / frames as f64,
+            results: Vec::new(),
+        })
+        .collect();
+    for ((p, _), r) in jobs.iter().zip(results) {
+        points[*p].results.push(r);
+    }
+    points.sort_by_key(|p| p.target_bytes);
+
+    let curve = |c: EvalCodec, metric: &dyn Fn(&CodecResult) -> Option<f64>| -> Vec<(f64, f64)> {
+        points
+            .iter()
+            .flat_map(|p| p.results.iter().filter(|r| r.codec == c))
+            .filter_map(|r| metric(r).map(|m| (r.kbps_30fps, m)))
+            .collect()
+    };
+    let mut bd_rates = Vec::new();
+    if opts.codecs.contains(&EvalCodec::Gv) {
+        type Metric = (&'static str, fn(&CodecResult) -> Option<f64>);
+        let metrics: [Metric; 3] = [
+            ("surface_rms", |r| r.surface_rms),
+            ("vertex_rms", |r| Some(r.vertex_rms)),
+            ("smoothness", |r| Some(r.smoothness)),
+        ];
+        for &c in opts.codecs.iter().filter(|&&c| c != EvalCodec::Gv) {
+            for (name, m) in metrics {
+                let (reference, test) = (curve(EvalCodec::Gv, &m), curve(c, &m));
+                if reference.is_empty() {
+                    continue;
+                }
+                bd_rates.push(BdRate { codec: c, metric: name, percent: bdrate::bd_rate(&reference, &test) });
+            }
+        }
+    }
+    Ok(Report {
+        input: src.label().display().to_string(),
+        input_vertices: mem.topology.vertex_count,
+        frames,
+        fps: src.fps(),
+        grid: grid.n,
+        diagonal,
+        surface_every: opts.surface_every,
+        normalization: NORMALIZATION,
+        points,
+        bd_rates,
+        seconds: t0.elapsed().as_secs_f64(),
+    })
+}
+
+struct Ctx<'a> {
+    mem: &'a InMemory,
+    prepared: &'a Prepared,
+    truth: &'a [Vec<Vec3>],
+    grid: Grid,
+    diagonal: f64,
+    opts: &'a EvalOptions,
+}
+
+/// Average file size shrinks by about this factor per QP step (H.264's
+/// quantizer step grows 12 % per QP); the search's first slope.
+const LOG_SIZE_PER_QP: f64 = -0.11;
+
+impl Ctx<'_> {
+    fn encode(&self, codec: EvalCodec, qp: u8, layers: u8, rc: Option<f32>) -> Result<Try> {
+        let mut o = codec.options(&self.opts.base);
+        o.video.qp = qp;
+        o.video.kbps = rc;
+        o.layers = layers;
+        let t = std::time::Instant::now();
+        let (bytes, _) = encode_prepared(self.mem, &o, self.prepared, &mut |_, _, _| {})?;
+        Ok(Try { qp, layers, rc, bytes, encode_seconds: t.elapsed().as_secs_f64() })
+    }
+
+    /// Finds the encode whose size is nearest `target` (see the module doc).
+    fn search(&self, codec: EvalCodec, target: usize) -> Result<(Try, bool, usize)> {
+        let tol = self.opts.tolerance;
+        let within = |b: usize| (b as f64 / target as f64 - 1.0).abs() <= tol;
+        let mut tries = 0;
+        let mut best: Option<Try> = None;
+        let keep = |t: Try, best: &mut Option<Try>| {
+            let d = |b: usize| (b as f64 / target as f64).ln().abs();
+            if best.as_ref().is_none_or(|b| d(t.bytes.len()) < d(b.bytes.len())) {
+                *best = Some(t);
+            }
+        };
+        'layers: for layers in [1u8, 2] {
+            // Secant steps on log(size) over integer QPs inside a shrinking
+            // bracket: size(lo) > target > size(hi).
+            // (QP, size) of the coarsest QP still too large and the finest too small.
+            let mut lo: Option<(u8, usize)> = None;
+            let mut hi: Option<(u8, usize)> = None;
+            let mut qp: u8 = 26;
+            let mut last: Option<(u8, usize)> = None;
+            for _ in 0..10 {
+                let t = self.encode(codec, qp, layers, None)?;
+                tries += 1;
+                let size = t.bytes.len();
+                keep(t, &mut best);
+                if within(size) {
+                    return Ok((best.take().expect("kept"), true, tries));
+                }
+                if size > target {
+                    lo = Some(lo.map_or((qp, size), |l| if qp > l.0 { (qp, size) } else { l }));
+                    if qp == 51 {
+                        break 'layers; // nothing coarser
+                    }
+                } else {
+                    hi = Some(hi.map_or((qp, size), |h| if qp < h.0 { (qp, size) } else { h }));
+                    if qp == 0 {
+                        continue 'layers; // a second layer may reach it
+                    }
+                }
+                let slope = match last {
+                    Some((q2, s2)) if q2 != qp && s2 != size => {
+                        (((size as f64).ln() - (s2 as f64).ln()) / (qp as f64 - q2 as f64)).min(-0.01)
+                    }
+                    _ => LOG_SIZE_PER_QP,
+                };
+                last = Some((qp, size));
+                let guess = (qp as f64 + ((target as f64).ln() - (size as f64).ln()) / slope).round();
+                let min = lo.map_or(0, |l| l.0 as i32 + 1);
+                let max = hi.map_or(51, |h| h.0 as i32 - 1);
+                if min > max {
+                    break; // adjacent QPs straddle the target
+                }
+                qp = (guess as i32).clamp(min, max) as u8;
+            }
+            // Adjacent QPs straddle the target: the rate control chooses
+            // between them frame by frame.
+            if let (Some(l), Some(h)) = (lo, hi) {
+                let seconds = self.mem.frames.len() as f64 / self.mem.fps as f64;
+                let mut kbps = (target as f64 * 8.0 / 1000.0 / seconds) as f32;
+                for _ in 0..4 {
+                    let t = self.encode_rc(codec, l.0, h.0, layers, kbps)?;
+                    tries += 1;
+                    let size = t.bytes.len();
+                    keep(t, &mut best);
+                    if within(size) {
+                        return Ok((best.take().expect("kept"), true, tries));
+                    }
+                    kbps *= (target as f64 / size as f64) as f32;
+                }
+            }
+            break;
+        }
+        let b = best.ok_or_else(|| Error::Argument("no encode was made".into()))?;
+        let hit = within(b.bytes.len());
+        Ok((b, hit, tries))
+    }
+
+    fn encode_rc(&self, codec: EvalCodec, qp: u8, qp_max: u8, layers: u8, kbps: f32) -> Result<Try> {
+        let mut o = codec.options(&self.opts.base);
+        o.video.qp = qp;
+        o.video.qp_max = Some(qp_max);
+        o.video.kbps = Some(kbps);
+        o.layers = layers;
+        let t = std::time::Instant::now();
+        let (bytes, _) = encode_prepared(self.mem, &o, self.prepared, &mut |_, _, _| {})?;
+        Ok(Try { qp, layers, rc: Some(kbps), bytes, encode_seconds: t.elapsed().as_secs_f64() })
+    }
+
+    fn job(&self, codec: EvalCodec, target: usize) -> Result<CodecResult> {
+        let (t, matched, tries) = self.search(codec, target)?;
+        let file = container::read(&t.bytes).map_err(|e| Error::Container { path: "(eval)".into(), source: e })?;
+        let mut dec = SequenceDecoder::new(file, codec.solver(), h264::Decoder::new)?;
+        let st = Stencils::new(self.grid);
+        let grid_faces = self.grid.topology().faces;
+        let n = self.mem.frames.len();
+        let (mut video, mut solve) = (0.0, 0.0);
+        let mut kg = metrics::KgError::default();
+        let mut per_frame = Vec::with_capacity(n);
+        for f in 0..n {
+            let (x, stats) = dec.next_frame()?;
+            video += stats.video_seconds;
+            solve += stats.solve_seconds;
+            let truth = &self.truth[f];
+            let (rms, max) = metrics::vertex_error(&x, truth);
+            kg.add_frame(truth, &x);
+            let surf = if self.opts.surface_every > 0 && f % self.opts.surface_every == 0 {
+                let d = surface::symmetric(&x, &grid_faces, &self.mem.frames[f], &self.mem.topology.faces)?;
+                Some(d)
+            } else {
+                None
+            };
+            per_frame.push(FrameMetrics {
+                frame: f,
+                vertex_rms: rms / self.diagonal,
+                vertex_max: max / self.diagonal,
+                smoothness: metrics::smoothness(&st, truth, &x) / self.diagonal,
+                surface_rms: surf.map(|d| d.rms / self.diagonal),
+                surface_max: surf.map(|d| d.max / self.diagonal),
+            });
+        }
+        let mean = |g: &dyn Fn(&FrameMetrics) -> Option<f64>| -> Option<f64> {
+            let v: Vec<f64> = per_frame.iter().filter_map(g).collect();
+            (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+        };
+        let worst = |g: &dyn Fn(&FrameMetrics) -> Option<f64>| per_frame.iter().filter_map(g).fold(0.0, f64::max);
+        let surface_rms = mean(&|m| m.surface_rms);
+        let worst_over_mean = match surface_rms {
+            Some(s) if s > 0.0 => worst(&|m| m.surface_rms) / s,
+            _ => worst(&|m| Some(m.vertex_rms)) / mean(&|m| Some(m.vertex_rms)).unwrap_or(1.0).max(f64::MIN_POSITIVE),
+        };
+        let seconds = n as f64 / self.mem.fps as f64;
+        let bytes = t.bytes.len();
+        Ok(CodecResult {
+            codec,
+            qp: t.qp,
+            layers: t.layers,
+            rate_control_kbps: t.rc,
+            matched,
+            bytes,
+            kbps: bytes as f64 * 8.0 / 1000.0 / seconds,
+            kbps_30fps: bytes as f64 * 8.0 / 1000.0 * 30.0 / n as f64,
+            bits_per_input_vertex: bytes as f64 * 8.0 / (n * self.mem.topology.vertex_count) as f64,
+            bits_per_grid_sample: bytes as f64 * 8.0 / (n * self.grid.len()) as f64,
+            smoothness: mean(&|m| Some(m.smoothness)).unwrap_or(0.0),
+            vertex_rms: mean(&|m| Some(m.vertex_rms)).unwrap_or(0.0),
+            vertex_max: worst(&|m| Some(m.vertex_max)),
+            surface_rms,
+            surface_max: per_frame.iter().filter_map(|m| m.surface_max).reduce(f64::max),
+            worst_over_mean,
+            kg: kg.value(),
+            encode_ms_per_frame: 1000.0 * t.encode_seconds / n as f64,
+            video_decode_ms_per_frame: 1000.0 * video / n as f64,
+            reconstruct_ms_per_frame: 1000.0 * solve / n as f64,
+            encodes_tried: tries,
+            frames: per_frame,
+        })
+    }
+}

@@ -1,0 +1,90 @@
+//! The Markdown form of an evaluation report (the JSON form is its serde
+//! serialization).
+
+use super::{EvalCodec, Report};
+use std::fmt::Write;
+
+fn pct(x: f64) -> String {
+    format!("{:.4} %", 100.0 * x)
+}
+
+fn opt_pct(x: Option<f64>) -> String {
+    x.map_or("–".into(), pct)
+}
+
+/// Tables like the paper's 1 and 2, and the figures it did not report.
+pub fn markdown(r: &Report) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "# `cgv eval` of {}\n", r.input);
+    let _ = writeln!(
+        s,
+        "{} frames at {} fps, {} input vertices, grid N = {}, bounding-box diagonal {:.4}. \
+         Surface distances on every {} frame(s). Took {:.0} s.\n",
+        r.frames, r.fps, r.input_vertices, r.grid, r.diagonal, r.surface_every, r.seconds
+    );
+    let _ = writeln!(s, "Normalization: {}.\n", r.normalization);
+    let _ = writeln!(s, "## Bitrates (like the paper's Table 1)\n");
+    let _ = writeln!(s, "| rate point | target kbit/s @30 fps | codec | kbit/s @30 fps | kbit/s @{} fps | matched | QP / layers | bytes | bits per input vertex per frame | bits per grid sample per frame |", r.fps);
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|");
+    for p in &r.points {
+        for c in &p.results {
+            let _ = writeln!(
+                s,
+                "| {} | {:.1} | {} | {:.1} | {:.1} | {} | {}{} / {} | {} | {:.3} | {:.3} |",
+                p.name,
+                p.target_kbps_30fps,
+                c.codec,
+                c.kbps_30fps,
+                c.kbps,
+                if c.matched { "yes" } else { "**no**" },
+                c.qp,
+                c.rate_control_kbps.map_or(String::new(), |_| " (rate control)".into()),
+                c.layers,
+                c.bytes,
+                c.bits_per_input_vertex,
+                c.bits_per_grid_sample
+            );
+        }
+    }
+    let _ = writeln!(s, "\n## Quality (like the paper's Table 2, and beyond)\n");
+    let _ = writeln!(s, "| rate point | codec | smoothness (1e-4 of diag.) | vertex RMS | vertex max | surface RMS | surface max | worst frame / mean | KG error (%) | encode ms/frame | H.264 decode ms/frame | reconstruction ms/frame |");
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|");
+    for p in &r.points {
+        for c in &p.results {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {:.2} | {} | {} | {} | {} | {:.2} | {:.3} | {:.1} | {:.2} | {:.2} |",
+                p.name,
+                c.codec,
+                c.smoothness * 1e4,
+                pct(c.vertex_rms),
+                pct(c.vertex_max),
+                opt_pct(c.surface_rms),
+                opt_pct(c.surface_max),
+                c.worst_over_mean,
+                c.kg,
+                c.encode_ms_per_frame,
+                c.video_decode_ms_per_frame,
+                c.reconstruct_ms_per_frame
+            );
+        }
+    }
+    if !r.bd_rates.is_empty() {
+        let _ = writeln!(s, "\n## BD-rate against GV (negative: fewer bits for the same quality)\n");
+        let _ = writeln!(s, "| codec | surface RMS | vertex RMS | smoothness |");
+        let _ = writeln!(s, "|---|---|---|---|");
+        let mut codecs: Vec<EvalCodec> = r.bd_rates.iter().map(|b| b.codec).collect();
+        codecs.dedup();
+        for c in codecs {
+            let get = |m: &str| {
+                r.bd_rates
+                    .iter()
+                    .find(|b| b.codec == c && b.metric == m)
+                    .and_then(|b| b.percent)
+                    .map_or("– (needs 4 distinct points overlapping in quality)".into(), |v| format!("{v:+.1} %"))
+            };
+            let _ = writeln!(s, "| {c} | {} | {} | {} |", get("surface_rms"), get("vertex_rms"), get("smoothness"));
+        }
+    }
+    s
+}

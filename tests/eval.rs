@@ -1,0 +1,97 @@
+//! `cgv eval`: its metrics on known cases, the bitrate matcher, and the
+//! report files.
+
+mod common;
+
+use cgv::codec::features::Stencils;
+use cgv::eval::{self, EvalCodec, EvalOptions, Rates};
+use cgv::grid::Grid;
+use cgv::metrics::{self, surface, KgError};
+use glam::Vec3;
+
+/// A flat square of (k + 1)² vertices in the plane z = `z`.
+fn plane(k: usize, z: f32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let p =
+        (0..=k).flat_map(|j| (0..=k).map(move |i| Vec3::new(i as f32 / k as f32, j as f32 / k as f32, z))).collect();
+    let id = |i: usize, j: usize| (j * (k + 1) + i) as u32;
+    let f = (0..k)
+        .flat_map(|j| {
+            (0..k).flat_map(move |i| {
+                [[id(i, j), id(i + 1, j), id(i + 1, j + 1)], [id(i, j), id(i + 1, j + 1), id(i, j + 1)]]
+            })
+        })
+        .collect();
+    (p, f)
+}
+
+#[test]
+fn metrics_on_known_cases() {
+    let st = Stencils::new(Grid::new(16).unwrap());
+    let g: Vec<Vec3> =
+        (0..256).map(|i| Vec3::new((i % 16) as f32, (i / 16) as f32, ((i * 7) % 5) as f32 * 0.1)).collect();
+    // Identical: all zero.
+    assert_eq!(metrics::vertex_error(&g, &g), (0.0, 0.0));
+    assert_eq!(metrics::smoothness(&st, &g, &g), 0.0);
+    let mut kg = KgError::default();
+    kg.add_frame(&g, &g);
+    assert_eq!(kg.value(), 0.0);
+    // A translation by t: vertex error |t| everywhere, smoothness 0, and
+    // KG = 100 |t| sqrt(V) / sqrt(sum |v - centroid|²).
+    let t = Vec3::new(0.3, -0.4, 0.0);
+    let moved: Vec<Vec3> = g.iter().map(|p| *p + t).collect();
+    let (rms, max) = metrics::vertex_error(&g, &moved);
+    assert!((rms - 0.5).abs() < 1e-6 && (max - 0.5).abs() < 1e-6, "{rms} {max}");
+    assert!(metrics::smoothness(&st, &g, &moved) < 1e-5);
+    let mut kg = KgError::default();
+    kg.add_frame(&g, &moved);
+    let c = g.iter().copied().sum::<Vec3>() / 256.0;
+    let spread: f64 = g.iter().map(|p| (*p - c).length_squared() as f64).sum();
+    let expected = 100.0 * 0.5 * 16.0 / spread.sqrt();
+    assert!((kg.value() - expected).abs() < 1e-6 * expected, "{} {expected}", kg.value());
+    // A bump on one sample changes the smoothness metric.
+    let mut bumped = g.clone();
+    bumped[100].z += 1.0;
+    assert!(metrics::smoothness(&st, &g, &bumped) > 0.01);
+    // Two parallel planes 0.25 apart: surface distance 0.25, RMS and max.
+    let (a, fa) = plane(8, 0.0);
+    let (b, fb) = plane(5, 0.25);
+    let d = surface::symmetric(&a, &fa, &b, &fb).unwrap();
+    assert!((d.rms - 0.25).abs() < 1e-6 && (d.max - 0.25).abs() < 1e-6, "{d:?}");
+    let d0 = surface::symmetric(&a, &fa, &a, &fa).unwrap();
+    assert!(d0.rms < 1e-6 && d0.max < 1e-6, "{d0:?}");
+}
+
+#[test]
+fn bitrate_matcher_lands_within_five_percent_on_the_default_motion() {
+    let src = cgv::demo::motion(8);
+    let mut opts = EvalOptions {
+        codecs: vec![EvalCodec::Gv, EvalCodec::Cgv],
+        rates: Rates::Kbps(vec![200.0, 400.0]),
+        surface_every: 4,
+        ..Default::default()
+    };
+    opts.base.grid = 32;
+    let report = eval::run(&src, &opts, &|_| {}).unwrap();
+    assert_eq!(report.points.len(), 2);
+    for p in &report.points {
+        assert_eq!(p.results.len(), 2);
+        for r in &p.results {
+            let off = r.bytes as f64 / p.target_bytes as f64 - 1.0;
+            assert!(
+                r.matched && off.abs() <= 0.05,
+                "{} at {}: {} bytes for {} ({off:+.3})",
+                r.codec,
+                p.name,
+                r.bytes,
+                p.target_bytes
+            );
+            assert_eq!(r.frames.len(), 8);
+            assert!(r.frames[0].surface_rms.is_some() && r.frames[1].surface_rms.is_none());
+            assert!(r.vertex_rms > 0.0 && r.vertex_rms < 0.05 && r.kg > 0.0, "{r:?}");
+        }
+    }
+    // Two points per codec: no BD-rate (it needs four), said so.
+    assert!(report.bd_rates.iter().all(|b| b.percent.is_none()));
+    let md = eval::report::markdown(&report);
+    assert!(md.contains("| cgv |") && md.contains("BD-rate"), "{md}");
+}
