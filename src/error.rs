@@ -76,6 +76,9 @@ pub enum Error {
     /// A numerical step failed (a singular system, a map that folds over).
     #[error("{0}")]
     Numerical(String),
+    /// The GPU renderer could not start or draw (no adapter, a lost device).
+    #[error("render: {0}")]
+    Render(String),
     /// A chart could not be drawn (`cgv eval --plot`).
     #[error("plot: {0}")]
     Plot(String),

@@ -23,6 +23,7 @@ pub mod image;
 pub mod mesh;
 pub mod metrics;
 pub mod param;
+pub mod render;
 pub mod resample;
 pub mod solve;
 pub mod sparse;

@@ -135,3 +135,37 @@ fn eval_writes_reports_and_plots_or_nothing() {
         std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name().into_string().unwrap()).collect();
     assert_eq!(names.len(), 4, "{names:?}");
 }
+
+/// Counts pixels that differ from the renderer's background.
+fn figure_pixels(png_path: &std::path::Path) -> (usize, usize) {
+    let dec = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(png_path).unwrap()));
+    let mut r = dec.read_info().unwrap();
+    let mut buf = vec![0; r.output_buffer_size().unwrap()];
+    let info = r.next_frame(&mut buf).unwrap();
+    let px = &buf[..info.buffer_size()];
+    let bg = cgv::render::BACKGROUND;
+    let fig = px.chunks_exact(4).filter(|p| p[..3].iter().zip(bg).any(|(a, b)| a.abs_diff(b) > 8)).count();
+    (fig, px.len() / 4)
+}
+
+#[test]
+fn render_draws_the_figure_offscreen() {
+    let dir = common::temp_dir("cli-render");
+    let fixture = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/v1/walk-cgv.cgv");
+    let gv = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/v1/walk-gv.cgv");
+    for (mode, extra) in [("shaded", vec![]), ("h", vec![]), ("lambda", vec![]), ("error", vec!["--reference", gv])] {
+        let out_png = dir.join(format!("{mode}.png"));
+        let mut args = vec!["render", fixture, "--frame", "3", "--size", "200x160", "--mode", mode, "-o"];
+        args.push(out_png.to_str().unwrap());
+        args.extend(extra);
+        let out = cgv(&args);
+        assert!(out.status.success(), "{mode}: {}", String::from_utf8_lossy(&out.stderr));
+        let (fig, all) = figure_pixels(&out_png);
+        // The figure covers a good part of the frame, but not all of it.
+        assert!(fig > all / 20 && fig < all * 9 / 10, "{mode}: {fig} of {all} pixels");
+    }
+    let out = cgv(&["render", fixture, "--frame", "9", "-o", dir.join("x.png").to_str().unwrap()]);
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("has 4"));
+    let out = cgv(&["render", fixture, "--mode", "error", "-o", dir.join("y.png").to_str().unwrap()]);
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("--reference"));
+}

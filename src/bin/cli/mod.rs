@@ -6,6 +6,7 @@ mod encode;
 mod eval;
 mod info;
 mod remesh;
+mod render;
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -41,6 +42,8 @@ enum Command {
     Decode(decode::Args),
     /// Compare GV, the paper's CGV and the project's CGV at matched bitrates (tables, JSON, plots).
     Eval(eval::Args),
+    /// Draw one decoded frame to a PNG with the viewer's renderer (no GPU needed: lavapipe works).
+    Render(render::Args),
 }
 
 /// Options shared by the commands that read a mesh sequence.
@@ -124,6 +127,7 @@ pub fn main() -> ExitCode {
         Command::Encode(a) => encode::run(a),
         Command::Decode(a) => decode::run(a),
         Command::Eval(a) => eval::run(a),
+        Command::Render(a) => render::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

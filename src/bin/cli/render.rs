@@ -1,0 +1,112 @@
+//! `cgv render`: one decoded frame drawn offscreen by the same renderer as
+//! the web viewer, saved as PNG. Works without a GPU on lavapipe.
+
+use anyhow::{bail, Context, Result};
+use cgv::codec::{h264, SequenceDecoder};
+use cgv::render::{camera::OrbitCamera, offscreen::Offscreen, ColorMode, Renderer};
+use cgv::solve::SolverKind;
+use std::path::{Path, PathBuf};
+
+#[derive(clap::Args)]
+#[command(after_help = "Examples:\n  cgv render walk.cgv --frame 30 -o walk-30.png\n  \
+    cgv render walk.cgv --frame 30 --mode h -o walk-h.png\n  \
+    cgv render walk-cgv.cgv --mode error --reference walk-gv.cgv -o error.png")]
+pub struct Args {
+    /// The .cgv file.
+    input: PathBuf,
+    /// Output PNG file.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Frame to draw (counted from 0; earlier frames are decoded first).
+    #[arg(long, default_value_t = 0)]
+    frame: usize,
+    /// Colour: shaded, lambda (conformal factor), h (mean curvature), error (distance to --reference).
+    #[arg(long, default_value = "shaded")]
+    mode: ColorMode,
+    /// Another .cgv file of the same motion and grid, for --mode error.
+    #[arg(long)]
+    reference: Option<PathBuf>,
+    /// Image size, WIDTHxHEIGHT.
+    #[arg(long, default_value = "800x800")]
+    size: String,
+    /// Camera yaw and pitch in degrees (0, 9: the front, slightly from above).
+    #[arg(long, default_value_t = 0.0, allow_hyphen_values = true)]
+    yaw: f32,
+    #[arg(long, default_value_t = 9.0, allow_hyphen_values = true)]
+    pitch: f32,
+    /// Decoder for CGV files (default: the one recorded in the file).
+    #[arg(long)]
+    solver: Option<SolverKind>,
+}
+
+/// Decodes frames 0..=`frame` of `path` and returns the last.
+fn decode_frame(path: &Path, frame: usize, solver: Option<SolverKind>) -> Result<(usize, Vec<glam::Vec3>)> {
+    let file = super::decode::read_cgv(path)?;
+    let frames = file.header.frames as usize;
+    if frame >= frames {
+        bail!("{}: frame {frame} asked for, but the file has {frames} (0..={})", path.display(), frames - 1);
+    }
+    let grid = file.header.grid as usize;
+    let solver = solver.unwrap_or_else(|| file.header.solver.parse().unwrap_or_default());
+    let mut dec = SequenceDecoder::new(file, solver, h264::Decoder::new)?;
+    let pb = super::progress(frame + 1, "decoding", frame < 10);
+    let mut x = Vec::new();
+    for _ in 0..=frame {
+        x = dec.next_frame().with_context(|| format!("decoding {}", path.display()))?.0;
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    Ok((grid, x))
+}
+
+pub fn run(args: Args) -> Result<()> {
+    if args.output.extension().is_none_or(|e| !e.eq_ignore_ascii_case("png")) {
+        bail!("{}: the output should end in .png", args.output.display());
+    }
+    let (w, h) = args
+        .size
+        .split_once('x')
+        .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
+        .filter(|&(w, h)| (16..=8192).contains(&w) && (16..=8192).contains(&h))
+        .with_context(|| format!("--size {}: expected WIDTHxHEIGHT, each 16..=8192", args.size))?;
+    if args.mode == ColorMode::Error && args.reference.is_none() {
+        bail!("--mode error needs --reference OTHER.cgv (the same motion and grid)");
+    }
+    let (n, x) = decode_frame(&args.input, args.frame, args.solver)?;
+    let reference = match &args.reference {
+        Some(r) => {
+            let (rn, rx) = decode_frame(r, args.frame, None)?;
+            if rn != n {
+                bail!("{}: grid {rn} differs from {}'s grid {n}", r.display(), args.input.display());
+            }
+            Some(rx)
+        }
+        None => None,
+    };
+    let gpu = Offscreen::new()?;
+    let mut renderer = Renderer::new(&gpu.device, cgv::render::offscreen::FORMAT, cgv::grid::Grid::new(n)?);
+    renderer.set_frame(&gpu.queue, &x, args.mode, reference.as_deref())?;
+    let (lo, hi) = renderer.bounds();
+    let mut camera = OrbitCamera::framing(lo, hi);
+    camera.yaw = args.yaw.to_radians();
+    camera.pitch = args.pitch.to_radians();
+    let rgba = gpu.render(&mut renderer, w, h, &camera)?;
+    let mut png_bytes = Vec::new();
+    {
+        let mut enc = png::Encoder::new(&mut png_bytes, w, h);
+        enc.set_color(png::ColorType::Rgba);
+        enc.set_depth(png::BitDepth::Eight);
+        let mut wr = enc.write_header()?;
+        wr.write_image_data(&rgba)?;
+    }
+    cgv::fsutil::write_atomic(&args.output, &png_bytes)?;
+    println!(
+        "{} frame {} -> {} ({w}x{h}, {:?}, {})",
+        args.input.display(),
+        args.frame,
+        args.output.display(),
+        args.mode,
+        gpu.adapter
+    );
+    Ok(())
+}
