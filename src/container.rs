@@ -394,43 +394,111 @@ pub struct CgvFile {
 
 /// Reads and checks a complete `.cgv` file.
 pub fn read(bytes: &[u8]) -> Result<CgvFile, ContainerError> {
-    let truncated = |offset: usize, what| ContainerError::Truncated { offset, what, needed: 1 };
-    let (header, mut offset) = match parse_header(bytes)? {
-        Some(h) => h,
-        None => return Err(truncated(bytes.len(), "the header")),
-    };
-    let nstreams = header.streams.len();
-    // Allocate per frame only as chunks arrive: a header cannot make us reserve
-    // memory the file does not back.
-    let mut units: Vec<Vec<Vec<u8>>> = vec![Vec::new(); nstreams];
-    let mut frames: Vec<FrameInfo> = Vec::new();
-    // The next chunk expected: frame f, slot 0 its FRAM chunk, slot 1 + s stream s.
-    let mut frame = 0u32;
-    let mut slot = 0usize;
-    let advance = |frame: &mut u32, slot: &mut usize| loop {
-        *slot += 1;
-        if *slot > nstreams {
-            *slot = 0;
-            *frame += 1;
+    let mut r = StreamReader::default();
+    r.push(bytes)?;
+    r.finish()
+}
+
+/// Reads a `.cgv` file as its bytes arrive (a browser's fetch stream): each
+/// [`push`](StreamReader::push) checks every chunk now complete, so frame
+/// f can be decoded as soon as [`complete_frames`](StreamReader::complete_frames)
+/// exceeds f. The same checks as [`read`], which is built on it.
+#[derive(Debug, Clone, Default)]
+pub struct StreamReader {
+    /// Bytes not yet consumed (a partial header or chunk).
+    pending: Vec<u8>,
+    /// Bytes consumed so far (for error offsets).
+    consumed: usize,
+    file: Option<CgvFile>,
+    /// The next chunk expected: frame `frame`, slot 0 its FRAM chunk, slot 1 + s stream s.
+    frame: u32,
+    slot: usize,
+    ended: bool,
+}
+
+impl StreamReader {
+    /// The header, once it has arrived.
+    pub fn header(&self) -> Option<&Header> {
+        self.file.as_ref().map(|f| &f.header)
+    }
+
+    /// The file so far: every frame below `complete_frames()` is whole.
+    pub fn file(&self) -> Option<&CgvFile> {
+        self.file.as_ref()
+    }
+
+    /// Frames whose chunks have all arrived.
+    pub fn complete_frames(&self) -> u32 {
+        match &self.file {
+            Some(f) if self.ended => f.header.frames,
+            Some(_) => self.frame,
+            None => 0,
         }
-        if *frame >= header.frames || *slot == 0 || header.stream_has_frame(*slot - 1, *frame) {
-            return;
+    }
+
+    pub fn is_complete(&self) -> bool {
+        self.ended
+    }
+
+    /// Bytes received so far.
+    pub fn bytes(&self) -> usize {
+        self.consumed + self.pending.len()
+    }
+
+    /// Adds bytes and checks every chunk they complete.
+    pub fn push(&mut self, bytes: &[u8]) -> Result<(), ContainerError> {
+        if self.ended && !bytes.is_empty() {
+            return Err(ContainerError::Chunk { offset: self.bytes(), msg: "bytes after the end chunk".into() });
         }
-    };
-    loop {
-        let (chunk, next) = match parse_chunk(bytes, offset)? {
-            Some(c) => c,
-            None => return Err(truncated(bytes.len(), "a chunk")),
-        };
-        if frame >= header.frames {
+        self.pending.extend_from_slice(bytes);
+        let mut at = 0;
+        if self.file.is_none() {
+            match parse_header(&self.pending)? {
+                None => return Ok(()),
+                Some((header, len)) => {
+                    let n = header.streams.len();
+                    // Allocate per frame only as chunks arrive: a header cannot
+                    // make us reserve memory the file does not back.
+                    self.file = Some(CgvFile { header, units: vec![Vec::new(); n], frames: Vec::new(), bytes: 0 });
+                    at = len;
+                }
+            }
+        }
+        loop {
+            let offset = self.consumed + at;
+            let Some((chunk, next)) = parse_chunk(&self.pending, at).map_err(|e| shift(e, self.consumed))? else {
+                break;
+            };
+            let payload = chunk.payload.to_vec();
+            self.accept(Chunk { payload: &payload, ..chunk }, offset)?;
+            at = next;
+            if self.ended {
+                if at != self.pending.len() {
+                    return Err(ContainerError::Chunk {
+                        offset: self.consumed + at,
+                        msg: "bytes after the end chunk".into(),
+                    });
+                }
+                break;
+            }
+        }
+        self.pending.drain(..at);
+        self.consumed += at;
+        Ok(())
+    }
+
+    fn accept(&mut self, chunk: Chunk<'_>, offset: usize) -> Result<(), ContainerError> {
+        let file = self.file.as_mut().expect("header parsed before chunks");
+        let header = &file.header;
+        let nstreams = header.streams.len();
+        if self.frame >= header.frames {
             if chunk.tag != TAG_END {
                 return Err(ContainerError::Chunk { offset, msg: "chunk after the last frame".into() });
             }
-            if next != bytes.len() {
-                return Err(ContainerError::Chunk { offset: next, msg: "bytes after the end chunk".into() });
-            }
-            break;
+            self.ended = true;
+            return Ok(());
         }
+        let frame = self.frame;
         let expect = |what: &str| ContainerError::Chunk {
             offset,
             msg: format!(
@@ -440,27 +508,63 @@ pub fn read(bytes: &[u8]) -> Result<CgvFile, ContainerError> {
             ),
         };
         if chunk.frame != frame {
-            return Err(expect(if slot > 0 { "stream data" } else { "the frame chunk" }));
+            return Err(expect(if self.slot > 0 { "stream data" } else { "the frame chunk" }));
         }
-        if slot > 0 {
-            let s = slot - 1;
+        if self.slot > 0 {
+            let s = self.slot - 1;
             if chunk.tag != TAG_ACCESS_UNIT || chunk.stream as usize != s {
                 return Err(expect(&format!("stream {s}")));
             }
-            let u = &mut units[s];
+            let u = &mut file.units[s];
             u.resize(frame as usize + 1, Vec::new());
             u[frame as usize] = chunk.payload.to_vec();
         } else {
             if chunk.tag != TAG_FRAME {
                 return Err(expect("the frame chunk"));
             }
-            frames.push(FrameInfo::parse(chunk.payload, header.anchors.len(), offset)?);
+            file.frames.push(FrameInfo::parse(chunk.payload, header.anchors.len(), offset)?);
         }
-        offset = next;
-        advance(&mut frame, &mut slot);
+        // Advance to the next expected chunk.
+        let header = &file.header;
+        loop {
+            self.slot += 1;
+            if self.slot > nstreams {
+                self.slot = 0;
+                self.frame += 1;
+            }
+            if self.frame >= header.frames || self.slot == 0 || header.stream_has_frame(self.slot - 1, self.frame) {
+                break;
+            }
+        }
+        if self.frame >= header.frames {
+            for u in &mut file.units {
+                u.resize(header.frames as usize, Vec::new());
+            }
+        }
+        Ok(())
     }
-    for u in &mut units {
-        u.resize(header.frames as usize, Vec::new());
+
+    /// The whole file; an error if it has not all arrived.
+    pub fn finish(self) -> Result<CgvFile, ContainerError> {
+        let what = if self.file.is_none() { "the header" } else { "a chunk" };
+        match (self.file, self.ended) {
+            (Some(mut f), true) => {
+                f.bytes = self.consumed;
+                Ok(f)
+            }
+            _ => Err(ContainerError::Truncated { offset: self.consumed + self.pending.len(), what, needed: 1 }),
+        }
     }
-    Ok(CgvFile { header, units, frames, bytes: bytes.len() })
+}
+
+/// Moves an error's byte offset from the pending buffer to the file.
+fn shift(e: ContainerError, by: usize) -> ContainerError {
+    match e {
+        ContainerError::BadCrc { offset, what } => ContainerError::BadCrc { offset: offset + by, what },
+        ContainerError::Chunk { offset, msg } => ContainerError::Chunk { offset: offset + by, msg },
+        ContainerError::Truncated { offset, what, needed } => {
+            ContainerError::Truncated { offset: offset + by, what, needed }
+        }
+        other => other,
+    }
 }

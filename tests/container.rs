@@ -188,3 +188,33 @@ fn bad_frame_chunks_are_errors() {
         assert!(matches!(e, ContainerError::Chunk { .. }), "{payload:?}: {e}");
     }
 }
+
+#[test]
+fn streaming_reader_sees_frames_as_they_arrive() {
+    let h = header();
+    let bytes = file(&h);
+    let whole = container::read(&bytes).unwrap();
+    // Byte by byte: the frame count only grows, and the result is the same file.
+    let mut r = container::StreamReader::default();
+    let mut seen = vec![];
+    for b in &bytes {
+        r.push(std::slice::from_ref(b)).unwrap();
+        seen.push(r.complete_frames());
+    }
+    assert!(seen.windows(2).all(|w| w[0] <= w[1]) && seen.contains(&1) && seen.contains(&2));
+    assert!(r.is_complete() && r.header() == Some(&h));
+    let f = r.finish().unwrap();
+    assert_eq!((f.units, f.frames, f.bytes), (whole.units, whole.frames, whole.bytes));
+    // Half a file: not complete, and finishing says truncated.
+    let mut r = container::StreamReader::default();
+    r.push(&bytes[..bytes.len() / 2]).unwrap();
+    assert!(!r.is_complete() && r.complete_frames() < 3);
+    assert!(matches!(r.finish().unwrap_err(), ContainerError::Truncated { .. }));
+    // A flipped byte in the second half is caught when it arrives.
+    let mut bad = bytes.clone();
+    let k = bytes.len() * 3 / 4;
+    bad[k] ^= 0x40;
+    let mut r = container::StreamReader::default();
+    r.push(&bad[..k - 10]).unwrap();
+    assert!(r.push(&bad[k - 10..]).is_err());
+}

@@ -171,6 +171,33 @@ impl<D: VideoDecoder> SequenceDecoder<D> {
         self.file.header.frames as usize
     }
 
+    /// Streaming: copies frame `f`'s chunks from `file` (a
+    /// [`crate::container::StreamReader`]'s file so far) before it is decoded.
+    pub fn take_frame(&mut self, file: &CgvFile, f: u32) -> Result<()> {
+        let fi = f as usize;
+        let info = file.frames.get(fi).ok_or_else(|| Error::Argument(format!("frame {f} has not arrived")))?;
+        if self.file.frames.len() <= fi {
+            self.file.frames.resize(fi + 1, Default::default());
+        }
+        self.file.frames[fi] = info.clone();
+        for s in 0..self.file.header.streams.len() {
+            if self.file.header.stream_has_frame(s, f) {
+                let au = file.units[s].get(fi).ok_or_else(|| Error::Argument(format!("frame {f} has not arrived")))?;
+                let dst = &mut self.file.units[s];
+                if dst.len() <= fi {
+                    dst.resize(fi + 1, Vec::new());
+                }
+                dst[fi] = au.clone();
+            }
+        }
+        Ok(())
+    }
+
+    /// The frame [`next_frame`](Self::next_frame) decodes next.
+    pub fn next_index(&self) -> u32 {
+        self.next
+    }
+
     /// Decodes every stream's access unit at frame `f` into values.
     pub fn stream_values(&mut self, f: u32) -> Result<Vec<Option<Vec<f32>>>> {
         let h = &self.file.header;
@@ -178,7 +205,10 @@ impl<D: VideoDecoder> SequenceDecoder<D> {
         let mut samples: Vec<Option<Vec<u8>>> = vec![None; h.streams.len()];
         for (s, out) in samples.iter_mut().enumerate() {
             if h.stream_has_frame(s, f) {
-                *out = Some(self.decoders[s].decode(&self.file.units[s][f as usize], n, n)?);
+                let au = self.file.units[s]
+                    .get(f as usize)
+                    .ok_or_else(|| Error::Argument(format!("stream {s} frame {f} has not arrived")))?;
+                *out = Some(self.decoders[s].decode(au, n, n)?);
             }
         }
         let scale = self.file.frames.get(f as usize).map_or(0.0, |i| i.correction_scale);
