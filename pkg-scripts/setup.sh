@@ -33,6 +33,8 @@ command -v nasm >/dev/null || missing+=(nasm)
 command -v chromium >/dev/null || missing+=(chromium)
 command -v chromedriver >/dev/null || missing+=(chromium-driver)
 command -v xz >/dev/null || missing+=(xz-utils)
+# A TrueType font for the labels of `cgv eval --plot` (plotters lays text out with one).
+[ -e /usr/share/fonts/truetype/dejavu/DejaVuSans.ttf ] || [ -e /usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf ] || missing+=(fonts-dejavu-core)
 [ -e /usr/share/vulkan/icd.d/lvp_icd.x86_64.json ] || ls /usr/share/vulkan/icd.d/lvp_icd*.json >/dev/null 2>&1 || missing+=(mesa-vulkan-drivers)
 if [ ${#missing[@]} -gt 0 ]; then
   say "installing ${missing[*]} with apt"
@@ -51,3 +53,6 @@ if [ -n "$want" ] && [ "$have" != "$want" ]; then
   CARGO_TARGET_DIR="$cache/wasm-bindgen-build" cargo install -q wasm-bindgen-cli --version "$want" --root "$cache/tools"
   rm -rf "$cache/wasm-bindgen-build"
 fi
+
+# Mesa (lavapipe) warns without a runtime dir; harmless, but noisy in logs.
+export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-/tmp}"

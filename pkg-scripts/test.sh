@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Set up what is missing, then run every check: formatting, clippy, all
-# native tests (including those on ../shared/data), and the wasm32 build.
+# Set up what is missing, then run every check: formatting, clippy, the web
+# package (wasm32 + wasm-bindgen), and all tests (including those on
+# ../shared/data and the viewer in headless Chromium, which uses the package).
 # Benchmarks are compiled by clippy and run by `cargo bench`, not here.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -14,10 +15,10 @@ cargo fmt --all -- --check
 step "cargo clippy (native, all targets)"
 cargo clippy --release --all-targets -- -D warnings
 
-step "library for wasm32-unknown-unknown"
-cargo build --release --lib --target wasm32-unknown-unknown
+step "web package (wasm32, wasm-bindgen) into www/pkg"
+bash pkg-scripts/web.sh
 
-step "native tests"
+step "tests (native, and the viewer in headless Chromium)"
 log="$(mktemp)"
 trap 'rm -f "$log"' EXIT
 cargo test --release 2>&1 | tee "$log"

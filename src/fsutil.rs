@@ -37,9 +37,11 @@ impl AtomicFile {
     /// Flushes, syncs and renames the file into place.
     pub fn commit(mut self) -> Result<()> {
         let file = self.file.take().expect("AtomicFile committed twice");
-        let file = file.into_inner().map_err(|e| Error::io(&self.tmp, e.into_error()))?;
-        file.sync_all().map_err(|e| Error::io(&self.tmp, e))?;
-        drop(file);
+        // Closed at the end of this block, before the rename.
+        {
+            let file = file.into_inner().map_err(|e| Error::io(&self.tmp, e.into_error()))?;
+            file.sync_all().map_err(|e| Error::io(&self.tmp, e))?;
+        }
         std::fs::rename(&self.tmp, &self.path).map_err(|e| Error::io(&self.path, e))
     }
 }

@@ -27,5 +27,7 @@ pub mod render;
 pub mod resample;
 pub mod solve;
 pub mod sparse;
+#[cfg(target_arch = "wasm32")]
+pub mod web;
 
 pub use error::{Error, MeshProblem, Result};

@@ -83,8 +83,11 @@ impl std::fmt::Display for EvalCodec {
     }
 }
 
-/// Named rate points: the file size GV reaches at this QP (one layer).
-pub const PRESETS: [(&str, u8); 4] = [("low", 36), ("medium", 28), ("high", 20), ("max", 12)];
+/// Named rate points: the file size GV reaches at this QP with this many
+/// layers. GV's single 8-bit layer saturates near QP 12; "ultra" is its
+/// second layer, where the paper's high-bit-depth figures live.
+pub const PRESETS: [(&str, u8, u8); 5] =
+    [("low", 36, 1), ("medium", 28, 1), ("high", 20, 1), ("max", 12, 1), ("ultra", 12, 2)];
 
 /// Where the rate points come from.
 #[derive(Debug, Clone, PartialEq)]
@@ -239,15 +242,16 @@ pub fn run(src: &dyn FrameSource, opts: &EvalOptions, progress: &(dyn Fn(&str) +
         Rates::Presets(names) => names
             .par_iter()
             .map(|name| {
-                let qp = PRESETS.iter().find(|p| p.0 == name).map(|p| p.1).ok_or_else(|| {
-                    Error::Argument(format!("unknown rate '{name}' (expected low, medium, high or max)"))
+                let (qp, layers) = PRESETS.iter().find(|p| p.0 == name).map(|p| (p.1, p.2)).ok_or_else(|| {
+                    Error::Argument(format!("unknown rate '{name}' (expected low, medium, high, max or ultra)"))
                 })?;
                 let mut o = EvalCodec::Gv.options(&opts.base);
                 o.video.qp = qp;
                 o.video.kbps = None;
-                o.layers = 1;
+                o.layers = layers;
                 let (bytes, _) = encode_prepared(&mem, &o, &prepared, &mut |_, _, _| {})?;
-                Ok((format!("{name} (GV at QP {qp})"), bytes.len()))
+                let what = if layers == 2 { format!("GV at QP {qp}, 2 layers") } else { format!("GV at QP {qp}") };
+                Ok((format!("{name} ({what})"), bytes.len()))
             })
             .collect::<Result<_>>()?,
     };

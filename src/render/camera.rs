@@ -23,7 +23,7 @@ impl OrbitCamera {
         let radius = ((max - min).length() * 0.5).max(1e-6);
         OrbitCamera {
             target: (min + max) * 0.5,
-            distance: radius / (fov_y * 0.5).sin() * 1.05,
+            distance: radius / (fov_y * 0.5).sin() * 1.2,
             yaw: 0.0,
             pitch: 0.15,
             fov_y,

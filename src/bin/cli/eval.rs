@@ -10,7 +10,7 @@ use std::path::PathBuf;
 
 #[derive(clap::Args)]
 #[command(after_help = "Rate points are file sizes. The presets are the sizes GV reaches at a QP \
-    (low 36, medium 28, high 20, max 12); --kbps gives bitrates at 30 fps instead, like the paper's \
+    (low 36, medium 28, high 20, max 12, ultra 12 with a second layer); --kbps gives bitrates at 30 fps instead, like the paper's \
     Table 1. For each codec the QP (and a second layer when needed) is searched until the file is \
     within --tolerance of the target. Four or more points give a BD-rate against GV.\n\n\
     Examples:\n  cgv eval builtin:walk --frames 0..24 --grid 64 --md walk.md --plot walk.svg\n  \
@@ -21,8 +21,8 @@ pub struct Args {
     /// Grid size N.
     #[arg(long, default_value_t = 128)]
     grid: usize,
-    /// Named rate points (low, medium, high, max).
-    #[arg(long, value_delimiter = ',', default_value = "low,medium,high,max", conflicts_with = "kbps")]
+    /// Named rate points (low, medium, high, max, ultra).
+    #[arg(long, value_delimiter = ',', default_value = "low,medium,high,max,ultra", conflicts_with = "kbps")]
     rates: Vec<String>,
     /// Rate points in kbit/s at 30 fps.
     #[arg(long, value_delimiter = ',')]

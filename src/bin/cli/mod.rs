@@ -7,6 +7,7 @@ mod eval;
 mod info;
 mod remesh;
 mod render;
+mod serve;
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -44,6 +45,8 @@ enum Command {
     Eval(eval::Args),
     /// Draw one decoded frame to a PNG with the viewer's renderer (no GPU needed: lavapipe works).
     Render(render::Args),
+    /// Serve a folder (the web viewer in www/) on 127.0.0.1.
+    Serve(serve::Args),
 }
 
 /// Options shared by the commands that read a mesh sequence.
@@ -128,6 +131,7 @@ pub fn main() -> ExitCode {
         Command::Decode(a) => decode::run(a),
         Command::Eval(a) => eval::run(a),
         Command::Render(a) => render::run(a),
+        Command::Serve(a) => serve::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# Builds the web viewer's package: the library for wasm32, wasm-bindgen
+# (--target web) into www/pkg/ (ignored), and wasm-opt when it is installed.
+# Sourced or run; expects pkg-scripts/setup.sh to have run (wasm target,
+# wasm-bindgen-cli, CARGO_TARGET_DIR).
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+: "${CARGO_TARGET_DIR:=$HOME/.cache/cgv/target}"
+export CARGO_TARGET_DIR
+cargo build --release --lib --target wasm32-unknown-unknown
+wasm="$CARGO_TARGET_DIR/wasm32-unknown-unknown/release/cgv.wasm"
+rm -rf www/pkg
+wasm-bindgen --target web --out-dir www/pkg "$wasm"
+if command -v wasm-opt >/dev/null; then
+  wasm-opt -O2 www/pkg/cgv_bg.wasm -o www/pkg/cgv_bg.wasm
+fi
+size=$(stat -c %s www/pkg/cgv_bg.wasm)
+gz=$(gzip -9c www/pkg/cgv_bg.wasm | wc -c)
+echo "web package: www/pkg/ (cgv_bg.wasm $size bytes, $gz gzipped)"

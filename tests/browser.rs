@@ -1,0 +1,339 @@
+//! The web viewer in a real headless Chromium, driven through chromedriver's
+//! WebDriver HTTP API (no Node needed): the page plays a fixture with
+//! WebCodecs + the wasm core + the wgpu renderer on WebGPU and on WebGL2,
+//! the frame counter advances, screenshots show the figure and change; a
+//! corrupt file gives an error on the page and the page keeps working; and
+//! inside the page, WebCodecs' luma samples and the wasm reconstruction
+//! equal the native decoder's.
+//!
+//! Needs what `pkg-scripts/setup.sh` installs (chromium, chromium-driver)
+//! and the web package (`pkg-scripts/web.sh`, which `pkg-scripts/test.sh`
+//! runs first). Screenshots are kept in the test's temp folder as artifacts.
+
+mod common;
+
+use serde_json::{json, Value};
+use std::io::{Read, Write};
+use std::net::TcpStream;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+const CHROME_ARGS: &[&str] = &[
+    "--headless",
+    "--no-sandbox",
+    "--no-first-run",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--disable-quic",
+    "--enable-unsafe-webgpu",
+    "--enable-unsafe-swiftshader",
+    "--enable-features=Vulkan",
+    "--use-vulkan=swiftshader",
+    "--use-angle=swiftshader",
+    "--window-size=800,640",
+];
+
+/// Kills a child process when dropped.
+struct Guard(Child);
+impl Drop for Guard {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
+}
+
+/// One HTTP/1.1 request with a JSON body; returns the JSON reply.
+fn http(port: u16, method: &str, path: &str, body: Option<&Value>) -> Value {
+    let body = body.map(|b| b.to_string()).unwrap_or_default();
+    let mut s = TcpStream::connect(("127.0.0.1", port)).unwrap();
+    s.set_read_timeout(Some(Duration::from_secs(120))).unwrap();
+    write!(
+        s,
+        "{method} {path} HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/json\r\nContent-Length: {}\r\nConnection: close\r\n\r\n{body}",
+        body.len()
+    )
+    .unwrap();
+    // Read the head, then exactly Content-Length bytes (chromedriver may keep
+    // the connection open whatever we ask).
+    let mut out = Vec::new();
+    let mut byte = [0u8; 4096];
+    let head_end = loop {
+        let n = s.read(&mut byte).unwrap();
+        assert!(n > 0, "connection closed before the reply's head");
+        out.extend_from_slice(&byte[..n]);
+        if let Some(i) = out.windows(4).position(|w| w == b"\r\n\r\n") {
+            break i + 4;
+        }
+    };
+    let head = String::from_utf8_lossy(&out[..head_end]).to_ascii_lowercase();
+    let len = head
+        .lines()
+        .find_map(|l| l.strip_prefix("content-length:").map(|v| v.trim().parse::<usize>().unwrap_or(0)))
+        .unwrap_or(0);
+    while out.len() < head_end + len {
+        let n = s.read(&mut byte).unwrap();
+        if n == 0 {
+            break;
+        }
+        out.extend_from_slice(&byte[..n]);
+    }
+    serde_json::from_slice(&out[head_end..(head_end + len).min(out.len())]).unwrap_or(Value::Null)
+}
+
+struct Browser {
+    port: u16,
+    session: String,
+    _driver: Guard,
+}
+
+impl Browser {
+    fn start(profile: &Path) -> Browser {
+        let driver_bin = std::env::var("CHROMEDRIVER").unwrap_or_else(|_| "/usr/bin/chromedriver".into());
+        let port = free_port();
+        let driver = Command::new(&driver_bin)
+            .arg(format!("--port={port}"))
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .unwrap_or_else(|e| panic!("{driver_bin}: {e} (pkg-scripts/setup.sh installs chromium-driver)"));
+        let driver = Guard(driver);
+        let deadline = Instant::now() + Duration::from_secs(20);
+        while TcpStream::connect(("127.0.0.1", port)).is_err() {
+            assert!(Instant::now() < deadline, "chromedriver did not start");
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        let mut args: Vec<String> = CHROME_ARGS.iter().map(|s| s.to_string()).collect();
+        args.push(format!("--user-data-dir={}", profile.display()));
+        let caps = json!({"capabilities": {"alwaysMatch": {"browserName": "chrome",
+            "goog:chromeOptions": {"binary": std::env::var("CHROMIUM").unwrap_or_else(|_| "/usr/bin/chromium".into()), "args": args}}}});
+        let v = http(port, "POST", "/session", Some(&caps));
+        let session = v["value"]["sessionId"].as_str().unwrap_or_else(|| panic!("no session: {v}")).to_string();
+        Browser { port, session, _driver: driver }
+    }
+
+    fn go(&self, url: &str) {
+        http(self.port, "POST", &format!("/session/{}/url", self.session), Some(&json!({"url": url})));
+    }
+
+    /// Runs `script` (a function body; `arguments` holds `args`) and returns its value.
+    fn js(&self, script: &str, args: Value) -> Value {
+        let v = http(
+            self.port,
+            "POST",
+            &format!("/session/{}/execute/sync", self.session),
+            Some(&json!({"script": script, "args": args})),
+        );
+        v["value"].clone()
+    }
+
+    /// Runs an async script: it must call `arguments[arguments.length - 1](result)`.
+    fn js_async(&self, script: &str, args: Value) -> Value {
+        http(self.port, "POST", &format!("/session/{}/timeouts", self.session), Some(&json!({"script": 120000})));
+        let v = http(
+            self.port,
+            "POST",
+            &format!("/session/{}/execute/async", self.session),
+            Some(&json!({"script": script, "args": args})),
+        );
+        v["value"].clone()
+    }
+
+    fn screenshot(&self, path: &Path) -> Vec<u8> {
+        let v = http(self.port, "GET", &format!("/session/{}/screenshot", self.session), None);
+        let b64 = v["value"].as_str().expect("screenshot");
+        use base64::Engine;
+        let png = base64::engine::general_purpose::STANDARD.decode(b64).unwrap();
+        std::fs::write(path, &png).unwrap();
+        png
+    }
+
+    /// Polls `script` until it returns true, or panics with `what`.
+    fn wait(&self, what: &str, script: &str, secs: u64) {
+        let deadline = Instant::now() + Duration::from_secs(secs);
+        loop {
+            if self.js(script, json!([])) == json!(true) {
+                return;
+            }
+            assert!(Instant::now() < deadline, "timed out waiting for {what}; page says {}", self.js(STATE, json!([])));
+            std::thread::sleep(Duration::from_millis(200));
+        }
+    }
+}
+
+impl Drop for Browser {
+    fn drop(&mut self) {
+        http(self.port, "DELETE", &format!("/session/{}", self.session), None);
+    }
+}
+
+/// What the first player shows: message, stats text, frame.
+const STATE: &str = "const p = document.getElementById('a'); const r = p.shadowRoot; \
+    return {msg: r.querySelector('.msg').textContent, stats: r.querySelector('.stats').textContent, \
+    frame: p.dataset.frame, decoded: (p.frames || []).length, error: document.getElementById('error').textContent};";
+
+/// Pixels of the screenshot that differ from the renderer's background, in the viewer's area.
+fn figure_pixels(png_bytes: &[u8]) -> (usize, Vec<u8>) {
+    let dec = png::Decoder::new(std::io::Cursor::new(png_bytes));
+    let mut r = dec.read_info().unwrap();
+    let mut buf = vec![0; r.output_buffer_size().unwrap()];
+    let info = r.next_frame(&mut buf).unwrap();
+    let ch = info.color_type.samples();
+    let bg = cgv::render::BACKGROUND;
+    let px: Vec<u8> = buf[..info.buffer_size()].to_vec();
+    let fig = px
+        .chunks_exact(ch)
+        .filter(|p| {
+            // Lit surface: brighter than the page's dark greys.
+            p[..3].iter().zip(bg).all(|(a, b)| *a > b.saturating_add(40))
+        })
+        .count();
+    (fig, px)
+}
+
+/// A folder with the viewer (www/ and its pkg/) and the fixtures, served.
+fn site() -> (PathBuf, Guard, u16) {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let pkg = root.join("www/pkg/cgv_bg.wasm");
+    assert!(pkg.exists(), "{} is missing: build the web package with pkg-scripts/web.sh first", pkg.display());
+    let dir = common::temp_dir("browser-site");
+    for f in ["index.html", "cgv-player.js"] {
+        std::fs::copy(root.join("www").join(f), dir.join(f)).unwrap();
+    }
+    std::fs::create_dir_all(dir.join("pkg")).unwrap();
+    for e in std::fs::read_dir(root.join("www/pkg")).unwrap() {
+        let e = e.unwrap();
+        std::fs::copy(e.path(), dir.join("pkg").join(e.file_name())).unwrap();
+    }
+    for f in ["walk-cgv.cgv", "walk-gv.cgv", "walk-cgv.cgv.cgv.positions", "walk-gv.cgv.cgv.positions"] {
+        std::fs::copy(root.join("tests/fixtures/v1").join(f), dir.join(f)).unwrap();
+    }
+    // A corrupt copy: one flipped byte in the middle.
+    let mut bad = std::fs::read(dir.join("walk-cgv.cgv")).unwrap();
+    let k = bad.len() / 2;
+    bad[k] ^= 0x55;
+    std::fs::write(dir.join("corrupt.cgv"), bad).unwrap();
+    let port = free_port();
+    let server = Command::new(env!("CARGO_BIN_EXE_cgv"))
+        .args(["serve", dir.to_str().unwrap(), "--port", &port.to_string()])
+        .stdout(Stdio::null())
+        .spawn()
+        .unwrap();
+    let server = Guard(server);
+    let deadline = Instant::now() + Duration::from_secs(10);
+    while TcpStream::connect(("127.0.0.1", port)).is_err() {
+        assert!(Instant::now() < deadline, "cgv serve did not start");
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    (dir, server, port)
+}
+
+/// In the page: WebCodecs' luma samples of the GV fixture against the
+/// native decode (through its dequantized positions, which pin every
+/// sample), and the page's CGV reconstruction against the native one.
+const EXACTNESS: &str = r#"
+const done = arguments[arguments.length - 1];
+(async () => {
+  const m = await import('/cgv-player.js');
+  await m.loadWasm();
+  const { Player } = await import('/pkg/cgv.js');
+  const get = async (u) => new Uint8Array(await (await fetch(u)).arrayBuffer());
+  // GV: every luma sample WebCodecs gives equals the native openh264 sample.
+  const gv = new Player('');
+  gv.push(await get('/walk-gv.cgv'));
+  const h = JSON.parse(gv.header_json());
+  const n = h.grid, N = n * n;
+  const want = new Float32Array((await get('/walk-gv.cgv.cgv.positions')).buffer);
+  let samples = 0, mismatches = 0;
+  const decs = h.streams.map(() => new m.LumaDecoder(n));
+  for (let f = 0; f < h.frames; f++) {
+    for (let s = 0; s < h.streams.length; s++) {
+      const luma = await decs[s].decode(gv.access_unit(s, f), f);
+      const q = h.streams[s].quant, step = (q.max - q.min) / 255;
+      for (let i = 0; i < N; i++) {
+        const expected = Math.round((want[(f * N + i) * 3 + s] - q.min) / step);
+        samples++;
+        if (luma[i] !== expected) mismatches++;
+      }
+    }
+  }
+  // CGV: the page's own decode of the fixture against the native positions.
+  const p = document.getElementById('a');
+  const cgvWant = new Float32Array((await get('/walk-cgv.cgv.cgv.positions')).buffer);
+  let worst = 0;
+  p.frames.forEach((x, f) => x.forEach((v, i) => { worst = Math.max(worst, Math.abs(v - cgvWant[f * x.length + i])); }));
+  done({ samples, mismatches, worst, frames: p.frames.length });
+})().catch((e) => done({ error: String(e && e.stack || e) }));
+"#;
+
+#[test]
+fn viewer_plays_renders_and_recovers_in_headless_chromium() {
+    let (dir, _server, port) = site();
+    let art = common::temp_dir("browser-artifacts");
+    let browser = Browser::start(&dir.join("profile"));
+    let base = format!("http://127.0.0.1:{port}");
+    let frames_loaded = "const p = document.getElementById('a'); return (p.frames || []).length === 4;";
+
+    for (backend, query) in [("WebGPU", ""), ("WebGL2", "&webgl")] {
+        browser.go(&format!("{base}/?src=walk-cgv.cgv&autoplay{query}"));
+        browser.wait("the fixture's 4 frames", frames_loaded, 90);
+        let state = browser.js(STATE, json!([]));
+        assert!(state["stats"].as_str().unwrap_or("").starts_with(backend), "{backend}: {state}");
+        // Playing (looping): the frame counter moves.
+        let mut seen = std::collections::BTreeSet::new();
+        for _ in 0..15 {
+            seen.insert(browser.js(STATE, json!([]))["frame"].to_string());
+            std::thread::sleep(Duration::from_millis(70));
+        }
+        assert!(seen.len() >= 2, "{backend}: the frame counter did not advance ({seen:?})");
+        // Two times, two pictures: both show the figure, and they differ.
+        let shots: Vec<(usize, Vec<u8>)> = [0, 3]
+            .iter()
+            .map(|&f| {
+                browser.js(
+                    &format!("const p = document.getElementById('a'); p.pause(); p.show({f}); return true;"),
+                    json!([]),
+                );
+                std::thread::sleep(Duration::from_millis(300));
+                figure_pixels(&browser.screenshot(&art.join(format!("{backend}-frame{f}.png"))))
+            })
+            .collect();
+        for (i, (fig, _)) in shots.iter().enumerate() {
+            assert!(*fig > 2000, "{backend} shot {i}: only {fig} figure pixels (see {})", art.display());
+        }
+        assert_ne!(shots[0].1, shots[1].1, "{backend}: frames 0 and 3 look identical");
+    }
+
+    // Exactness against the native decoder, inside the page (WebGL2 page still loaded).
+    let r = browser.js_async(EXACTNESS, json!([]));
+    assert!(r.get("error").is_none(), "{r}");
+    assert_eq!(r["frames"], 4, "{r}");
+    assert!(r["samples"].as_u64().unwrap_or(0) == 4 * 3 * 256 && r["mismatches"] == 0, "WebCodecs vs openh264: {r}");
+    // The fixture's tolerance for the cgv decoder (tests/fixtures.rs): 1e-5 of the diagonal.
+    let diag = 2.2151663f64;
+    assert!(r["worst"].as_f64().unwrap() <= 1e-5 * diag, "wasm vs native reconstruction: {r}");
+
+    // A corrupt file: a clear error on the page; then a good file plays.
+    browser.go(&format!("{base}/?src=corrupt.cgv"));
+    browser.wait(
+        "an error message",
+        "const p = document.getElementById('a'); return p.shadowRoot.querySelector('.msg').textContent.includes('Cannot play');",
+        60,
+    );
+    let state = browser.js(STATE, json!([]));
+    assert!(
+        state["error"].as_str().unwrap_or("").contains("CRC") || state["msg"].as_str().unwrap_or("").contains("CRC"),
+        "{state}"
+    );
+    browser.screenshot(&art.join("corrupt.png"));
+    browser.js("document.getElementById('a').load('walk-gv.cgv'); return true;", json!([]));
+    browser.wait("the good file after the bad one", frames_loaded, 60);
+    let (fig, _) = figure_pixels(&browser.screenshot(&art.join("after-corrupt.png")));
+    assert!(fig > 2000, "after a corrupt file the viewer shows {fig} figure pixels");
+    eprintln!("screenshots in {}", art.display());
+}

@@ -1,0 +1,364 @@
+// <cgv-player src="motion.cgv" autoplay loop mode="shaded">: plays a .cgv
+// file. The wasm core parses the file as it streams in and rebuilds each
+// frame; H.264 is decoded here with WebCodecs; the shared wgpu renderer draws
+// with WebGPU, or WebGL2 when the browser has no WebGPU adapter.
+//
+// Events: "cgv-status" (detail: stats), "cgv-error" (detail: message),
+// "cgv-camera" (detail: camera state, for synchronizing views).
+
+import init, { Player, View } from './pkg/cgv.js';
+
+let ready = null;
+/** Loads the wasm module once per page. */
+export function loadWasm(url) {
+  if (!ready) ready = init(url ? { module_or_path: url } : undefined);
+  return ready;
+}
+
+/** The WebCodecs codec string of the SPS in an Annex-B access unit. */
+export function codecString(au) {
+  for (let i = 0; i + 4 < au.length; i++) {
+    if (au[i] === 0 && au[i + 1] === 0 && au[i + 2] === 1 && (au[i + 3] & 0x1f) === 7) {
+      const hex = (b) => b.toString(16).padStart(2, '0');
+      return `avc1.${hex(au[i + 4])}${hex(au[i + 5])}${hex(au[i + 6])}`;
+    }
+  }
+  return 'avc1.42001f';
+}
+
+/** Whether an access unit holds an IDR picture (a key frame for WebCodecs). */
+export function isKey(au) {
+  for (let i = 0; i + 3 < au.length; i++) {
+    if (au[i] === 0 && au[i + 1] === 0 && au[i + 2] === 1 && (au[i + 3] & 0x1f) === 5) return true;
+  }
+  return false;
+}
+
+/** One H.264 stream through WebCodecs, picture by picture, luma only. */
+export class LumaDecoder {
+  constructor(size) {
+    this.size = size;
+    this.waiting = [];
+    this.ready = [];
+    this.error = null;
+    this.decoder = null;
+  }
+  async decode(au, timestamp) {
+    if (!this.decoder) {
+      this.decoder = new VideoDecoder({
+        output: (frame) => this._output(frame),
+        error: (e) => { this.error = e; this.waiting.splice(0).forEach((w) => w.reject(e)); },
+      });
+      const config = { codec: codecString(au), optimizeForLatency: true };
+      const support = await VideoDecoder.isConfigSupported(config);
+      if (!support.supported) throw new Error(`this browser cannot decode ${config.codec} with WebCodecs`);
+      this.decoder.configure(config);
+    }
+    if (this.error) throw this.error;
+    const got = new Promise((resolve, reject) => this.waiting.push({ resolve, reject }));
+    this.decoder.decode(new EncodedVideoChunk({ type: isKey(au) ? 'key' : 'delta', timestamp, data: au }));
+    return got;
+  }
+  async _output(frame) {
+    try {
+      // The coded size can exceed the picture (64x66 for 64x64): take the visible rect.
+      const n = this.size;
+      const rect = { x: frame.visibleRect.x, y: frame.visibleRect.y, width: n, height: n };
+      const buf = new Uint8Array(frame.allocationSize({ rect }));
+      const layout = await frame.copyTo(buf, { rect });
+      const y = layout[0];
+      const luma = new Uint8Array(n * n);
+      for (let r = 0; r < n; r++) luma.set(buf.subarray(y.offset + r * y.stride, y.offset + r * y.stride + n), r * n);
+      const w = this.waiting.shift();
+      if (w) w.resolve(luma);
+    } catch (e) {
+      const w = this.waiting.shift();
+      if (w) w.reject(e);
+    } finally {
+      frame.close();
+    }
+  }
+  close() {
+    if (this.decoder && this.decoder.state !== 'closed') this.decoder.close();
+  }
+}
+
+const STYLE = `
+:host { display: block; position: relative; background: #12141a; color: #ddd; font: 13px system-ui, sans-serif; min-height: 200px; }
+canvas { width: 100%; height: 100%; display: block; touch-action: none; }
+.wrap { position: relative; width: 100%; height: calc(100% - 44px); min-height: 160px; }
+.bar { display: flex; gap: 6px; align-items: center; padding: 6px; height: 32px; flex-wrap: nowrap; }
+.bar input[type=range] { flex: 1; min-width: 60px; }
+button, select { background: #2a2e38; color: #eee; border: 1px solid #444; border-radius: 4px; padding: 3px 8px; }
+.stats { position: absolute; top: 6px; left: 6px; background: #000a; padding: 4px 6px; border-radius: 4px; white-space: pre; font: 11px ui-monospace, monospace; pointer-events: none; }
+.msg { position: absolute; inset: 0; display: none; align-items: center; justify-content: center; text-align: center; padding: 20px; background: #12141aee; }
+.msg.on { display: flex; }
+.msg.error { color: #ff8a80; }
+.progress { position: absolute; left: 0; bottom: 0; height: 3px; background: #4caf50; width: 0; transition: width .2s; }
+`;
+
+export class CgvPlayer extends HTMLElement {
+  static get observedAttributes() { return ['src', 'mode']; }
+
+  constructor() {
+    super();
+    const root = this.attachShadow({ mode: 'open' });
+    root.innerHTML = `<style>${STYLE}</style>
+      <div class="wrap"><canvas></canvas><div class="stats"></div><div class="progress"></div><div class="msg"></div></div>
+      <div class="bar">
+        <button class="play" title="play / pause">▶</button>
+        <input class="slider" type="range" min="0" max="0" value="0" title="frame">
+        <span class="counter">0 / 0</span>
+        <select class="speed" title="speed"><option value="0.25">¼×</option><option value="0.5">½×</option><option value="1" selected>1×</option><option value="2">2×</option></select>
+        <label title="loop"><input class="loop" type="checkbox"> loop</label>
+        <select class="mode" title="colour"><option>shaded</option><option value="lambda">λ</option><option value="h">H</option><option>error</option></select>
+      </div>`;
+    this.$ = (s) => root.querySelector(s);
+    this.canvas = this.$('canvas');
+    this.frames = [];
+    this.playing = false;
+    this.current = 0;
+    this.generation = 0;
+    this.stats = { backend: '–', fps: 0, decodeMs: 0, reconstructMs: 0, kbps: 0, grid: 0, frames: 0, decoded: 0, firstFrameMs: null };
+    this.$('.play').onclick = () => (this.playing ? this.pause() : this.play());
+    this.$('.slider').oninput = (e) => { this.pause(); this.show(+e.target.value); };
+    this.$('.loop').onchange = (e) => this.toggleAttribute('loop', e.target.checked);
+    this.$('.mode').onchange = (e) => this.setAttribute('mode', e.target.value);
+    this._pointers();
+  }
+
+  connectedCallback() {
+    this.$('.loop').checked = this.hasAttribute('loop');
+    if (this.getAttribute('mode')) this.$('.mode').value = this.getAttribute('mode');
+    new ResizeObserver(() => this._resize()).observe(this.canvas);
+  }
+
+  attributeChangedCallback(name, _old, value) {
+    if (name === 'src' && value) this.load(value);
+    if (name === 'mode') { this.$('.mode').value = value; this.show(this.current); }
+  }
+
+  get mode() { return this.getAttribute('mode') || 'shaded'; }
+
+  message(text, isError) {
+    const m = this.$('.msg');
+    m.textContent = text || '';
+    m.className = 'msg' + (text ? ' on' : '') + (isError ? ' error' : '');
+    if (isError) this.dispatchEvent(new CustomEvent('cgv-error', { detail: text, bubbles: true }));
+  }
+
+  /** Loads a URL (streamed), a File/Blob, or an ArrayBuffer. */
+  async load(source) {
+    const gen = ++this.generation;
+    this.pause();
+    this.frames = [];
+    this.current = 0;
+    this.stats.decoded = 0;
+    this.stats.firstFrameMs = null;
+    this.t0 = performance.now();
+    this.message('loading…');
+    try {
+      if (typeof VideoDecoder === 'undefined') {
+        throw new Error('This browser has no WebCodecs VideoDecoder, which the viewer needs to decode H.264. Try a recent Chrome, Edge or Safari.');
+      }
+      await loadWasm();
+      this.player = new Player('');
+      this.decoders?.forEach((d) => d.close());
+      this.decoders = null;
+      const feed = async (bytes) => { this.player.push(bytes); this._header(gen); this._pump(gen); };
+      if (typeof source === 'string') {
+        const resp = await fetch(source);
+        if (!resp.ok) throw new Error(`${source}: HTTP ${resp.status}`);
+        const reader = resp.body.getReader();
+        for (;;) {
+          const { done, value } = await reader.read();
+          if (gen !== this.generation) return;
+          if (done) break;
+          await feed(value);
+        }
+      } else {
+        const buf = source instanceof ArrayBuffer ? source : await source.arrayBuffer();
+        await feed(new Uint8Array(buf));
+      }
+      if (!this.player.is_complete()) throw new Error('the file ended early (truncated)');
+    } catch (e) {
+      if (gen === this.generation) this.message(`Cannot play this file: ${e.message || e}`, true);
+    }
+  }
+
+  async _header(gen) {
+    if (this.header || !this.player.header_json()) return;
+    this.header = JSON.parse(this.player.header_json());
+  }
+
+  async _pump(gen) {
+    if (this.pumping || gen !== this.generation) return;
+    this.pumping = true;
+    try {
+      const h = JSON.parse(this.player.header_json() || 'null');
+      if (!h) return;
+      this.header = h;
+      if (!this.view || this.viewGrid !== h.grid) {
+        this._resize();
+        this.view = await View.create(this.canvas, h.grid, this.hasAttribute('webgl'));
+        this.viewGrid = h.grid;
+        this.stats.backend = this.view.backend();
+      }
+      if (!this.decoders) this.decoders = h.streams.map(() => new LumaDecoder(h.grid));
+      this.$('.slider').max = h.frames - 1;
+      this.stats.grid = h.grid;
+      this.stats.frames = h.frames;
+      while (gen === this.generation && this.player.next_frame() < this.player.complete_frames()) {
+        const f = this.player.next_frame();
+        const t = performance.now();
+        const lumas = await Promise.all(h.streams.map((_, s) =>
+          this.player.has_frame(s, f) ? this.decoders[s].decode(this.player.access_unit(s, f), f) : null));
+        const t1 = performance.now();
+        lumas.forEach((l, s) => { if (l) this.player.supply_luma(s, l); });
+        const x = this.player.decode_next();
+        const t2 = performance.now();
+        if (gen !== this.generation) return;
+        const k = this.frames.length;
+        this.stats.decodeMs = (this.stats.decodeMs * k + (t1 - t)) / (k + 1);
+        this.stats.reconstructMs = (this.stats.reconstructMs * k + (t2 - t1)) / (k + 1);
+        this.frames.push(x);
+        this.stats.decoded = this.frames.length;
+        this.stats.kbps = this.player.bytes() * 8 / 1000 / (this.frames.length / h.fps);
+        this.$('.progress').style.width = `${100 * this.frames.length / h.frames}%`;
+        if (this.frames.length === 1) {
+          this.message('');
+          this.show(0);
+          this.stats.firstFrameMs = performance.now() - this.t0;
+          if (this.hasAttribute('autoplay')) this.play();
+        }
+        this._status();
+        // Let the page breathe between frames.
+        await new Promise((r) => setTimeout(r, 0));
+      }
+      if (this.player.is_complete()) this.stats.kbps = this.player.bytes() * 8 / 1000 / (h.frames / h.fps);
+    } catch (e) {
+      if (gen === this.generation) this.message(`Cannot play this file: ${e.message || e}`, true);
+    } finally {
+      this.pumping = false;
+    }
+  }
+
+  show(f) {
+    if (!this.view || !this.frames.length) return;
+    f = Math.max(0, Math.min(f, this.frames.length - 1));
+    this.current = f;
+    try {
+      // The error map measures against the same frame of a reference player
+      // (el.reference = otherPlayer), e.g. GV against CGV of one motion.
+      const ref = this.reference?.frames?.[f];
+      this.view.set_reference(this.mode === 'error' && ref ? ref : new Float32Array(0));
+      this.view.set_frame(this.frames[f], this.mode);
+      this.view.draw();
+    } catch (e) {
+      this.message(`Cannot draw: ${e.message || e}`, true);
+    }
+    this.$('.slider').value = f;
+    this.$('.counter').textContent = `${f + 1} / ${this.header ? this.header.frames : 0}`;
+    this.dataset.frame = f;
+  }
+
+  /** Shows the frame at a shared clock time (seconds), for synchronized views. */
+  seek(seconds) {
+    if (!this.header) return;
+    const n = this.header.frames;
+    let f = Math.floor(seconds * this.header.fps);
+    f = this.hasAttribute('loop') ? f % n : Math.min(f, n - 1);
+    if (f < this.frames.length) this.show(f);
+  }
+
+  play() {
+    if (this.playing || !this.frames.length) return;
+    this.playing = true;
+    this.$('.play').textContent = '❚❚';
+    let last = performance.now();
+    let clock = this.current / (this.header?.fps || 30);
+    let drawn = 0, fpsStart = last;
+    const tick = (now) => {
+      if (!this.playing) return;
+      const speed = +this.$('.speed').value;
+      const n = this.header.frames;
+      const target = Math.floor((clock + (now - last) / 1000 * speed) * this.header.fps);
+      if (target < this.frames.length || this.frames.length === n) {
+        clock += (now - last) / 1000 * speed;
+        let f = Math.floor(clock * this.header.fps);
+        if (f >= n) {
+          if (this.hasAttribute('loop')) { clock = 0; f = 0; } else { this.pause(); return; }
+        }
+        this.show(Math.min(f, this.frames.length - 1));
+        drawn++;
+      }
+      // else: reconstruction is behind; hold the frame until it catches up.
+      last = now;
+      if (now - fpsStart > 1000) { this.stats.fps = drawn * 1000 / (now - fpsStart); drawn = 0; fpsStart = now; this._status(); }
+      requestAnimationFrame(tick);
+    };
+    requestAnimationFrame(tick);
+  }
+
+  pause() {
+    this.playing = false;
+    this.$('.play').textContent = '▶';
+  }
+
+  _status() {
+    const s = this.stats;
+    this.$('.stats').textContent =
+      `${s.backend} · ${s.fps.toFixed(0)} fps\n` +
+      `decode ${s.decodeMs.toFixed(1)} ms · rebuild ${s.reconstructMs.toFixed(1)} ms /frame\n` +
+      `${s.kbps.toFixed(0)} kbit/s · N=${s.grid} · ${s.decoded}/${s.frames} frames`;
+    this.dispatchEvent(new CustomEvent('cgv-status', { detail: { ...s, frame: this.current }, bubbles: true }));
+  }
+
+  _resize() {
+    const r = this.canvas.getBoundingClientRect();
+    const dpr = Math.min(window.devicePixelRatio || 1, 2);
+    const w = Math.max(1, Math.round(r.width * dpr)), h = Math.max(1, Math.round(r.height * dpr));
+    if (this.canvas.width !== w || this.canvas.height !== h) {
+      this.canvas.width = w;
+      this.canvas.height = h;
+      if (this.view) { this.view.resize(w, h); this.show(this.current); }
+    }
+  }
+
+  /** Camera state [target xyz, distance, yaw, pitch] and its setter, for syncing views. */
+  get camera() { return this.view ? Array.from(this.view.camera_state()) : null; }
+  set camera(s) { if (this.view && s) { this.view.set_camera_state(new Float32Array(s)); this.show(this.current); } }
+
+  _cameraMoved() {
+    this.show(this.current);
+    this.dispatchEvent(new CustomEvent('cgv-camera', { detail: this.camera, bubbles: true }));
+  }
+
+  _pointers() {
+    const c = this.canvas;
+    const pts = new Map();
+    let pinch = 0;
+    c.addEventListener('pointerdown', (e) => { c.setPointerCapture(e.pointerId); pts.set(e.pointerId, [e.clientX, e.clientY]); });
+    c.addEventListener('pointerup', (e) => { pts.delete(e.pointerId); pinch = 0; });
+    c.addEventListener('pointercancel', (e) => { pts.delete(e.pointerId); pinch = 0; });
+    c.addEventListener('pointermove', (e) => {
+      if (!pts.has(e.pointerId) || !this.view) return;
+      const [x0, y0] = pts.get(e.pointerId);
+      pts.set(e.pointerId, [e.clientX, e.clientY]);
+      if (pts.size === 2) {
+        const [a, b] = [...pts.values()];
+        const d = Math.hypot(a[0] - b[0], a[1] - b[1]);
+        if (pinch) this.view.zoom(pinch / d);
+        pinch = d;
+      } else {
+        const h = c.getBoundingClientRect().height || 1;
+        this.view.drag((e.clientX - x0) / h, (e.clientY - y0) / h);
+      }
+      this._cameraMoved();
+    });
+    c.addEventListener('wheel', (e) => { e.preventDefault(); if (this.view) { this.view.zoom(Math.exp(e.deltaY * 0.001)); this._cameraMoved(); } }, { passive: false });
+    c.addEventListener('dblclick', () => { if (this.view) { this.view.reset(); this._cameraMoved(); } });
+  }
+}
+
+customElements.define('cgv-player', CgvPlayer);
