@@ -1,15 +1,29 @@
 #!/usr/bin/env bash
-# The main job: set up what is missing, then turn the embedded default motion
-# (a walking figure, 72 frames) into a seamless geometry-image sequence.
+# The main job: set up what is missing, build the CLI and the web viewer,
+# turn the embedded default motion (a walking figure, 72 frames) into a
+# geometry-image sequence and into .cgv files (the project's CGV and the GV
+# baseline), draw one frame, and serve the viewer with both, side by side.
+# CGV_DEMO_NO_SERVE=1 stops before serving; PORT picks the port (8080).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 source pkg-scripts/setup.sh
 
 cargo build --release --bin cgv
+bash pkg-scripts/web.sh
 cgv="$CARGO_TARGET_DIR/release/cgv"
-mkdir -p out/demo
-"$cgv" info builtin:walk
+mkdir -p out/demo www/media
+"$cgv" info builtin:walk --quick
 "$cgv" remesh builtin:walk -o out/demo/walk.glb --grid 128
+"$cgv" encode builtin:walk -o www/media/walk.cgv --codec cgv --grid 128 --qp 30
+"$cgv" encode builtin:walk -o www/media/walk-gv.cgv --codec gv --grid 128 --qp 12
+"$cgv" render www/media/walk.cgv --frame 36 -o out/demo/walk-36.png
 echo
-echo "Open out/demo/walk.glb in any glTF viewer (it plays as a morph-target animation);"
-echo "out/demo/walk.png is its first geometry image (x, y, z as r, g, b)."
+echo "out/demo/walk.glb plays in any glTF viewer; out/demo/walk-36.png is frame 36 as cgv draws it."
+port="${PORT:-8080}"
+if [ "${CGV_DEMO_NO_SERVE:-0}" = 1 ]; then
+  echo "viewer: $cgv serve www --port $port, then open http://127.0.0.1:$port/?src=media/walk.cgv&compare=media/walk-gv.cgv&autoplay"
+  exit 0
+fi
+echo "Open http://127.0.0.1:$port/?src=media/walk.cgv&compare=media/walk-gv.cgv&autoplay"
+echo "(left: the project's CGV, right: GV at about the same size; Ctrl-C stops the server)"
+exec "$cgv" serve www --port "$port"

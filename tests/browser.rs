@@ -318,8 +318,18 @@ fn viewer_plays_renders_and_recovers_in_headless_chromium() {
     let diag = 2.2151663f64;
     assert!(r["worst"].as_f64().unwrap() <= 1e-5 * diag, "wasm vs native reconstruction: {r}");
 
-    // A corrupt file: a clear error on the page; then a good file plays.
-    browser.go(&format!("{base}/?src=corrupt.cgv"));
+    // A corrupt file dropped on the page: a clear error; then a good file plays.
+    browser.go(&format!("{base}/"));
+    browser.js_async(
+        "const done = arguments[arguments.length - 1];
+         fetch('/corrupt.cgv').then((r) => r.arrayBuffer()).then((b) => {
+           const dt = new DataTransfer();
+           dt.items.add(new File([b], 'corrupt.cgv'));
+           document.dispatchEvent(new DragEvent('drop', { dataTransfer: dt, bubbles: true, cancelable: true }));
+           done(true);
+         });",
+        json!([]),
+    );
     browser.wait(
         "an error message",
         "const p = document.getElementById('a'); return p.shadowRoot.querySelector('.msg').textContent.includes('Cannot play');",
@@ -336,4 +346,44 @@ fn viewer_plays_renders_and_recovers_in_headless_chromium() {
     let (fig, _) = figure_pixels(&browser.screenshot(&art.join("after-corrupt.png")));
     assert!(fig > 2000, "after a corrupt file the viewer shows {fig} figure pixels");
     eprintln!("screenshots in {}", art.display());
+}
+
+/// Playback speed in the browser on samba at N = 128 (not a pass/fail test:
+/// speed is measured, not asserted). Run:
+/// `cargo test --release --test browser -- --ignored --nocapture`
+/// (after pkg-scripts/web.sh). Prints time to first frame, WebCodecs and
+/// reconstruction ms per frame, and the playback rate.
+#[test]
+#[ignore]
+fn viewer_speed_on_samba_at_128() {
+    let (dir, _server, port) = site();
+    let samba = common::real_sequence("samba");
+    let src = cgv::mesh::open_sequence(samba.to_str().unwrap(), &Default::default()).unwrap();
+    let mut opts = cgv::codec::EncodeOptions { grid: 128, ..Default::default() };
+    opts.video.qp = 30;
+    let (bytes, _) = cgv::codec::encode(src.as_ref(), &opts, &mut |_, _, _| {}).unwrap();
+    std::fs::write(dir.join("samba-128.cgv"), &bytes).unwrap();
+    let browser = Browser::start(&dir.join("profile"));
+    for query in ["", "&webgl"] {
+        browser.go(&format!("http://127.0.0.1:{port}/?src=samba-128.cgv&autoplay{query}"));
+        browser.wait(
+            "all of samba",
+            "const p = document.getElementById('a'); return (p.frames || []).length === 175;",
+            600,
+        );
+        // Let it play from the cache for a few seconds for the frame rate.
+        std::thread::sleep(Duration::from_secs(4));
+        let s = browser.js("return document.getElementById('a').stats;", json!([]));
+        println!(
+            "samba N=128 QP 30 ({} bytes, {:.0} kbit/s): {} first frame after {:.0} ms; WebCodecs {:.2} ms/frame, \
+             reconstruction {:.2} ms/frame, playback {:.0} fps",
+            bytes.len(),
+            s["kbps"].as_f64().unwrap_or(0.0),
+            s["backend"],
+            s["firstFrameMs"].as_f64().unwrap_or(0.0),
+            s["decodeMs"].as_f64().unwrap_or(0.0),
+            s["reconstructMs"].as_f64().unwrap_or(0.0),
+            s["fps"].as_f64().unwrap_or(0.0)
+        );
+    }
 }

@@ -4,7 +4,8 @@
 // with WebGPU, or WebGL2 when the browser has no WebGPU adapter.
 //
 // Events: "cgv-status" (detail: stats), "cgv-error" (detail: message),
-// "cgv-camera" (detail: camera state, for synchronizing views).
+// "cgv-frame" (detail: the frame shown) and "cgv-camera" (detail: camera
+// state), the last two for synchronizing views.
 
 import init, { Player, View } from './pkg/cgv.js';
 
@@ -260,6 +261,7 @@ export class CgvPlayer extends HTMLElement {
     this.$('.slider').value = f;
     this.$('.counter').textContent = `${f + 1} / ${this.header ? this.header.frames : 0}`;
     this.dataset.frame = f;
+    this.dispatchEvent(new CustomEvent('cgv-frame', { detail: f }));
   }
 
   /** Shows the frame at a shared clock time (seconds), for synchronized views. */
