@@ -22,6 +22,11 @@ step "tests (native, and the viewer in headless Chromium)"
 log="$(mktemp)"
 trap 'rm -f "$log"' EXIT
 cargo test --release 2>&1 | tee "$log"
+
+step "wasm tests in headless Chromium (wasm-bindgen-test)"
+export CHROMEDRIVER="${CHROMEDRIVER:-$(command -v chromedriver)}"
+export WASM_BINDGEN_TEST_WEBDRIVER_JSON="$PWD/pkg-scripts/webdriver.json"
+cargo test --release --target wasm32-unknown-unknown --test web 2>&1 | tee -a "$log"
 # One closing line for the whole run (cargo prints one per test binary).
 awk '/^test result:/ { for (i = 2; i <= NF; i++) { if ($i == "passed;") p += $(i-1); if ($i == "failed;") f += $(i-1) } }
      END { printf "tests: %d passed, %d failed\n", p, f }' "$log"
