@@ -95,7 +95,8 @@ async fn decode(name: &str, bytes: &[u8]) -> (Vec<f32>, Vec<Vec<Vec<u8>>>) {
         for s in 0..h.streams.len() {
             if p.has_frame(s, f) {
                 let au = p.access_unit(s, f).unwrap();
-                let l: Vec<u8> = js_sys::Uint8Array::new(&webcodecs_luma(format!("{name}{s}"), au, n, f).await).to_vec();
+                let l: Vec<u8> =
+                    js_sys::Uint8Array::new(&webcodecs_luma(format!("{name}{s}"), au, n, f).await).to_vec();
                 lumas[s].push(l.clone());
                 p.supply_luma(s, l).unwrap();
             }
