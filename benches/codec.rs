@@ -62,9 +62,6 @@ fn bench(c: &mut Criterion) {
                 })
             });
         }
-        if n > 128 {
-            continue; // The paper's solver takes tens of seconds per frame at 256.
-        }
         g.bench_function(format!("reconstruct-paper/{n}"), |b| {
             b.iter(|| {
                 let mut s = PaperSolver::new(st.clone(), anchors.clone());
