@@ -31,7 +31,9 @@
 //! records it in the frame chunk, and codes the remaining error as three
 //! correction streams scaled per frame (closed-loop, like a video codec's
 //! motion-compensated prediction). The decoder adds the decoded correction,
-//! so errors cannot accumulate beyond what the correction streams quantize.
+//! so the error is what the correction streams fail to code: flat at usual
+//! QPs, but when H.264 discards most of a correction (pcow at QP 49) the
+//! error left over is extrapolated too, and grows (docs/RESULTS.md).
 
 use crate::codec::features::Stencils;
 use crate::container::MAX_PREDICTOR;
