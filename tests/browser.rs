@@ -345,6 +345,16 @@ fn viewer_plays_renders_and_recovers_in_headless_chromium() {
     browser.wait("the good file after the bad one", frames_loaded, 60);
     let (fig, _) = figure_pixels(&browser.screenshot(&art.join("after-corrupt.png")));
     assert!(fig > 2000, "after a corrupt file the viewer shows {fig} figure pixels");
+
+    // A browser without WebCodecs: a message that says so, not a blank canvas.
+    browser.go(&format!("{base}/"));
+    browser
+        .js("delete window.VideoDecoder; document.getElementById('a').load('walk-cgv.cgv'); return true;", json!([]));
+    browser.wait(
+        "the no-WebCodecs message",
+        "return document.getElementById('a').shadowRoot.querySelector('.msg').textContent.includes('WebCodecs');",
+        30,
+    );
     eprintln!("screenshots in {}", art.display());
 }
 
