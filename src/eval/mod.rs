@@ -230,11 +230,12 @@ pub fn run(src: &dyn FrameSource, opts: &EvalOptions, progress: &(dyn Fn(&str) +
     let mem =
         InMemory { label: src.label().to_path_buf(), fps: src.fps(), topology: src.topology().clone(), frames: input };
     let prepared = crate::codec::prepare(&mem, &opts.base)?;
-    let grid = Grid::new(opts.base.grid)?;
     let truth: Vec<Vec<Vec3>> = mem.frames.iter().map(|f| prepared.map.apply(f)).collect();
     let diagonal = Bounds::of(&mem.frames[0]).diagonal() as f64;
     progress(&format!("parameterized in {:.1} s", prepared.seconds));
 
+    let grid = Grid::new(opts.base.grid)?;
+    let ctx = Ctx { mem: &mem, prepared: &prepared, truth: &truth, grid, diagonal, opts };
     // Targets.
     let bytes_for_kbps30 = |k: f64| (k * 1000.0 / 8.0 * frames as f64 / 30.0).round() as usize;
     let targets: Vec<(String, usize)> = match &opts.rates {
@@ -245,13 +246,9 @@ pub fn run(src: &dyn FrameSource, opts: &EvalOptions, progress: &(dyn Fn(&str) +
                 let (qp, layers) = PRESETS.iter().find(|p| p.0 == name).map(|p| (p.1, p.2)).ok_or_else(|| {
                     Error::Argument(format!("unknown rate '{name}' (expected low, medium, high, max or ultra)"))
                 })?;
-                let mut o = EvalCodec::Gv.options(&opts.base);
-                o.video.qp = qp;
-                o.video.kbps = None;
-                o.layers = layers;
-                let (bytes, _) = encode_prepared(&mem, &o, &prepared, &mut |_, _, _| {})?;
+                let size = ctx.encode(EvalCodec::Gv, qp, layers, None)?.bytes.len();
                 let what = if layers == 2 { format!("GV at QP {qp}, 2 layers") } else { format!("GV at QP {qp}") };
-                Ok((format!("{name} ({what})"), bytes.len()))
+                Ok((format!("{name} ({what})"), size))
             })
             .collect::<Result<_>>()?,
     };
@@ -263,7 +260,6 @@ pub fn run(src: &dyn FrameSource, opts: &EvalOptions, progress: &(dyn Fn(&str) +
     let jobs: Vec<(usize, EvalCodec)> =
         (0..targets.len()).flat_map(|p| opts.codecs.iter().map(move |&c| (p, c))).collect();
     let done = std::sync::atomic::AtomicUsize::new(0);
-    let ctx = Ctx { mem: &mem, prepared: &prepared, truth: &truth, grid, diagonal, opts };
     let results: Vec<CodecResult> = jobs
         .par_iter()
         .map(|&(p, codec)| {
@@ -341,14 +337,17 @@ struct Ctx<'a> {
 const LOG_SIZE_PER_QP: f64 = -0.11;
 
 impl Ctx<'_> {
-    fn encode(&self, codec: EvalCodec, qp: u8, layers: u8, rc: Option<f32>) -> Result<Try> {
+    /// One encode at constant `qp`, or with `rc = (qp_max, kbps)` the rate
+    /// control choosing QPs in `qp..=qp_max`.
+    fn encode(&self, codec: EvalCodec, qp: u8, layers: u8, rc: Option<(u8, f32)>) -> Result<Try> {
         let mut o = codec.options(&self.opts.base);
         o.video.qp = qp;
-        o.video.kbps = rc;
+        o.video.qp_max = rc.map(|r| r.0);
+        o.video.kbps = rc.map(|r| r.1);
         o.layers = layers;
         let t = std::time::Instant::now();
         let (bytes, _) = encode_prepared(self.mem, &o, self.prepared, &mut |_, _, _| {})?;
-        Ok(Try { qp, layers, rc, bytes, encode_seconds: t.elapsed().as_secs_f64() })
+        Ok(Try { qp, layers, rc: rc.map(|r| r.1), bytes, encode_seconds: t.elapsed().as_secs_f64() })
     }
 
     /// Finds the encode whose size is nearest `target` (see the module doc).
@@ -411,7 +410,7 @@ impl Ctx<'_> {
                 let seconds = self.mem.frames.len() as f64 / self.mem.fps as f64;
                 let mut kbps = (target as f64 * 8.0 / 1000.0 / seconds) as f32;
                 for _ in 0..4 {
-                    let t = self.encode_rc(codec, l.0, h.0, layers, kbps)?;
+                    let t = self.encode(codec, l.0, layers, Some((h.0, kbps)))?;
                     tries += 1;
                     let size = t.bytes.len();
                     keep(t, &mut best);
@@ -426,17 +425,6 @@ impl Ctx<'_> {
         let b = best.ok_or_else(|| Error::Argument("no encode was made".into()))?;
         let hit = within(b.bytes.len());
         Ok((b, hit, tries))
-    }
-
-    fn encode_rc(&self, codec: EvalCodec, qp: u8, qp_max: u8, layers: u8, kbps: f32) -> Result<Try> {
-        let mut o = codec.options(&self.opts.base);
-        o.video.qp = qp;
-        o.video.qp_max = Some(qp_max);
-        o.video.kbps = Some(kbps);
-        o.layers = layers;
-        let t = std::time::Instant::now();
-        let (bytes, _) = encode_prepared(self.mem, &o, self.prepared, &mut |_, _, _| {})?;
-        Ok(Try { qp, layers, rc: Some(kbps), bytes, encode_seconds: t.elapsed().as_secs_f64() })
     }
 
     fn job(&self, codec: EvalCodec, target: usize) -> Result<CodecResult> {
