@@ -179,13 +179,8 @@ const STATE: &str = "const p = document.getElementById('a'); const r = p.shadowR
 
 /// Pixels of the screenshot that differ from the renderer's background, in the viewer's area.
 fn figure_pixels(png_bytes: &[u8]) -> (usize, Vec<u8>) {
-    let dec = png::Decoder::new(std::io::Cursor::new(png_bytes));
-    let mut r = dec.read_info().unwrap();
-    let mut buf = vec![0; r.output_buffer_size().unwrap()];
-    let info = r.next_frame(&mut buf).unwrap();
-    let ch = info.color_type.samples();
+    let (px, ch) = common::decode_png(png_bytes);
     let bg = cgv::render::BACKGROUND;
-    let px: Vec<u8> = buf[..info.buffer_size()].to_vec();
     let fig = px
         .chunks_exact(ch)
         .filter(|p| {

@@ -138,14 +138,10 @@ fn eval_writes_reports_and_plots_or_nothing() {
 
 /// Counts pixels that differ from the renderer's background.
 fn figure_pixels(png_path: &std::path::Path) -> (usize, usize) {
-    let dec = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(png_path).unwrap()));
-    let mut r = dec.read_info().unwrap();
-    let mut buf = vec![0; r.output_buffer_size().unwrap()];
-    let info = r.next_frame(&mut buf).unwrap();
-    let px = &buf[..info.buffer_size()];
+    let (px, ch) = common::decode_png(&std::fs::read(png_path).unwrap());
     let bg = cgv::render::BACKGROUND;
-    let fig = px.chunks_exact(4).filter(|p| p[..3].iter().zip(bg).any(|(a, b)| a.abs_diff(b) > 8)).count();
-    (fig, px.len() / 4)
+    let fig = px.chunks_exact(ch).filter(|p| p[..3].iter().zip(bg).any(|(a, b)| a.abs_diff(b) > 8)).count();
+    (fig, px.len() / ch)
 }
 
 #[test]

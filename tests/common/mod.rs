@@ -185,3 +185,12 @@ pub fn real_sequence(name: &str) -> PathBuf {
     }
     dir
 }
+
+/// Decodes a PNG: its samples and the number of channels per pixel.
+pub fn decode_png(bytes: &[u8]) -> (Vec<u8>, usize) {
+    let mut r = png::Decoder::new(std::io::Cursor::new(bytes)).read_info().unwrap();
+    let mut buf = vec![0; r.output_buffer_size().unwrap()];
+    let info = r.next_frame(&mut buf).unwrap();
+    buf.truncate(info.buffer_size());
+    (buf, info.color_type.samples())
+}
