@@ -1,8 +1,10 @@
-//! The `.cgv` file format, version 1 (documented in `docs/FORMAT.md`).
+//! The `.cgv` file format, versions 1 and 2 (documented in `docs/FORMAT.md`).
+//! Version 2 adds one header field, `corrections` (see [`CorrectionMode`]);
+//! a file that does not use it is still written as version 1.
 //!
 //! ```text
 //! magic    8 bytes   89 43 47 56 0D 0A 1A 0A   ("\x89CGV\r\n\x1a\n")
-//! version  u16 LE    1
+//! version  u16 LE    1 or 2
 //! flags    u16 LE    0
 //! length   u32 LE    header length L (at most 1 MiB)
 //! header   L bytes   UTF-8 JSON (serde), see [`Header`]
@@ -21,7 +23,8 @@ use crate::codec::quant::Quantizer;
 use serde::{Deserialize, Serialize};
 
 pub const MAGIC: [u8; 8] = [0x89, b'C', b'G', b'V', b'\r', b'\n', 0x1A, b'\n'];
-pub const VERSION: u16 = 1;
+/// The newest version this reader reads and this writer writes.
+pub const VERSION: u16 = 2;
 /// Largest header accepted.
 pub const MAX_HEADER: usize = 1 << 20;
 /// Largest chunk payload accepted (an access unit of a 4096² frame at QP 0
@@ -52,6 +55,22 @@ pub enum ContainerError {
     Header(String),
     #[error("at byte {offset}: {msg}")]
     Chunk { offset: usize, msg: String },
+}
+
+/// How a CGV file's correction streams `dx`, `dy`, `dz` correct the cgv
+/// decoder's prediction (see [`crate::solve::cgv`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CorrectionMode {
+    /// Version 1: each frame's decoded values, times the frame's correction
+    /// scale, are added to the prediction.
+    #[default]
+    Scaled,
+    /// Version 2: the difference between this frame's decoded values and
+    /// the previous frame's (zero before frame 0) is added, so the streams
+    /// carry the running sum of the corrections and H.264's cheapest mode,
+    /// a block copied from the previous picture, means "no correction".
+    Motion,
 }
 
 /// Which representation the streams carry.
@@ -186,6 +205,13 @@ pub struct Header {
     pub settings: Settings,
     #[serde(default)]
     pub source: SourceInfo,
+    /// Version 2: how the correction streams apply (absent: scaled).
+    #[serde(default, skip_serializing_if = "is_scaled")]
+    pub corrections: CorrectionMode,
+}
+
+fn is_scaled(m: &CorrectionMode) -> bool {
+    *m == CorrectionMode::Scaled
 }
 
 /// The seam rule written by this version.
@@ -232,11 +258,28 @@ impl Header {
         }
         // The paper's solver needs anchors; the closed loop (correction
         // streams) does not.
-        let closed_loop = self.streams.iter().any(|s| s.scaled);
+        let closed_loop = self.streams.iter().any(|s| s.scaled) || self.corrections == CorrectionMode::Motion;
+        if self.corrections == CorrectionMode::Motion {
+            let names = crate::codec::CORRECTION;
+            let ok = self.codec == CodecKind::Cgv
+                && names.iter().all(|n| self.stream(n).is_some())
+                && self.streams.iter().all(|s| !s.scaled);
+            if !ok {
+                return bad("motion corrections need a CGV file with unscaled dx, dy, dz streams".into());
+            }
+        }
         if self.codec == CodecKind::Cgv && self.anchors.len() < 4 && !closed_loop {
             return bad("a CGV file without correction streams needs at least 4 anchors".into());
         }
         Ok(())
+    }
+
+    /// The format version this header needs: 2 for motion corrections, else 1.
+    pub fn version(&self) -> u16 {
+        match self.corrections {
+            CorrectionMode::Scaled => 1,
+            CorrectionMode::Motion => 2,
+        }
     }
 
     pub fn is_key_frame(&self, f: u32) -> bool {
@@ -272,7 +315,9 @@ impl Header {
     }
 }
 
-/// Writes the file prefix (magic, version, header, CRC).
+/// Writes the file prefix (magic, version, header, CRC). The version is the
+/// oldest that can hold the header ([`Header::version`]), so files that use
+/// no version-2 field stay readable by version-1 readers.
 pub fn write_header(header: &Header) -> Result<Vec<u8>, ContainerError> {
     header.validate()?;
     let json = serde_json::to_vec(header).map_err(|e| ContainerError::Header(e.to_string()))?;
@@ -281,7 +326,7 @@ pub fn write_header(header: &Header) -> Result<Vec<u8>, ContainerError> {
     }
     let mut out = Vec::with_capacity(json.len() + 24);
     out.extend_from_slice(&MAGIC);
-    out.extend_from_slice(&VERSION.to_le_bytes());
+    out.extend_from_slice(&header.version().to_le_bytes());
     out.extend_from_slice(&0u16.to_le_bytes());
     out.extend_from_slice(&(json.len() as u32).to_le_bytes());
     out.extend_from_slice(&json);
@@ -339,6 +384,13 @@ pub fn parse_header(bytes: &[u8]) -> Result<Option<(Header, usize)>, ContainerEr
     let header: Header =
         serde_json::from_slice(&bytes[16..16 + len]).map_err(|e| ContainerError::Header(e.to_string()))?;
     header.validate()?;
+    if header.version() > version {
+        return Err(ContainerError::Header(format!(
+            "a version {version} file cannot use version {} fields (corrections: {:?})",
+            header.version(),
+            header.corrections
+        )));
+    }
     Ok(Some((header, end)))
 }
 
@@ -383,6 +435,8 @@ pub fn parse_chunk(bytes: &[u8], offset: usize) -> Result<Option<(Chunk<'_>, usi
 /// says it must be, with nothing missing or extra.
 #[derive(Debug, Clone)]
 pub struct CgvFile {
+    /// The format version the file declares.
+    pub version: u16,
     pub header: Header,
     /// Access units per stream per frame (empty where the stream has no frame).
     pub units: Vec<Vec<Vec<u8>>>,
@@ -459,7 +513,9 @@ impl StreamReader {
                     let n = header.streams.len();
                     // Allocate per frame only as chunks arrive: a header cannot
                     // make us reserve memory the file does not back.
-                    self.file = Some(CgvFile { header, units: vec![Vec::new(); n], frames: Vec::new(), bytes: 0 });
+                    let version = u16_at(&self.pending, 8);
+                    self.file =
+                        Some(CgvFile { version, header, units: vec![Vec::new(); n], frames: Vec::new(), bytes: 0 });
                     at = len;
                 }
             }

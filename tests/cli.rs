@@ -92,6 +92,26 @@ fn encode_info_and_decode_a_gv_file() {
 }
 
 #[test]
+fn encode_info_and_decode_motion_corrections() {
+    let dir = common::temp_dir("cli-motion");
+    let f = dir.join("walk.cgv");
+    let args = ["encode", "builtin:walk", "--frames", "0..8", "--grid", "16", "--corrections", "motion"];
+    let out = cgv(&[&args[..], &["-o", f.to_str().unwrap()]].concat());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let info = cgv(&["info", f.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&info.stdout);
+    assert!(text.contains("format version 2") && text.contains("corrections   motion"), "{text}");
+    let info = cgv(&["info", f.to_str().unwrap(), "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    assert_eq!((v["version"].as_u64(), v["header"]["corrections"].as_str()), (Some(2), Some("motion")));
+    let glb = dir.join("decoded.glb");
+    let dec = cgv(&["decode", f.to_str().unwrap(), "-o", glb.to_str().unwrap()]);
+    assert!(dec.status.success(), "{}", String::from_utf8_lossy(&dec.stderr));
+    let bad = cgv(&["encode", "builtin:walk", "--corrections", "sideways", "-o", f.to_str().unwrap()]);
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("scaled"), "{}", String::from_utf8_lossy(&bad.stderr));
+}
+
+#[test]
 fn eval_writes_reports_and_plots_or_nothing() {
     let dir = common::temp_dir("cli-eval");
     let p = |n: &str| dir.join(n).to_str().unwrap().to_string();

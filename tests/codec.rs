@@ -3,7 +3,7 @@
 mod common;
 
 use cgv::codec::{encode, h264, EncodeOptions, SequenceDecoder};
-use cgv::container::{self, CodecKind};
+use cgv::container::{self, CodecKind, CorrectionMode};
 use cgv::grid::Grid;
 use cgv::mesh::{Bounds, FrameSource};
 use cgv::param::parameterize;
@@ -104,6 +104,33 @@ fn cgv_round_trip_is_faithful_and_does_not_drift() {
         // Frames 0 and 1 start the loop (no velocity yet); after them, no growth.
         assert!(i < 2 || *rms < 3.0 * mean, "frame {i} drifts: rms {rms}, mean {mean}");
     }
+}
+
+#[test]
+fn motion_corrections_round_trip_without_drift() {
+    // The same 12 frames with motion corrections (format v2): the decoder
+    // applies the change of the running sum, and the closed loop holds.
+    let src = cgv::demo::motion(12);
+    let mut opts =
+        EncodeOptions { codec: CodecKind::Cgv, grid: 64, corrections: CorrectionMode::Motion, ..Default::default() };
+    let (bytes, errs) = round_trip(&src, &opts, SolverKind::Cgv);
+    eprintln!("cgv motion QP 20: {bytes} bytes, {errs:?}");
+    let mean = errs.iter().map(|e| e.0).sum::<f64>() / errs.len() as f64;
+    for (i, (rms, max)) in errs.iter().enumerate() {
+        assert!(*rms < 1e-3 && *max < 5e-3, "frame {i}: rms {rms} max {max}");
+        assert!(i < 2 || *rms < 3.0 * mean, "frame {i} drifts: rms {rms}, mean {mean}");
+    }
+    let (file_bytes, _) = encode(&src, &opts, &mut |_, _, _| {}).unwrap();
+    let file = container::read(&file_bytes).unwrap();
+    assert_eq!((file.version, file.header.corrections), (2, CorrectionMode::Motion));
+    assert!(file.frames.iter().all(|f| f.correction_scale == 0.0 && f.predictor & 3 != 0 || f.predictor == 0));
+
+    // At a coarse QP the loop still holds: no frame strays from the mean.
+    opts.video.qp = 44;
+    let (coarse_bytes, coarse) = round_trip(&src, &opts, SolverKind::Cgv);
+    let mean = coarse.iter().map(|e| e.0).sum::<f64>() / coarse.len() as f64;
+    eprintln!("cgv motion QP 44: {coarse_bytes} bytes, mean {mean:.2e}, {coarse:?}");
+    assert!(mean < 1e-2 && coarse.iter().all(|e| e.0 < 1.5 * mean), "{coarse:?}");
 }
 
 #[test]

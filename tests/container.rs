@@ -1,7 +1,7 @@
 //! The .cgv reader on good, truncated, corrupted and oversized input.
 
 use cgv::codec::quant::Quantizer;
-use cgv::container::{self, CodecKind, ContainerError, Coverage, Header, Settings, StreamInfo};
+use cgv::container::{self, CodecKind, ContainerError, CorrectionMode, Coverage, Header, Settings, StreamInfo};
 
 fn header() -> Header {
     Header {
@@ -41,6 +41,7 @@ fn header() -> Header {
         solver: "cgv".into(),
         settings: Settings { qp: 20, kbps: None, gop: 30, cabac: true, layers: 2, residual_steps: 8.0 },
         source: Default::default(),
+        corrections: CorrectionMode::Scaled,
     }
 }
 
@@ -87,10 +88,67 @@ fn bad_magic_and_versions() {
     assert_eq!(container::read(&bytes).unwrap_err(), ContainerError::BadMagic);
     assert_eq!(container::read(b"GIF89a").unwrap_err(), ContainerError::BadMagic);
     let mut bytes = file(&header());
-    bytes[8] = 2;
-    assert_eq!(container::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 2 });
+    bytes[8] = 3;
+    assert_eq!(container::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 3 });
     bytes[8] = 0;
     assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 0 }));
+}
+
+/// A CGV header with motion corrections (format version 2).
+fn motion_header() -> Header {
+    let mut h = header();
+    h.streams.truncate(2);
+    for name in ["dx", "dy", "dz"] {
+        h.streams.push(StreamInfo {
+            name: name.into(),
+            layer: 1,
+            refines: None,
+            quant: Quantizer::new(-0.1, 0.1),
+            coverage: Coverage::All,
+            scaled: false,
+        });
+    }
+    h.corrections = CorrectionMode::Motion;
+    h
+}
+
+/// Rewrites the version field of a file and its header CRC.
+fn with_version(mut bytes: Vec<u8>, version: u16) -> Vec<u8> {
+    bytes[8..10].copy_from_slice(&version.to_le_bytes());
+    let len = u32::from_le_bytes([bytes[12], bytes[13], bytes[14], bytes[15]]) as usize;
+    let crc = crc32fast::hash(&bytes[8..16 + len]);
+    bytes[16 + len..20 + len].copy_from_slice(&crc.to_le_bytes());
+    bytes
+}
+
+#[test]
+fn version_two_only_where_needed_and_never_in_a_version_one_file() {
+    // Scaled corrections need nothing new: written as version 1, no new field.
+    let bytes = file(&header());
+    assert_eq!(u16::from_le_bytes([bytes[8], bytes[9]]), 1);
+    assert!(!String::from_utf8_lossy(&bytes).contains("corrections"));
+    assert_eq!(container::read(&bytes).unwrap().version, 1);
+    // Motion corrections: version 2, read back whole.
+    let h = motion_header();
+    let bytes = file(&h);
+    assert_eq!(u16::from_le_bytes([bytes[8], bytes[9]]), 2);
+    let f = container::read(&bytes).unwrap();
+    assert_eq!((f.version, &f.header), (2, &h));
+    // A file claiming version 1 with a version-2 field is refused by name.
+    let e = container::read(&with_version(bytes.clone(), 1)).unwrap_err();
+    assert!(matches!(&e, ContainerError::Header(m) if m.contains("version 1") && m.contains("Motion")), "{e}");
+    // A version-2 file may hold a header that version 1 could (another writer).
+    assert_eq!(container::read(&with_version(file(&header()), 2)).unwrap().version, 2);
+    // Motion corrections without all three correction streams, or scaled ones.
+    let mut bad = motion_header();
+    bad.streams.pop();
+    assert!(matches!(container::write_header(&bad).unwrap_err(), ContainerError::Header(_)));
+    let mut bad = motion_header();
+    bad.streams[2].scaled = true;
+    assert!(matches!(container::write_header(&bad).unwrap_err(), ContainerError::Header(_)));
+    let mut bad = motion_header();
+    bad.codec = CodecKind::Gv;
+    assert!(matches!(container::write_header(&bad).unwrap_err(), ContainerError::Header(_)));
 }
 
 #[test]

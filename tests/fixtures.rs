@@ -15,12 +15,13 @@
 //! with rounding (1e-4).
 
 use cgv::codec::{h264, SequenceDecoder};
-use cgv::container::{self, CodecKind};
+use cgv::container::{self, CodecKind, CorrectionMode};
 use cgv::solve::SolverKind;
 use std::path::{Path, PathBuf};
 
 fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/v1").join(name)
+    let version = if name.contains("motion") { "v2" } else { "v1" };
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures").join(version).join(name)
 }
 
 fn decode(path: &Path, solver: SolverKind) -> Vec<f32> {
@@ -67,4 +68,13 @@ fn v1_cgv_fixture_decodes_as_frozen_with_both_solvers() {
     assert!(f.header.streams.iter().any(|s| s.layer == 2 && s.name == "dx"));
     check("walk-cgv.cgv", SolverKind::Cgv, 1e-5);
     check("walk-cgv.cgv", SolverKind::Paper, 1e-4);
+}
+
+#[test]
+fn v2_motion_fixture_decodes_as_frozen() {
+    let f = container::read(&std::fs::read(fixture("walk-cgv-motion.cgv")).unwrap()).unwrap();
+    assert_eq!((f.version, f.header.corrections), (2, CorrectionMode::Motion));
+    assert_eq!((f.header.codec, f.header.grid, f.header.frames), (CodecKind::Cgv, 16, 6));
+    assert!(f.header.streams.iter().any(|s| s.layer == 2 && s.name == "dz"));
+    check("walk-cgv-motion.cgv", SolverKind::Cgv, 1e-5);
 }

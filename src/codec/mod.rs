@@ -20,7 +20,7 @@ pub mod quant;
 #[cfg(not(target_arch = "wasm32"))]
 pub use encode::{encode, encode_prepared, prepare, EncodeOptions, EncodeReport, Prepared, PAPER_ANCHORS};
 
-use crate::container::{CgvFile, CodecKind, Header};
+use crate::container::{CgvFile, CodecKind, CorrectionMode, Header};
 use crate::error::{Error, Result};
 use crate::grid::Grid;
 use crate::solve::cgv::{Predictor, PredictorCode};
@@ -66,8 +66,44 @@ pub struct FrameStats {
 
 enum Rebuild {
     Gv,
-    Cgv(Predictor),
+    Cgv(Predictor, Corrections),
     Paper(PaperSolver),
+}
+
+/// Applies the decoded correction streams to the cgv decoder's prediction,
+/// by the file's [`CorrectionMode`]. Shared by the decoder and the
+/// encoder's closed loop.
+#[derive(Debug, Clone)]
+pub struct Corrections {
+    mode: CorrectionMode,
+    /// Motion mode: the previous frame's decoded values.
+    prev: Option<Vec<Vec3>>,
+}
+
+impl Corrections {
+    pub fn new(mode: CorrectionMode) -> Corrections {
+        Corrections { mode, prev: None }
+    }
+
+    /// Adds this frame's correction (`decoded`: the three streams' values,
+    /// already scaled in scaled mode) to the prediction `x`.
+    pub fn apply(&mut self, x: &mut [Vec3], decoded: Vec<Vec3>) {
+        match self.mode {
+            CorrectionMode::Scaled => x.iter_mut().zip(&decoded).for_each(|(p, d)| *p += *d),
+            CorrectionMode::Motion => {
+                match &self.prev {
+                    Some(prev) => x.iter_mut().zip(decoded.iter().zip(prev)).for_each(|(p, (d, q))| *p += *d - *q),
+                    None => x.iter_mut().zip(&decoded).for_each(|(p, d)| *p += *d),
+                }
+                self.prev = Some(decoded);
+            }
+        }
+    }
+
+    /// Motion mode: the previous frame's decoded values (zero before frame 0).
+    pub fn previous(&self) -> Option<&[Vec3]> {
+        self.prev.as_deref()
+    }
 }
 
 fn xyz(x: &[f32], y: &[f32], z: &[f32]) -> Vec<Vec3> {
@@ -159,7 +195,9 @@ impl<D: VideoDecoder> SequenceDecoder<D> {
                 }
                 let st = Stencils::new(grid);
                 match solver {
-                    SolverKind::Cgv => Rebuild::Cgv(Predictor::new(st, h.anchors.clone())),
+                    SolverKind::Cgv => {
+                        Rebuild::Cgv(Predictor::new(st, h.anchors.clone()), Corrections::new(h.corrections))
+                    }
                     SolverKind::Paper => Rebuild::Paper(PaperSolver::new(st, h.anchors.clone())),
                 }
             }
@@ -235,11 +273,11 @@ impl<D: VideoDecoder> SequenceDecoder<D> {
         let positions = match &mut self.rebuild {
             Rebuild::Gv => positions(&get, ["x", "y", "z"])
                 .ok_or_else(|| Error::Argument(format!("GV frame {f} lacks a coordinate stream")))?,
-            Rebuild::Cgv(pred) => {
+            Rebuild::Cgv(pred, corrections) => {
                 let code = PredictorCode::from_byte(info.predictor)?;
                 let mut x = pred.predict(code, seed.as_deref(), hv()?, &anchors)?;
                 if let Some(d) = positions(&get, CORRECTION) {
-                    x.iter_mut().zip(d).for_each(|(p, d)| *p += d);
+                    corrections.apply(&mut x, d);
                 }
                 pred.commit(x.clone(), &anchors);
                 stats.solve = SolveStats { iterations: code.steps as usize, residual: 0.0, converged: true };

@@ -29,11 +29,16 @@
 //! and the encoder, which runs this same code on the same decoded data,
 //! chooses per frame the predictor that lands closest to the true frame,
 //! records it in the frame chunk, and codes the remaining error as three
-//! correction streams scaled per frame (closed-loop, like a video codec's
-//! motion-compensated prediction). The decoder adds the decoded correction,
-//! so the error is what the correction streams fail to code: flat at usual
-//! QPs, but when H.264 discards most of a correction (pcow at QP 49) the
-//! error left over is extrapolated too, and grows (docs/RESULTS.md).
+//! correction streams (closed-loop, like a video codec's motion-compensated
+//! prediction). The decoder adds the decoded correction, so the error is
+//! what the correction streams fail to code. Two ways to code them
+//! ([`crate::container::CorrectionMode`]): *scaled*, each frame's error over
+//! its largest value, flat at usual QPs, but when H.264 discards most of a
+//! correction (pcow at QP 49) the error left over is extrapolated too, and
+//! grows; or *motion*, the running sum of the errors at a fixed scale, so
+//! that where the prediction was right the picture repeats the previous one
+//! and H.264 skips the block almost for free, as it does for a geometry
+//! video's still parts (docs/RESULTS.md compares the two).
 
 use crate::codec::features::Stencils;
 use crate::container::MAX_PREDICTOR;
@@ -67,6 +72,17 @@ pub enum Extrapolation {
     /// past frames is not doubled, while the smooth motion of a body is kept.
     SmoothVelocity,
 }
+
+/// Every extrapolation, for [`Predictor::candidates`].
+pub const ALL_EXTRAPOLATIONS: [Extrapolation; 3] =
+    [Extrapolation::Rigid, Extrapolation::Velocity, Extrapolation::SmoothVelocity];
+/// The extrapolations that keep motion-mode correction streams (see
+/// [`crate::container::CorrectionMode::Motion`]) within a range: those
+/// streams carry the running sum of the corrections, which telescopes to a
+/// change of velocity after velocity predictions but adds up whole
+/// displacements after rigid ones (no anchors: the previous frame); the
+/// range grew 1.3-2.3x on horse-gallop when rigid was allowed.
+pub const MOTION_EXTRAPOLATIONS: [Extrapolation; 2] = [Extrapolation::Velocity, Extrapolation::SmoothVelocity];
 
 /// Averaging passes that smooth the velocity field (each halves a sample's
 /// own weight against its four neighbours' mean). Chosen by measurement on
@@ -247,12 +263,15 @@ impl Predictor {
         Ok(x)
     }
 
-    /// Predictions for the encoder to choose from: every extrapolation, then
-    /// 1..=`max_steps` H steps from the extrapolation closest to `truth`
+    /// Predictions for the encoder to choose from: every extrapolation in
+    /// `allowed` (rigid alone while there are fewer than two past frames),
+    /// then 1..=`max_steps` H steps from the extrapolation closest to `truth`
     /// (steps cost a sparse solve each; from the other extrapolations they
     /// were never measured to win). `visit(code, prediction)` sees each.
+    #[allow(clippy::too_many_arguments)]
     pub fn candidates(
         &mut self,
+        allowed: &[Extrapolation],
         max_steps: u8,
         seed: Option<&[Vec3]>,
         h: &[f32],
@@ -264,7 +283,7 @@ impl Predictor {
         self.check(h, anchors)?;
         // Without two past frames every extrapolation is the rigid one.
         let extrapolations: &[Extrapolation] =
-            if self.prev2.is_some() { &[Rigid, Velocity, SmoothVelocity] } else { &[Rigid] };
+            if self.prev2.is_some() && !allowed.is_empty() { allowed } else { &[Rigid] };
         let mut best: Option<(f64, Extrapolation, Vec<Vec3>)> = None;
         for &extrapolation in extrapolations {
             let x = self.extrapolate(extrapolation, seed, anchors)?;

@@ -3,7 +3,7 @@
 use super::InputArgs;
 use anyhow::{bail, Context, Result};
 use cgv::codec::{encode, h264::VideoSettings, EncodeOptions};
-use cgv::container::CodecKind;
+use cgv::container::{CodecKind, CorrectionMode};
 use cgv::param::ParamOptions;
 use cgv::solve::SolverKind;
 use std::path::PathBuf;
@@ -14,6 +14,12 @@ enum Codec {
     Cgv,
     /// Geometry video: x, y, z every frame (the baseline).
     Gv,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum Corrections {
+    Scaled,
+    Motion,
 }
 
 #[derive(clap::Args)]
@@ -45,6 +51,12 @@ pub struct Args {
     /// H and the anchors alone (smaller, but it drifts; for measurement).
     #[arg(long)]
     no_correction: bool,
+    /// CGV: how the corrections are coded. `scaled`: each frame's error,
+    /// scaled to the frame's largest (format v1). `motion`: their running
+    /// sum at a fixed scale, so H.264 skips what the prediction got right
+    /// (format v2; better at low bitrates, see docs/RESULTS.md).
+    #[arg(long, value_enum, default_value = "scaled")]
+    corrections: Corrections,
     /// CGV: most mean-curvature steps the encoder may choose per frame (0..=3).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(0..=3))]
     max_steps: u8,
@@ -92,6 +104,10 @@ pub fn run(args: Args) -> Result<()> {
         },
         key_interval: args.keyframes,
         correction: !args.no_correction,
+        corrections: match args.corrections {
+            Corrections::Scaled => CorrectionMode::Scaled,
+            Corrections::Motion => CorrectionMode::Motion,
+        },
         max_steps: args.max_steps,
         anchors: args.anchors,
         layers: args.layers,

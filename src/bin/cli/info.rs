@@ -120,7 +120,7 @@ fn cgv_info(args: &Args) -> Result<()> {
         println!(
             "{}",
             serde_json::to_string_pretty(&serde_json::json!({
-                "file": path, "bytes": file.bytes, "kbps": file.bytes as f64 * 8.0 / 1000.0 / seconds,
+                "file": path, "version": file.version, "bytes": file.bytes, "kbps": file.bytes as f64 * 8.0 / 1000.0 / seconds,
                 "header": h, "stream_bytes": stream_bytes,
                 "predictors": file.frames.iter().map(|f| f.predictor).collect::<Vec<_>>(),
                 "correction_scales": file.frames.iter().map(|f| f.correction_scale).collect::<Vec<_>>(),
@@ -128,13 +128,23 @@ fn cgv_info(args: &Args) -> Result<()> {
         );
         return Ok(());
     }
-    println!("{} (.cgv format version {})", path.display(), cgv::container::VERSION);
+    println!("{} (.cgv format version {})", path.display(), file.version);
     println!("  codec         {:?}, intended solver {}", h.codec, h.solver);
     println!("  frames        {} at {} fps ({:.2} s)", h.frames, h.fps, seconds);
     println!("  grid          {0} x {0} ({1})", h.grid, h.seam);
     println!("  size          {} bytes, {:.1} kbit/s", file.bytes, file.bytes as f64 * 8.0 / 1000.0 / seconds);
     println!("  key frames    {} ({:?}...)", h.key_frames.len(), &h.key_frames[..h.key_frames.len().min(5)]);
     println!("  anchors       {:?}", h.anchors);
+    if h.streams.iter().any(|s| s.name == "dx") {
+        println!(
+            "  corrections   {}",
+            match h.corrections {
+                cgv::container::CorrectionMode::Scaled => "scaled (each frame's error, times the frame's scale)",
+                cgv::container::CorrectionMode::Motion =>
+                    "motion (running sum: the change since the last frame applies)",
+            }
+        );
+    }
     println!(
         "  settings      QP {}{}, GOP {}, {}, {} layer(s)",
         h.settings.qp,
@@ -156,7 +166,7 @@ fn cgv_info(args: &Args) -> Result<()> {
             b
         );
     }
-    if h.streams.iter().any(|s| s.scaled) {
+    if h.streams.iter().any(|s| s.name == "dx") {
         // How the encoder chose to predict each frame (see src/solve/cgv.rs).
         let mut counts = [0usize; 3];
         let mut with_h = 0;
