@@ -11,7 +11,9 @@
 
 /// BD-rate in percent of `test` against `reference`, each a list of
 /// (rate, error) points. `None` with fewer than four usable points on a
-/// side or no overlap in quality.
+/// side, a curve whose error does not fall as its rate grows (a cubic
+/// through such points swings wildly: 1e137 % was seen for a smoothness
+/// curve), or no overlap in quality.
 pub fn bd_rate(reference: &[(f64, f64)], test: &[(f64, f64)]) -> Option<f64> {
     let prep = |pts: &[(f64, f64)]| -> Vec<(f64, f64)> {
         pts.iter()
@@ -25,7 +27,7 @@ pub fn bd_rate(reference: &[(f64, f64)], test: &[(f64, f64)]) -> Option<f64> {
         p.sort_by(|x, y| x.1.total_cmp(&y.1));
         p.dedup_by(|x, y| (x.1 - y.1).abs() < 1e-9);
     }
-    if a.len() < 4 || b.len() < 4 {
+    if a.len() < 4 || b.len() < 4 || [&a, &b].iter().any(|p| p.windows(2).any(|w| w[1].0 <= w[0].0)) {
         return None;
     }
     let range = |p: &[(f64, f64)]| {
@@ -100,5 +102,9 @@ mod tests {
         // No overlap in quality.
         let far: Vec<(f64, f64)> = r.iter().map(|&(k, e)| (k, e * 1e-6)).collect();
         assert!(bd_rate(&r, &far).is_none());
+        // A curve whose error rises with the rate somewhere.
+        let mut bent = r.clone();
+        bent[2].1 = 1.0 / 150.0;
+        assert!(bd_rate(&r, &bent).is_none() && bd_rate(&bent, &r).is_none());
     }
 }

@@ -18,7 +18,7 @@ pub mod report;
 
 use crate::codec::features::Stencils;
 use crate::codec::{encode_prepared, h264, EncodeOptions, Prepared, SequenceDecoder};
-use crate::container::{self, CodecKind};
+use crate::container::{self, CodecKind, CorrectionMode};
 use crate::error::{Error, Result};
 use crate::grid::Grid;
 use crate::mesh::{Bounds, FrameSource, InMemory};
@@ -30,15 +30,22 @@ use serde::Serialize;
 
 /// A codec as `cgv eval` runs it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "lowercase")]
+#[serde(rename_all = "kebab-case")]
 pub enum EvalCodec {
     /// Geometry video: x, y, z.
     Gv,
     /// CGV as the paper stores it (H, λ at key frames, anchors, seed),
     /// decoded by the paper's Eq. 1 solver.
     Paper,
-    /// The project's CGV: closed-loop prediction and corrections.
+    /// The project's CGV: closed-loop prediction and corrections, each rate
+    /// point matched in both correction modes and the one with the lower
+    /// vertex error kept (what an encoder that knows its own reconstruction
+    /// can do; the surface distance is not consulted).
     Cgv,
+    /// The project's CGV with scaled corrections only (format v1).
+    CgvScaled,
+    /// The project's CGV with motion corrections only (format v2).
+    CgvMotion,
 }
 
 impl EvalCodec {
@@ -48,9 +55,13 @@ impl EvalCodec {
         let (codec, solver) = match self {
             EvalCodec::Gv => (CodecKind::Gv, SolverKind::Cgv),
             EvalCodec::Paper => (CodecKind::Cgv, SolverKind::Paper),
-            EvalCodec::Cgv => (CodecKind::Cgv, SolverKind::Cgv),
+            _ => (CodecKind::Cgv, SolverKind::Cgv),
         };
-        EncodeOptions { codec, solver, ..base.clone() }
+        let corrections = match self {
+            EvalCodec::CgvMotion => CorrectionMode::Motion,
+            _ => CorrectionMode::Scaled,
+        };
+        EncodeOptions { codec, solver, corrections, ..base.clone() }
     }
 
     fn solver(self) -> SolverKind {
@@ -68,7 +79,9 @@ impl std::str::FromStr for EvalCodec {
             "gv" => Ok(EvalCodec::Gv),
             "paper" => Ok(EvalCodec::Paper),
             "cgv" => Ok(EvalCodec::Cgv),
-            _ => Err(format!("unknown codec '{s}' (expected gv, paper or cgv)")),
+            "cgv-scaled" => Ok(EvalCodec::CgvScaled),
+            "cgv-motion" => Ok(EvalCodec::CgvMotion),
+            _ => Err(format!("unknown codec '{s}' (expected gv, paper, cgv, cgv-scaled or cgv-motion)")),
         }
     }
 }
@@ -79,6 +92,8 @@ impl std::fmt::Display for EvalCodec {
             EvalCodec::Gv => "gv",
             EvalCodec::Paper => "paper",
             EvalCodec::Cgv => "cgv",
+            EvalCodec::CgvScaled => "cgv-scaled",
+            EvalCodec::CgvMotion => "cgv-motion",
         })
     }
 }
@@ -138,6 +153,8 @@ pub struct FrameMetrics {
 #[derive(Debug, Clone, Serialize)]
 pub struct CodecResult {
     pub codec: EvalCodec,
+    /// The project's CGV: the correction mode of the kept encode.
+    pub corrections: Option<CorrectionMode>,
     pub qp: u8,
     pub layers: u8,
     /// The rate-control target (kbit/s at the sequence's rate) when a
@@ -427,9 +444,35 @@ impl Ctx<'_> {
         Ok((b, hit, tries))
     }
 
+    /// Mean vertex RMS error of an encode (no surface distance): how the
+    /// `cgv` entry chooses between its correction modes.
+    fn vertex_error(&self, bytes: &[u8]) -> Result<f64> {
+        let file = container::read(bytes).map_err(|e| Error::Container { path: "(eval)".into(), source: e })?;
+        let mut dec = SequenceDecoder::new(file, SolverKind::Cgv, h264::Decoder::new)?;
+        let mut sum = 0.0;
+        for truth in self.truth.iter() {
+            sum += metrics::vertex_error(&dec.next_frame()?.0, truth).0;
+        }
+        Ok(sum / self.truth.len().max(1) as f64)
+    }
+
     fn job(&self, codec: EvalCodec, target: usize) -> Result<CodecResult> {
-        let (t, matched, tries) = self.search(codec, target)?;
+        let (t, matched, tries) = if codec == EvalCodec::Cgv {
+            let (a, b) = (self.search(EvalCodec::CgvScaled, target)?, self.search(EvalCodec::CgvMotion, target)?);
+            let tries = a.2 + b.2;
+            let keep_a = match (a.1, b.1) {
+                (true, false) => true,
+                (false, true) => false,
+                _ => self.vertex_error(&a.0.bytes)? <= self.vertex_error(&b.0.bytes)?,
+            };
+            let (t, matched, _) = if keep_a { a } else { b };
+            (t, matched, tries)
+        } else {
+            self.search(codec, target)?
+        };
         let file = container::read(&t.bytes).map_err(|e| Error::Container { path: "(eval)".into(), source: e })?;
+        let corrections =
+            (file.header.codec == CodecKind::Cgv && codec != EvalCodec::Paper).then_some(file.header.corrections);
         let mut dec = SequenceDecoder::new(file, codec.solver(), h264::Decoder::new)?;
         let st = Stencils::new(self.grid);
         let grid_faces = self.grid.topology().faces;
@@ -473,6 +516,7 @@ impl Ctx<'_> {
         let bytes = t.bytes.len();
         Ok(CodecResult {
             codec,
+            corrections,
             qp: t.qp,
             layers: t.layers,
             rate_control_kbps: t.rc,

@@ -41,11 +41,16 @@ fn color(c: EvalCodec) -> RGBColor {
         EvalCodec::Gv => RGBColor(214, 39, 40),
         EvalCodec::Paper => RGBColor(31, 119, 180),
         EvalCodec::Cgv => RGBColor(44, 160, 44),
+        EvalCodec::CgvScaled => RGBColor(148, 103, 189),
+        EvalCodec::CgvMotion => RGBColor(255, 127, 14),
     }
 }
 
 fn codecs(r: &Report) -> Vec<EvalCodec> {
-    EvalCodec::ALL.into_iter().filter(|c| r.points.iter().any(|p| p.results.iter().any(|x| x.codec == *c))).collect()
+    [EvalCodec::Gv, EvalCodec::Paper, EvalCodec::Cgv, EvalCodec::CgvScaled, EvalCodec::CgvMotion]
+        .into_iter()
+        .filter(|c| r.points.iter().any(|p| p.results.iter().any(|x| x.codec == *c)))
+        .collect()
 }
 
 fn log_range(v: impl Iterator<Item = f64>) -> std::ops::Range<f64> {

@@ -2,6 +2,7 @@
 //! serialization).
 
 use super::{EvalCodec, Report};
+use crate::container::CorrectionMode;
 use std::fmt::Write;
 
 fn pct(x: f64) -> String {
@@ -30,10 +31,15 @@ pub fn markdown(r: &Report) -> String {
         for c in &p.results {
             let _ = writeln!(
                 s,
-                "| {} | {:.1} | {} | {:.1} | {:.1} | {} | {}{} / {} | {} | {:.3} | {:.3} |",
+                "| {} | {:.1} | {}{} | {:.1} | {:.1} | {} | {}{} / {} | {} | {:.3} | {:.3} |",
                 p.name,
                 p.target_kbps_30fps,
                 c.codec,
+                match (c.codec, c.corrections) {
+                    (super::EvalCodec::Cgv, Some(CorrectionMode::Motion)) => " (motion)",
+                    (super::EvalCodec::Cgv, Some(CorrectionMode::Scaled)) => " (scaled)",
+                    _ => "",
+                },
                 c.kbps_30fps,
                 c.kbps,
                 if c.matched { "yes" } else { "**no**" },
@@ -77,11 +83,10 @@ pub fn markdown(r: &Report) -> String {
         codecs.dedup();
         for c in codecs {
             let get = |m: &str| {
-                r.bd_rates
-                    .iter()
-                    .find(|b| b.codec == c && b.metric == m)
-                    .and_then(|b| b.percent)
-                    .map_or("– (needs 4 distinct points overlapping in quality)".into(), |v| format!("{v:+.1} %"))
+                r.bd_rates.iter().find(|b| b.codec == c && b.metric == m).and_then(|b| b.percent).map_or(
+                    "– (needs 4+ points, error falling as the rate grows, overlapping in quality)".into(),
+                    |v| format!("{v:+.1} %"),
+                )
             };
             let _ = writeln!(s, "| {c} | {} | {} | {} |", get("surface_rms"), get("vertex_rms"), get("smoothness"));
         }

@@ -27,7 +27,9 @@ pub struct Args {
     /// Rate points in kbit/s at 30 fps.
     #[arg(long, value_delimiter = ',')]
     kbps: Option<Vec<f64>>,
-    /// Codecs to compare: gv, paper (the paper's CGV and Eq. 1 solver), cgv (the project's).
+    /// Codecs to compare: gv, paper (the paper's CGV and Eq. 1 solver), cgv (the
+    /// project's: at each rate point the better of its two correction modes),
+    /// cgv-scaled or cgv-motion (one mode only).
     #[arg(long, value_delimiter = ',', default_value = "gv,paper,cgv")]
     codecs: Vec<EvalCodec>,
     /// Measure the surface distance to the original frames on every K-th frame (0: never; it is the slow part).
