@@ -24,6 +24,12 @@ for codec in gv cgv; do
   [ -e "$corpus/walk-$codec.cgv" ] || "$cgv" encode builtin:walk --codec "$codec" --grid 16 --qp 30 -o "$corpus/walk-$codec.cgv" >/dev/null
   cp "$corpus/walk-$codec.cgv" fuzz/corpus/decode/
 done
+[ -e "$corpus/walk-motion.cgv" ] || "$cgv" encode builtin:walk --corrections motion --grid 16 --qp 30 -o "$corpus/walk-motion.cgv" >/dev/null
+cp "$corpus/walk-motion.cgv" fuzz/corpus/decode/
+# Every frozen fixture, so both container layouts are seeded.
+for v in tests/fixtures/v*; do
+  for f in "$v"/*.cgv; do cp "$f" "$corpus/$(basename "$v")-$(basename "$f")"; done
+done
 
 export RUSTC_BOOTSTRAP=1
 # Fuzz builds go to their own folder (sanitizer flags rebuild everything).

@@ -1,6 +1,8 @@
 //! The `.cgv` file format, versions 1 and 2 (documented in `docs/FORMAT.md`).
-//! Version 2 adds one header field, `corrections` (see [`CorrectionMode`]);
-//! a file that does not use it is still written as version 1.
+//! Version 2 puts each frame in one chunk (version 1: one chunk per access
+//! unit, 20 bytes each, a quarter of a low-bitrate file) and adds one
+//! header field, `corrections` (see [`CorrectionMode`]). This writer writes
+//! version 2; the reader reads both.
 //!
 //! ```text
 //! magic    8 bytes   89 43 47 56 0D 0A 1A 0A   ("\x89CGV\r\n\x1a\n")
@@ -14,10 +16,12 @@
 //!
 //! Each chunk: `tag [4] | stream u16 | reserved u16 | frame u32 | length u32 |
 //! payload | crc u32` (CRC-32 of tag..payload). Tags: `FRAM` (what a frame
-//! needs besides its video: predictor, correction scale, anchors; first in
-//! each frame, see [`FrameInfo`]), `AUNT` (one H.264 access unit, Annex-B, of
-//! `stream` at `frame`), `CEND` (end of file). Chunks are ordered by frame,
-//! so a reader can start on frame 0 before the rest of the file has arrived.
+//! needs besides its video: predictor, correction scale, anchors, see
+//! [`FrameInfo`]; in version 2 followed by the frame's access units, each
+//! after its LEB128 length), `AUNT` (version 1: one H.264 access unit,
+//! Annex-B, of `stream` at `frame`), `CEND` (end of file). Chunks are
+//! ordered by frame, so a reader can start on frame 0 before the rest of the
+//! file has arrived.
 
 use crate::codec::quant::Quantizer;
 use serde::{Deserialize, Serialize};
@@ -274,8 +278,9 @@ impl Header {
         Ok(())
     }
 
-    /// The format version this header needs: 2 for motion corrections, else 1.
-    pub fn version(&self) -> u16 {
+    /// The oldest format version that can hold this header: 2 for motion
+    /// corrections, else 1.
+    pub fn min_version(&self) -> u16 {
         match self.corrections {
             CorrectionMode::Scaled => 1,
             CorrectionMode::Motion => 2,
@@ -305,7 +310,8 @@ impl Header {
         self.streams.iter().position(|s| s.layer == 2 && s.refines == Some(base as u16))
     }
 
-    /// The number of chunks a complete file has before its END chunk.
+    /// The number of chunks a complete version-1 file has before its END
+    /// chunk (version 2: one per frame).
     pub fn expected_chunks(&self) -> u64 {
         let mut n = 0u64;
         for f in 0..self.frames {
@@ -315,9 +321,8 @@ impl Header {
     }
 }
 
-/// Writes the file prefix (magic, version, header, CRC). The version is the
-/// oldest that can hold the header ([`Header::version`]), so files that use
-/// no version-2 field stay readable by version-1 readers.
+/// Writes the file prefix (magic, version [`VERSION`], header, CRC); the
+/// frames follow as [`write_frame`] chunks, then an END chunk.
 pub fn write_header(header: &Header) -> Result<Vec<u8>, ContainerError> {
     header.validate()?;
     let json = serde_json::to_vec(header).map_err(|e| ContainerError::Header(e.to_string()))?;
@@ -326,7 +331,7 @@ pub fn write_header(header: &Header) -> Result<Vec<u8>, ContainerError> {
     }
     let mut out = Vec::with_capacity(json.len() + 24);
     out.extend_from_slice(&MAGIC);
-    out.extend_from_slice(&header.version().to_le_bytes());
+    out.extend_from_slice(&VERSION.to_le_bytes());
     out.extend_from_slice(&0u16.to_le_bytes());
     out.extend_from_slice(&(json.len() as u32).to_le_bytes());
     out.extend_from_slice(&json);
@@ -347,6 +352,39 @@ pub fn write_chunk(tag: [u8; 4], stream: u16, frame: u32, payload: &[u8]) -> Vec
     let crc = crc32fast::hash(&out);
     out.extend_from_slice(&crc.to_le_bytes());
     out
+}
+
+/// A version-2 frame chunk: the frame's side data, then each access unit
+/// the frame has (streams in header order) after its LEB128 length.
+pub fn write_frame(frame: u32, info: &FrameInfo, units: &[&[u8]]) -> Vec<u8> {
+    let mut payload = info.to_bytes();
+    for au in units {
+        let mut n = au.len();
+        loop {
+            let byte = (n & 0x7f) as u8;
+            n >>= 7;
+            payload.push(if n > 0 { byte | 0x80 } else { byte });
+            if n == 0 {
+                break;
+            }
+        }
+        payload.extend_from_slice(au);
+    }
+    write_chunk(TAG_FRAME, 0, frame, &payload)
+}
+
+/// Reads a LEB128 length of at most 4 bytes at `b[*at..]`, advancing `at`.
+fn read_len(b: &[u8], at: &mut usize) -> Option<usize> {
+    let mut n = 0usize;
+    for k in 0..4 {
+        let byte = *b.get(*at)?;
+        *at += 1;
+        n |= ((byte & 0x7f) as usize) << (7 * k);
+        if byte & 0x80 == 0 {
+            return Some(n);
+        }
+    }
+    None
 }
 
 fn u16_at(b: &[u8], o: usize) -> u16 {
@@ -384,10 +422,10 @@ pub fn parse_header(bytes: &[u8]) -> Result<Option<(Header, usize)>, ContainerEr
     let header: Header =
         serde_json::from_slice(&bytes[16..16 + len]).map_err(|e| ContainerError::Header(e.to_string()))?;
     header.validate()?;
-    if header.version() > version {
+    if header.min_version() > version {
         return Err(ContainerError::Header(format!(
             "a version {version} file cannot use version {} fields (corrections: {:?})",
-            header.version(),
+            header.min_version(),
             header.corrections
         )));
     }
@@ -565,6 +603,52 @@ impl StreamReader {
         };
         if chunk.frame != frame {
             return Err(expect(if self.slot > 0 { "stream data" } else { "the frame chunk" }));
+        }
+        if file.version >= 2 {
+            // One chunk: side data, then each access unit after its length.
+            if chunk.tag != TAG_FRAME {
+                return Err(expect("the frame chunk"));
+            }
+            let side = 8 + 12 * header.anchors.len();
+            let p = chunk.payload;
+            if p.len() < side {
+                return Err(ContainerError::Chunk {
+                    offset,
+                    msg: format!("frame chunk has {} bytes, fewer than its {side} bytes of side data", p.len()),
+                });
+            }
+            let info = FrameInfo::parse(&p[..side], header.anchors.len(), offset)?;
+            let mut at = side;
+            let mut units = Vec::new();
+            for s in (0..nstreams).filter(|&s| header.stream_has_frame(s, frame)) {
+                let bad = |msg: String| ContainerError::Chunk { offset, msg };
+                let len = read_len(p, &mut at).ok_or_else(|| bad(format!("stream {s}: bad access unit length")))?;
+                if len > p.len() - at {
+                    return Err(bad(format!("stream {s}: access unit of {len} bytes overruns its frame chunk")));
+                }
+                units.push((s, p[at..at + len].to_vec()));
+                at += len;
+            }
+            if at != p.len() {
+                return Err(ContainerError::Chunk {
+                    offset,
+                    msg: format!("frame chunk has {} bytes after its last access unit", p.len() - at),
+                });
+            }
+            let total = header.frames as usize;
+            file.frames.push(info);
+            for (s, au) in units {
+                let u = &mut file.units[s];
+                u.resize(frame as usize + 1, Vec::new());
+                u[frame as usize] = au;
+            }
+            self.frame += 1;
+            if self.frame as usize >= total {
+                for u in &mut file.units {
+                    u.resize(total, Vec::new());
+                }
+            }
+            return Ok(());
         }
         if self.slot > 0 {
             let s = self.slot - 1;

@@ -2,7 +2,7 @@
 
 mod common;
 
-use cgv::codec::{encode, h264, EncodeOptions, SequenceDecoder};
+use cgv::codec::{encode, h264, h264::VideoSettings, EncodeOptions, SequenceDecoder};
 use cgv::container::{self, CodecKind, CorrectionMode};
 use cgv::grid::Grid;
 use cgv::mesh::{Bounds, FrameSource};
@@ -73,17 +73,12 @@ fn decoding_is_deterministic_and_bad_streams_are_errors() {
     h.source.label = "x".into();
     let mut bad = container::write_header(&h).unwrap();
     for f in 0..h.frames {
-        bad.extend(container::write_chunk(container::TAG_FRAME, 0, f, &file.frames[f as usize].to_bytes()));
-        for s in 0..h.streams.len() {
-            if h.stream_has_frame(s, f) {
-                let au = if f == 0 && s == 0 {
-                    vec![0, 0, 0, 1, 0x65, 0xff, 0xff, 0xff]
-                } else {
-                    file.units[s][f as usize].clone()
-                };
-                bad.extend(container::write_chunk(container::TAG_ACCESS_UNIT, s as u16, f, &au));
-            }
-        }
+        let garbage = vec![0, 0, 0, 1, 0x65, 0xff, 0xff, 0xff];
+        let units: Vec<&[u8]> = (0..h.streams.len())
+            .filter(|&s| h.stream_has_frame(s, f))
+            .map(|s| if f == 0 && s == 0 { garbage.as_slice() } else { file.units[s][f as usize].as_slice() })
+            .collect();
+        bad.extend(container::write_frame(f, &file.frames[f as usize], &units));
     }
     bad.extend(container::write_chunk(container::TAG_END, 0, h.frames, &[]));
     let e = decode_all(&bad, SolverKind::Cgv).unwrap_err();
@@ -131,6 +126,18 @@ fn motion_corrections_round_trip_without_drift() {
     let mean = coarse.iter().map(|e| e.0).sum::<f64>() / coarse.len() as f64;
     eprintln!("cgv motion QP 44: {coarse_bytes} bytes, mean {mean:.2e}, {coarse:?}");
     assert!(mean < 1e-2 && coarse.iter().all(|e| e.0 < 1.5 * mean), "{coarse:?}");
+
+    // Past MOTION_MAX_QP the corrections and the seed stay at it (coarser,
+    // the loop breaks down): the same bytes for them at QP 48 and 51.
+    let short = cgv::demo::motion(4);
+    let streams = |qp: u8| {
+        let o = EncodeOptions { video: VideoSettings { qp, ..opts.video }, ..opts.clone() };
+        let (_, report) = encode(&short, &o, &mut |_, _, _| {}).unwrap();
+        report.stream_bytes.into_iter().filter(|(n, _)| n != "H" && n != "lambda").collect::<Vec<_>>()
+    };
+    assert_eq!(cgv::codec::MOTION_MAX_QP, 48);
+    assert_eq!(streams(48), streams(51));
+    assert_ne!(streams(40), streams(48));
 }
 
 #[test]

@@ -45,21 +45,42 @@ fn header() -> Header {
     }
 }
 
-/// A structurally valid file (the payloads are not real H.264).
+fn frame_info(h: &Header, f: u32) -> container::FrameInfo {
+    let anchors = (0..h.anchors.len()).map(|i| [0, 1, 2].map(|c| (3 * i + c) as f32 + f as f32)).collect();
+    container::FrameInfo { predictor: 6, correction_scale: 0.5, anchors }
+}
+
+/// Not real H.264: the reader does not look inside.
+fn unit(f: u32, s: usize) -> Vec<u8> {
+    vec![0, 0, 0, 1, 9, f as u8, s as u8]
+}
+
+/// A structurally valid version-2 file: one chunk per frame.
 fn file(h: &Header) -> Vec<u8> {
     let mut out = container::write_header(h).unwrap();
     for f in 0..h.frames {
-        let anchors = (0..h.anchors.len()).map(|i| [0, 1, 2].map(|c| (3 * i + c) as f32 + f as f32)).collect();
-        let info = container::FrameInfo { predictor: 6, correction_scale: 0.5, anchors };
-        out.extend(container::write_chunk(container::TAG_FRAME, 0, f, &info.to_bytes()));
+        let units: Vec<Vec<u8>> =
+            (0..h.streams.len()).filter(|&s| h.stream_has_frame(s, f)).map(|s| unit(f, s)).collect();
+        let refs: Vec<&[u8]> = units.iter().map(Vec::as_slice).collect();
+        out.extend(container::write_frame(f, &frame_info(h, f), &refs));
+    }
+    out.extend(container::write_chunk(container::TAG_END, 0, h.frames, &[]));
+    out
+}
+
+/// The prefix of a version-1 file.
+fn header_v1(h: &Header) -> Vec<u8> {
+    with_version(container::write_header(h).unwrap(), 1)
+}
+
+/// A structurally valid version-1 file: a chunk per access unit.
+fn file_v1(h: &Header) -> Vec<u8> {
+    let mut out = header_v1(h);
+    for f in 0..h.frames {
+        out.extend(container::write_chunk(container::TAG_FRAME, 0, f, &frame_info(h, f).to_bytes()));
         for s in 0..h.streams.len() {
             if h.stream_has_frame(s, f) {
-                out.extend(container::write_chunk(
-                    container::TAG_ACCESS_UNIT,
-                    s as u16,
-                    f,
-                    &[0, 0, 0, 1, 9, f as u8, s as u8],
-                ));
+                out.extend(container::write_chunk(container::TAG_ACCESS_UNIT, s as u16, f, &unit(f, s)));
             }
         }
     }
@@ -68,10 +89,15 @@ fn file(h: &Header) -> Vec<u8> {
 }
 
 #[test]
-fn reads_what_it_writes() {
+fn reads_what_it_writes_in_both_layouts() {
     let h = header();
-    let bytes = file(&h);
-    let f = container::read(&bytes).unwrap();
+    let (v1, v2) = (file_v1(&h), file(&h));
+    // Version 2 saves 20 bytes per access unit but the frame's first.
+    assert_eq!(v1.len() - v2.len(), (h.expected_chunks() as usize - 3) * 20 - 8);
+    let a = container::read(&v1).unwrap();
+    let f = container::read(&v2).unwrap();
+    assert_eq!((a.version, f.version), (1, 2));
+    assert_eq!((&a.header, &a.units, &a.frames), (&f.header, &f.units, &f.frames));
     assert_eq!(f.header, h);
     assert_eq!(f.units[0].len(), 3);
     assert!(f.units[1][1].is_empty() && !f.units[1][2].is_empty());
@@ -89,6 +115,7 @@ fn bad_magic_and_versions() {
     assert_eq!(container::read(b"GIF89a").unwrap_err(), ContainerError::BadMagic);
     let mut bytes = file(&header());
     bytes[8] = 3;
+    assert_eq!(container::VERSION, 2);
     assert_eq!(container::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 3 });
     bytes[8] = 0;
     assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 0 }));
@@ -122,23 +149,18 @@ fn with_version(mut bytes: Vec<u8>, version: u16) -> Vec<u8> {
 }
 
 #[test]
-fn version_two_only_where_needed_and_never_in_a_version_one_file() {
-    // Scaled corrections need nothing new: written as version 1, no new field.
+fn motion_corrections_only_in_version_two() {
+    // Scaled corrections add no header field.
     let bytes = file(&header());
-    assert_eq!(u16::from_le_bytes([bytes[8], bytes[9]]), 1);
-    assert!(!String::from_utf8_lossy(&bytes).contains("corrections"));
-    assert_eq!(container::read(&bytes).unwrap().version, 1);
-    // Motion corrections: version 2, read back whole.
-    let h = motion_header();
-    let bytes = file(&h);
     assert_eq!(u16::from_le_bytes([bytes[8], bytes[9]]), 2);
-    let f = container::read(&bytes).unwrap();
+    assert!(!String::from_utf8_lossy(&bytes).contains("corrections"));
+    // Motion corrections: read back whole.
+    let h = motion_header();
+    let f = container::read(&file(&h)).unwrap();
     assert_eq!((f.version, &f.header), (2, &h));
-    // A file claiming version 1 with a version-2 field is refused by name.
-    let e = container::read(&with_version(bytes.clone(), 1)).unwrap_err();
+    // A version-1 file with the version-2 field is refused by name.
+    let e = container::read(&file_v1(&h)).unwrap_err();
     assert!(matches!(&e, ContainerError::Header(m) if m.contains("version 1") && m.contains("Motion")), "{e}");
-    // A version-2 file may hold a header that version 1 could (another writer).
-    assert_eq!(container::read(&with_version(file(&header()), 2)).unwrap().version, 2);
     // Motion corrections without all three correction streams, or scaled ones.
     let mut bad = motion_header();
     bad.streams.pop();
@@ -153,21 +175,23 @@ fn version_two_only_where_needed_and_never_in_a_version_one_file() {
 
 #[test]
 fn every_truncation_is_an_error() {
-    let bytes = file(&header());
-    for len in 0..bytes.len() {
-        let e = container::read(&bytes[..len]).unwrap_err();
-        assert!(matches!(e, ContainerError::Truncated { .. } | ContainerError::BadMagic), "length {len}: {e}");
+    for bytes in [file(&header()), file_v1(&header())] {
+        for len in 0..bytes.len() {
+            let e = container::read(&bytes[..len]).unwrap_err();
+            assert!(matches!(e, ContainerError::Truncated { .. } | ContainerError::BadMagic), "length {len}: {e}");
+        }
     }
 }
 
 #[test]
 fn every_flipped_byte_is_an_error() {
-    let bytes = file(&header());
-    for i in 0..bytes.len() {
-        for bit in [0x01u8, 0x80] {
-            let mut b = bytes.clone();
-            b[i] ^= bit;
-            assert!(container::read(&b).is_err(), "flipping bit {bit:#x} of byte {i} went unnoticed");
+    for bytes in [file(&header()), file_v1(&header())] {
+        for i in 0..bytes.len() {
+            for bit in [0x01u8, 0x80] {
+                let mut b = bytes.clone();
+                b[i] ^= bit;
+                assert!(container::read(&b).is_err(), "flipping bit {bit:#x} of byte {i} went unnoticed");
+            }
         }
     }
 }
@@ -204,22 +228,36 @@ fn absurd_sizes_and_counts_are_refused_without_allocating() {
     let h = Header { frames: container::MAX_FRAMES, ..header() };
     let mut bytes = container::write_header(&h).unwrap();
     let info = container::FrameInfo { anchors: vec![[0.0; 3]; 4], ..Default::default() };
-    bytes.extend(container::write_chunk(container::TAG_FRAME, 0, 0, &info.to_bytes()));
-    bytes.extend(container::write_chunk(container::TAG_ACCESS_UNIT, 0, 0, &[1]));
+    bytes.extend(container::write_frame(0, &info, &[&[1], &[2], &[3]]));
     assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::Truncated { .. }));
+    // An access unit length of 2^28 - 1 inside a small frame chunk.
+    let mut bytes = container::write_header(&header()).unwrap();
+    let mut payload = frame_info(&header(), 0).to_bytes();
+    payload.extend([0xff, 0xff, 0xff, 0x7f, 1, 2, 3]);
+    bytes.extend(container::write_chunk(container::TAG_FRAME, 0, 0, &payload));
+    let e = container::read(&bytes).unwrap_err();
+    assert!(matches!(&e, ContainerError::Chunk { msg, .. } if msg.contains("overruns")), "{e}");
 }
 
 #[test]
 fn chunks_out_of_order_or_extra_are_errors() {
     let h = header();
-    let mut bytes = container::write_header(&h).unwrap();
+    let mut bytes = header_v1(&h);
     bytes.extend(container::write_chunk(container::TAG_ACCESS_UNIT, 1, 0, &[1]));
     assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::Chunk { .. }));
-    let mut bytes = file(&h);
-    bytes.extend(container::write_chunk(container::TAG_END, 0, 3, &[]));
-    assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::Chunk { .. }));
+    for mut bytes in [file(&h), file_v1(&h)] {
+        bytes.extend(container::write_chunk(container::TAG_END, 0, 3, &[]));
+        assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::Chunk { .. }));
+    }
     let mut bytes = container::write_header(&h).unwrap();
     bytes.extend(container::write_chunk(*b"JUNK", 0, 0, &[1]));
+    assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::Chunk { .. }));
+    // Version 2: no access unit chunks, and frames in order.
+    let mut bytes = container::write_header(&h).unwrap();
+    bytes.extend(container::write_chunk(container::TAG_ACCESS_UNIT, 0, 0, &[1]));
+    assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::Chunk { .. }));
+    let mut bytes = container::write_header(&h).unwrap();
+    bytes.extend(container::write_frame(1, &frame_info(&h, 1), &[&[1], &[2]]));
     assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::Chunk { .. }));
 }
 
@@ -238,29 +276,53 @@ fn bad_frame_chunks_are_errors() {
         container::FrameInfo { anchors: vec![[0.0; 3]; 5], ..good.clone() }.to_bytes(),
         bad_bytes,
     ];
-    for payload in cases {
-        let mut bytes = container::write_header(&h).unwrap();
-        bytes.extend(container::write_chunk(container::TAG_FRAME, 0, 0, &payload));
+    for payload in &cases {
+        let mut bytes = header_v1(&h);
+        bytes.extend(container::write_chunk(container::TAG_FRAME, 0, 0, payload));
         bytes.extend(container::write_chunk(container::TAG_ACCESS_UNIT, 0, 0, &[1]));
         let e = container::read(&bytes).unwrap_err();
         assert!(matches!(e, ContainerError::Chunk { .. }), "{payload:?}: {e}");
     }
+    // Version 2: the same side data, then the frame's three access units
+    // (frame 0 has streams 0, 1 and 2), or too few, too many, bad lengths.
+    let units = |side: &[u8], rest: &[u8]| [side, rest].concat();
+    let good_units: &[u8] = &[1, 7, 1, 8, 1, 9];
+    let mut v2: Vec<Vec<u8>> = cases[..cases.len() - 1].iter().map(|c| units(c, good_units)).collect();
+    v2.push(units(&good.to_bytes(), &[1, 7, 1, 8]));
+    v2.push(units(&good.to_bytes(), &[1, 7, 1, 8, 1, 9, 0]));
+    v2.push(units(&good.to_bytes(), &[1, 7, 1, 8, 5, 9]));
+    v2.push(units(&good.to_bytes(), &[1, 7, 1, 8, 0x80, 0x80, 0x80, 0x80, 0x01]));
+    v2.push(good.to_bytes()[..10].to_vec());
+    for payload in v2 {
+        let mut bytes = container::write_header(&h).unwrap();
+        bytes.extend(container::write_chunk(container::TAG_FRAME, 0, 0, &payload));
+        let e = container::read(&bytes).unwrap_err();
+        assert!(matches!(e, ContainerError::Chunk { .. }), "{payload:?}: {e}");
+    }
+    let mut ok = container::write_header(&h).unwrap();
+    ok.extend(container::write_chunk(container::TAG_FRAME, 0, 0, &units(&good.to_bytes(), good_units)));
+    assert!(matches!(container::read(&ok).unwrap_err(), ContainerError::Truncated { .. }));
 }
 
 #[test]
 fn streaming_reader_sees_frames_as_they_arrive() {
     let h = header();
-    let bytes = file(&h);
-    let whole = container::read(&bytes).unwrap();
+    for bytes in [file(&h), file_v1(&h)] {
+        streams_byte_by_byte(&h, &bytes);
+    }
+}
+
+fn streams_byte_by_byte(h: &Header, bytes: &[u8]) {
+    let whole = container::read(bytes).unwrap();
     // Byte by byte: the frame count only grows, and the result is the same file.
     let mut r = container::StreamReader::default();
     let mut seen = vec![];
-    for b in &bytes {
+    for b in bytes {
         r.push(std::slice::from_ref(b)).unwrap();
         seen.push(r.complete_frames());
     }
     assert!(seen.windows(2).all(|w| w[0] <= w[1]) && seen.contains(&1) && seen.contains(&2));
-    assert!(r.is_complete() && r.header() == Some(&h));
+    assert!(r.is_complete() && r.header() == Some(h));
     let f = r.finish().unwrap();
     assert_eq!((f.units, f.frames, f.bytes), (whole.units, whole.frames, whole.bytes));
     // Half a file: not complete, and finishing says truncated.
@@ -269,7 +331,7 @@ fn streaming_reader_sees_frames_as_they_arrive() {
     assert!(!r.is_complete() && r.complete_frames() < 3);
     assert!(matches!(r.finish().unwrap_err(), ContainerError::Truncated { .. }));
     // A flipped byte in the second half is caught when it arrives.
-    let mut bad = bytes.clone();
+    let mut bad = bytes.to_vec();
     let k = bytes.len() * 3 / 4;
     bad[k] ^= 0x40;
     let mut r = container::StreamReader::default();

@@ -19,9 +19,9 @@ use cgv::container::{self, CodecKind, CorrectionMode};
 use cgv::solve::SolverKind;
 use std::path::{Path, PathBuf};
 
+/// `name` is `vN/FILE`.
 fn fixture(name: &str) -> PathBuf {
-    let version = if name.contains("motion") { "v2" } else { "v1" };
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures").join(version).join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures").join(name)
 }
 
 fn decode(path: &Path, solver: SolverKind) -> Vec<f32> {
@@ -55,26 +55,37 @@ fn check(name: &str, solver: SolverKind, tolerance: f64) {
 
 #[test]
 fn v1_gv_fixture_decodes_as_frozen() {
-    let f = container::read(&std::fs::read(fixture("walk-gv.cgv")).unwrap()).unwrap();
+    let f = container::read(&std::fs::read(fixture("v1/walk-gv.cgv")).unwrap()).unwrap();
     assert_eq!((f.header.codec, f.header.grid, f.header.frames), (CodecKind::Gv, 16, 4));
-    check("walk-gv.cgv", SolverKind::Cgv, 1e-6);
+    check("v1/walk-gv.cgv", SolverKind::Cgv, 1e-6);
 }
 
 #[test]
 fn v1_cgv_fixture_decodes_as_frozen_with_both_solvers() {
-    let f = container::read(&std::fs::read(fixture("walk-cgv.cgv")).unwrap()).unwrap();
+    let f = container::read(&std::fs::read(fixture("v1/walk-cgv.cgv")).unwrap()).unwrap();
     assert_eq!((f.header.codec, f.header.grid, f.header.frames), (CodecKind::Cgv, 16, 4));
     assert_eq!(f.header.key_frames, vec![0, 2]);
     assert!(f.header.streams.iter().any(|s| s.layer == 2 && s.name == "dx"));
-    check("walk-cgv.cgv", SolverKind::Cgv, 1e-5);
-    check("walk-cgv.cgv", SolverKind::Paper, 1e-4);
+    check("v1/walk-cgv.cgv", SolverKind::Cgv, 1e-5);
+    check("v1/walk-cgv.cgv", SolverKind::Paper, 1e-4);
 }
 
 #[test]
 fn v2_motion_fixture_decodes_as_frozen() {
-    let f = container::read(&std::fs::read(fixture("walk-cgv-motion.cgv")).unwrap()).unwrap();
+    let f = container::read(&std::fs::read(fixture("v2/walk-cgv-motion.cgv")).unwrap()).unwrap();
     assert_eq!((f.version, f.header.corrections), (2, CorrectionMode::Motion));
     assert_eq!((f.header.codec, f.header.grid, f.header.frames), (CodecKind::Cgv, 16, 6));
     assert!(f.header.streams.iter().any(|s| s.layer == 2 && s.name == "dz"));
-    check("walk-cgv-motion.cgv", SolverKind::Cgv, 1e-5);
+    check("v2/walk-cgv-motion.cgv", SolverKind::Cgv, 1e-5);
+}
+
+#[test]
+fn v2_gv_and_scaled_cgv_fixtures_decode_as_frozen() {
+    let f = container::read(&std::fs::read(fixture("v2/walk-gv.cgv")).unwrap()).unwrap();
+    assert_eq!((f.version, f.header.codec, f.header.frames), (2, CodecKind::Gv, 4));
+    check("v2/walk-gv.cgv", SolverKind::Cgv, 1e-6);
+    let f = container::read(&std::fs::read(fixture("v2/walk-cgv.cgv")).unwrap()).unwrap();
+    assert_eq!((f.version, f.header.corrections, f.header.anchors.len()), (2, CorrectionMode::Scaled, 16));
+    check("v2/walk-cgv.cgv", SolverKind::Cgv, 1e-5);
+    check("v2/walk-cgv.cgv", SolverKind::Paper, 1e-4);
 }

@@ -18,7 +18,10 @@ pub mod h264;
 pub mod quant;
 
 #[cfg(not(target_arch = "wasm32"))]
-pub use encode::{encode, encode_prepared, prepare, EncodeOptions, EncodeReport, Prepared, PAPER_ANCHORS};
+pub use encode::{
+    encode, encode_prepared, prepare, EncodeOptions, EncodeReport, Prepared, MOTION_MARGIN, MOTION_MAX_QP,
+    PAPER_ANCHORS,
+};
 
 use crate::container::{CgvFile, CodecKind, CorrectionMode, Header};
 use crate::error::{Error, Result};

@@ -149,7 +149,7 @@ pub fn run(args: Args) -> Result<()> {
         for (name, b) in &report.stream_bytes {
             println!("  stream {name:<8} {b:>10} bytes");
         }
-        println!("  frame chunks    {:>10} bytes (anchors, predictor, scale)", report.side_bytes);
+        println!("  frame chunks    {:>10} bytes (chunk framing, anchors, predictor, scale)", report.side_bytes);
         println!(
             "  time: parameterize {:.2} s, coding {:.2} s, total {:.2} s ({:.1} ms/frame)",
             report.seconds_parameterize,
