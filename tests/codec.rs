@@ -151,3 +151,17 @@ fn cgv_round_trip_at_high_quality() {
         assert!(*rms < 1e-4 && *max < 1e-3, "frame {i}: rms {rms} max {max}");
     }
 }
+
+#[test]
+fn auto_corrections_follow_the_measured_crossover() {
+    use cgv::codec::auto_corrections;
+    let at = |qp: u8, kbps: Option<f32>| VideoSettings { qp, kbps, ..Default::default() };
+    assert_eq!(auto_corrections(&at(20, None), 128, 30.0), CorrectionMode::Scaled);
+    assert_eq!(auto_corrections(&at(26, None), 128, 30.0), CorrectionMode::Motion);
+    assert_eq!(auto_corrections(&at(40, None), 128, 30.0), CorrectionMode::Motion);
+    // 150 kbit/s at N = 128, 30 fps: 0.31 bits per sample per frame.
+    assert_eq!(auto_corrections(&at(20, Some(150.0)), 128, 30.0), CorrectionMode::Motion);
+    // 400 kbit/s: 0.81 at N = 128, 0.20 at N = 256.
+    assert_eq!(auto_corrections(&at(20, Some(400.0)), 128, 30.0), CorrectionMode::Scaled);
+    assert_eq!(auto_corrections(&at(20, Some(400.0)), 256, 30.0), CorrectionMode::Motion);
+}

@@ -483,6 +483,30 @@ fn motion_ranges(
 /// file was also larger than at 48.
 pub const MOTION_MAX_QP: u8 = 48;
 
+/// The correction mode that measured better for these settings (cgv eval
+/// on samba, pcow and horse-gallop at N = 128 and 256, docs/RESULTS.md):
+/// motion below [`AUTO_SCALED_BITS`] bits per grid sample per frame or at
+/// QP [`AUTO_MOTION_QP`] and coarser, scaled above (where its per-frame
+/// scale buys precision that a fixed 8-bit range cannot).
+pub fn auto_corrections(video: &VideoSettings, grid: usize, fps: f32) -> CorrectionMode {
+    let motion = match video.kbps {
+        Some(kbps) => (kbps as f64 * 1000.0 / fps.max(1e-3) as f64 / (grid * grid) as f64) < AUTO_SCALED_BITS,
+        None => video.qp >= AUTO_MOTION_QP,
+    };
+    if motion {
+        CorrectionMode::Motion
+    } else {
+        CorrectionMode::Scaled
+    }
+}
+
+/// See [`auto_corrections`]: the best mode changed between 0.3-0.4 (motion)
+/// and 0.7-1.1 (scaled) bits per sample per frame, and between motion at
+/// QP 26-27 and scaled at QP 23-35 (whose files were as large as motion's
+/// at QP 20-25).
+pub const AUTO_SCALED_BITS: f64 = 0.5;
+pub const AUTO_MOTION_QP: u8 = 26;
+
 /// How much wider (each side, as a fraction of the range) the motion-mode
 /// quantizers are than the uncoded loop's values. Measured on samba at
 /// N = 128: 0.1 left no visible clamping; a range 25 % too narrow (clamping

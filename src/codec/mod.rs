@@ -19,8 +19,8 @@ pub mod quant;
 
 #[cfg(not(target_arch = "wasm32"))]
 pub use encode::{
-    encode, encode_prepared, prepare, EncodeOptions, EncodeReport, Prepared, MOTION_MARGIN, MOTION_MAX_QP,
-    PAPER_ANCHORS,
+    auto_corrections, encode, encode_prepared, prepare, EncodeOptions, EncodeReport, Prepared, AUTO_MOTION_QP,
+    AUTO_SCALED_BITS, MOTION_MARGIN, MOTION_MAX_QP, PAPER_ANCHORS,
 };
 
 use crate::container::{CgvFile, CodecKind, CorrectionMode, Header};

@@ -18,6 +18,7 @@ enum Codec {
 
 #[derive(Clone, Copy, clap::ValueEnum)]
 enum Corrections {
+    Auto,
     Scaled,
     Motion,
 }
@@ -52,10 +53,12 @@ pub struct Args {
     #[arg(long)]
     no_correction: bool,
     /// CGV: how the corrections are coded. `scaled`: each frame's error,
-    /// scaled to the frame's largest (format v1). `motion`: their running
-    /// sum at a fixed scale, so H.264 skips what the prediction got right
-    /// (format v2; better at low bitrates, see docs/RESULTS.md).
-    #[arg(long, value_enum, default_value = "scaled")]
+    /// scaled to the frame's largest. `motion`: their running sum at a
+    /// fixed scale, so H.264 skips what the prediction got right (better at
+    /// low and middle bitrates). `auto`: motion at QP 26 and coarser or
+    /// below 0.5 bits per grid sample per frame, else scaled (measured, see
+    /// docs/RESULTS.md).
+    #[arg(long, value_enum, default_value = "auto")]
     corrections: Corrections,
     /// CGV: most mean-curvature steps the encoder may choose per frame (0..=3).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(0..=3))]
@@ -88,23 +91,25 @@ pub fn run(args: Args) -> Result<()> {
         bail!("{}: the output should end in .cgv", args.output.display());
     }
     let src = args.input.open()?;
+    let video = VideoSettings {
+        qp: args.qp,
+        kbps: args.kbps,
+        gop: args.gop,
+        cabac: !args.cavlc,
+        fps: src.fps(),
+        ..Default::default()
+    };
     let opts = EncodeOptions {
         codec: match args.codec {
             Codec::Cgv => CodecKind::Cgv,
             Codec::Gv => CodecKind::Gv,
         },
         grid: args.grid,
-        video: VideoSettings {
-            qp: args.qp,
-            kbps: args.kbps,
-            gop: args.gop,
-            cabac: !args.cavlc,
-            fps: src.fps(),
-            ..Default::default()
-        },
+        video,
         key_interval: args.keyframes,
         correction: !args.no_correction,
         corrections: match args.corrections {
+            Corrections::Auto => cgv::codec::auto_corrections(&video, args.grid, src.fps()),
             Corrections::Scaled => CorrectionMode::Scaled,
             Corrections::Motion => CorrectionMode::Motion,
         },
