@@ -38,9 +38,10 @@ pub enum EvalCodec {
     /// decoded by the paper's Eq. 1 solver.
     Paper,
     /// The project's CGV: closed-loop prediction and corrections, each rate
-    /// point matched in both correction modes and the one with the lower
-    /// vertex error kept (what an encoder that knows its own reconstruction
-    /// can do; the surface distance is not consulted).
+    /// point matched in both correction modes and, of those no larger than
+    /// the target allows, the one with the lower vertex error kept (what an
+    /// encoder that knows its own reconstruction can do; the surface
+    /// distance is not consulted).
     Cgv,
     /// The project's CGV with scaled corrections only (format v1).
     CgvScaled,
@@ -460,10 +461,16 @@ impl Ctx<'_> {
         let (t, matched, tries) = if codec == EvalCodec::Cgv {
             let (a, b) = (self.search(EvalCodec::CgvScaled, target)?, self.search(EvalCodec::CgvMotion, target)?);
             let tries = a.2 + b.2;
-            let keep_a = match (a.1, b.1) {
+            // An encode no larger than the target allows competes on error
+            // (smaller and better beats matched: the rate control does not
+            // always land within the tolerance); one too large loses to
+            // one that fits; if neither fits, the smaller is kept.
+            let fits = |t: &Try| t.bytes.len() as f64 <= target as f64 * (1.0 + self.opts.tolerance);
+            let keep_a = match (fits(&a.0), fits(&b.0)) {
                 (true, false) => true,
                 (false, true) => false,
-                _ => self.vertex_error(&a.0.bytes)? <= self.vertex_error(&b.0.bytes)?,
+                (true, true) => self.vertex_error(&a.0.bytes)? <= self.vertex_error(&b.0.bytes)?,
+                (false, false) => a.0.bytes.len() <= b.0.bytes.len(),
             };
             let (t, matched, _) = if keep_a { a } else { b };
             (t, matched, tries)
