@@ -10,10 +10,13 @@
 //! the overlapping D interval.
 
 /// BD-rate in percent of `test` against `reference`, each a list of
-/// (rate, error) points. `None` with fewer than four usable points on a
-/// side, a curve whose error does not fall as its rate grows (a cubic
-/// through such points swings wildly: 1e137 % was seen for a smoothness
-/// curve), or no overlap in quality.
+/// (rate, error) points. A point whose error is no lower than that of a
+/// cheaper point on its curve is dominated (no encoder would choose it) and
+/// left out: a cubic through such a bend swings wildly (1e137 % was seen
+/// for a smoothness curve), and at the grid's floor a surface error that
+/// rises by 2 % between the two highest rates would otherwise void the
+/// figure. `None` with fewer than four points left on a side, or no
+/// overlap in quality.
 pub fn bd_rate(reference: &[(f64, f64)], test: &[(f64, f64)]) -> Option<f64> {
     let prep = |pts: &[(f64, f64)]| -> Vec<(f64, f64)> {
         pts.iter()
@@ -27,7 +30,15 @@ pub fn bd_rate(reference: &[(f64, f64)], test: &[(f64, f64)]) -> Option<f64> {
         p.sort_by(|x, y| x.1.total_cmp(&y.1));
         p.dedup_by(|x, y| (x.1 - y.1).abs() < 1e-9);
     }
-    if a.len() < 4 || b.len() < 4 || [&a, &b].iter().any(|p| p.windows(2).any(|w| w[1].0 <= w[0].0)) {
+    for p in [&mut a, &mut b] {
+        let mut best = f64::NEG_INFINITY;
+        p.retain(|x| {
+            let keep = x.0 > best;
+            best = best.max(x.0);
+            keep
+        });
+    }
+    if a.len() < 4 || b.len() < 4 {
         return None;
     }
     let range = |p: &[(f64, f64)]| {
@@ -102,9 +113,12 @@ mod tests {
         // No overlap in quality.
         let far: Vec<(f64, f64)> = r.iter().map(|&(k, e)| (k, e * 1e-6)).collect();
         assert!(bd_rate(&r, &far).is_none());
-        // A curve whose error rises with the rate somewhere.
+        // A dominated point (error no lower than a cheaper one's) is left
+        // out: with it the figure would swing, without it four points remain.
         let mut bent = r.clone();
         bent[2].1 = 1.0 / 150.0;
+        assert!((bd_rate(&r, &bent).unwrap() - bd_rate(&r, &[r[0], r[1], r[3], r[4]]).unwrap()).abs() < 1e-9);
+        bent[3].1 = 1.0 / 150.0;
         assert!(bd_rate(&r, &bent).is_none() && bd_rate(&bent, &r).is_none());
     }
 }

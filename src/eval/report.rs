@@ -83,10 +83,11 @@ pub fn markdown(r: &Report) -> String {
         codecs.dedup();
         for c in codecs {
             let get = |m: &str| {
-                r.bd_rates.iter().find(|b| b.codec == c && b.metric == m).and_then(|b| b.percent).map_or(
-                    "– (needs 4+ points, error falling as the rate grows, overlapping in quality)".into(),
-                    |v| format!("{v:+.1} %"),
-                )
+                r.bd_rates
+                    .iter()
+                    .find(|b| b.codec == c && b.metric == m)
+                    .and_then(|b| b.percent)
+                    .map_or("– (needs 4+ undominated points overlapping in quality)".into(), |v| format!("{v:+.1} %"))
             };
             let _ = writeln!(s, "| {c} | {} | {} | {} |", get("surface_rms"), get("vertex_rms"), get("smoothness"));
         }
