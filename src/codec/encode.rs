@@ -15,9 +15,7 @@ use crate::grid::Grid;
 use crate::mesh::{analyze, Bounds, FrameSource};
 use crate::param::{parameterize, ParamOptions, Parameterization};
 use crate::resample::SampleMap;
-use crate::solve::cgv::{
-    squared_distance, Extrapolation, Predictor, PredictorCode, ALL_EXTRAPOLATIONS, MOTION_EXTRAPOLATIONS,
-};
+use crate::solve::cgv::{Extrapolation, Predictor, ALL_EXTRAPOLATIONS, MOTION_EXTRAPOLATIONS};
 use crate::solve::SolverKind;
 use glam::Vec3;
 
@@ -374,25 +372,13 @@ pub fn encode_prepared(
             let seed = super::positions(&get, SEED);
             let hv = get("H").ok_or_else(|| Error::Video("H was not coded".into()))?;
             // Choose the predictor that lands closest to the true frame.
-            let mut best: Option<(f64, PredictorCode, Vec<Vec3>)> = None;
-            predictor.candidates(allowed, opts.max_steps, seed.as_deref(), hv, &anchor_pos, &g, &mut |code, x| {
-                let e = squared_distance(x, &g);
-                if best.as_ref().is_none_or(|b| e < b.0) {
-                    best = Some((e, code, x.to_vec()));
-                }
-            })?;
-            let (_, code, pred) = best.ok_or_else(|| Error::Numerical("no prediction".into()))?;
-            let mut err: Vec<Vec3> = g.iter().zip(&pred).map(|(p, q)| *p - *q).collect();
-            // Scaled: the error, over the frame's scale. Motion: the running
-            // sum, this frame's error plus what the last picture held.
+            let (code, pred) = predictor.closest(allowed, opts.max_steps, seed.as_deref(), hv, &anchor_pos, &g)?;
+            let err: Vec<Vec3> = g.iter().zip(&pred).map(|(p, q)| *p - *q).collect();
             let scale = if motion { 0.0 } else { correction_scale(&err) };
-            if let Some(prev) = corrections.previous() {
-                err.iter_mut().zip(prev).for_each(|(e, p)| *e += *p);
-            }
-            let divisor = if motion { 1.0 } else { scale };
+            let carried = corrections.stream_values(err, scale);
             coder.code(&mut streams, &post, &|name| {
                 let c = CORRECTION.iter().position(|&n| n == name).unwrap_or(0);
-                err.iter().map(|e| e[c] / divisor).collect()
+                carried.iter().map(|e| e[c]).collect()
             })?;
             let vals = super::frame_values(&header, &coder.decoded, scale)?;
             let get = |name: &str| -> Option<&Vec<f32>> { header.stream(name).and_then(|s| vals[s].as_ref()) };
@@ -449,14 +435,7 @@ fn motion_ranges(
     let mut ranges = [Range::default(); 3];
     for fi in 0..src.frame_count() {
         let g = map.apply(&src.read_frame(fi)?);
-        let mut best: Option<(f64, Vec<Vec3>)> = None;
-        sim.candidates(allowed, 0, Some(seed), &zero_h, &[], &g, &mut |_, x| {
-            let e = squared_distance(x, &g);
-            if best.as_ref().is_none_or(|b| e < b.0) {
-                best = Some((e, x.to_vec()));
-            }
-        })?;
-        let (_, pred) = best.ok_or_else(|| Error::Numerical("no prediction".into()))?;
+        let (_, pred) = sim.closest(allowed, 0, Some(seed), &zero_h, &[], &g)?;
         for ((s, p), q) in sum.iter_mut().zip(&g).zip(&pred) {
             *s += *p - *q;
         }

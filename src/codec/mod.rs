@@ -103,9 +103,17 @@ impl Corrections {
         }
     }
 
-    /// Motion mode: the previous frame's decoded values (zero before frame 0).
-    pub fn previous(&self) -> Option<&[Vec3]> {
-        self.prev.as_deref()
+    /// The encoder's side of [`apply`](Self::apply): what the correction
+    /// streams must carry for this frame's correction to be `err`. Scaled:
+    /// `err` over the frame's `scale`. Motion: the running sum, `err` plus
+    /// what the previous picture held.
+    pub fn stream_values(&self, mut err: Vec<Vec3>, scale: f32) -> Vec<Vec3> {
+        match (self.mode, &self.prev) {
+            (CorrectionMode::Scaled, _) => err.iter_mut().for_each(|e| *e /= scale),
+            (CorrectionMode::Motion, Some(prev)) => err.iter_mut().zip(prev).for_each(|(e, p)| *e += *p),
+            (CorrectionMode::Motion, None) => {}
+        }
+        err
     }
 }
 

@@ -445,11 +445,16 @@ impl Ctx<'_> {
         Ok((b, hit, tries))
     }
 
+    /// A decoder for an encode's bytes.
+    fn decoder(&self, bytes: &[u8], solver: SolverKind) -> Result<SequenceDecoder<h264::Decoder>> {
+        let file = container::read(bytes).map_err(|e| Error::Container { path: "(eval)".into(), source: e })?;
+        SequenceDecoder::new(file, solver, h264::Decoder::new)
+    }
+
     /// Mean vertex RMS error of an encode (no surface distance): how the
     /// `cgv` entry chooses between its correction modes.
     fn vertex_error(&self, bytes: &[u8]) -> Result<f64> {
-        let file = container::read(bytes).map_err(|e| Error::Container { path: "(eval)".into(), source: e })?;
-        let mut dec = SequenceDecoder::new(file, SolverKind::Cgv, h264::Decoder::new)?;
+        let mut dec = self.decoder(bytes, SolverKind::Cgv)?;
         let mut sum = 0.0;
         for truth in self.truth.iter() {
             sum += metrics::vertex_error(&dec.next_frame()?.0, truth).0;
@@ -477,10 +482,9 @@ impl Ctx<'_> {
         } else {
             self.search(codec, target)?
         };
-        let file = container::read(&t.bytes).map_err(|e| Error::Container { path: "(eval)".into(), source: e })?;
-        let corrections =
-            (file.header.codec == CodecKind::Cgv && codec != EvalCodec::Paper).then_some(file.header.corrections);
-        let mut dec = SequenceDecoder::new(file, codec.solver(), h264::Decoder::new)?;
+        let mut dec = self.decoder(&t.bytes, codec.solver())?;
+        let h = &dec.file.header;
+        let corrections = (h.codec == CodecKind::Cgv && codec != EvalCodec::Paper).then_some(h.corrections);
         let st = Stencils::new(self.grid);
         let grid_faces = self.grid.topology().faces;
         let n = self.mem.frames.len();

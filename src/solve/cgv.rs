@@ -302,6 +302,28 @@ impl Predictor {
         Ok(())
     }
 
+    /// The candidate (see [`candidates`](Self::candidates)) closest to
+    /// `truth`: what the encoder predicts a frame with.
+    #[allow(clippy::too_many_arguments)]
+    pub fn closest(
+        &mut self,
+        allowed: &[Extrapolation],
+        max_steps: u8,
+        seed: Option<&[Vec3]>,
+        h: &[f32],
+        anchors: &[Vec3],
+        truth: &[Vec3],
+    ) -> Result<(PredictorCode, Vec<Vec3>)> {
+        let mut best: Option<(f64, PredictorCode, Vec<Vec3>)> = None;
+        self.candidates(allowed, max_steps, seed, h, anchors, truth, &mut |code, x| {
+            let e = squared_distance(x, truth);
+            if best.as_ref().is_none_or(|b| e < b.0) {
+                best = Some((e, code, x.to_vec()));
+            }
+        })?;
+        best.map(|(_, code, x)| (code, x)).ok_or_else(|| Error::Numerical("no prediction".into()))
+    }
+
     /// Records the decoded frame (prediction plus correction).
     pub fn commit(&mut self, x: Vec<Vec3>, anchors: &[Vec3]) {
         let f = self.st.features(&x);
