@@ -10,7 +10,9 @@
 //! reach the size, a second layer) is searched until the file is within
 //! the tolerance (5 %) of the target; when integer QPs straddle it,
 //! OpenH264's rate control is asked for the bitrate instead. A point that
-//! cannot be reached is reported as such, with the nearest size found.
+//! cannot be reached is reported as such, with the nearest size found that
+//! is not above the window (so a missed point never has more bits than the
+//! others), or failing that the nearest.
 
 pub mod bdrate;
 pub mod plot;
@@ -341,6 +343,13 @@ pub fn run(src: &dyn FrameSource, opts: &EvalOptions, progress: &(dyn Fn(&str) +
     })
 }
 
+/// How far a size misses `target`, for ordering: first whether it is above
+/// the window (an encode with more bits than allowed loses to any that is
+/// not), then the distance in log size.
+fn miss(size: usize, target: usize, tol: f64) -> (bool, f64) {
+    (size as f64 > target as f64 * (1.0 + tol), (size as f64 / target as f64).ln().abs())
+}
+
 struct Ctx<'a> {
     mem: &'a InMemory,
     prepared: &'a Prepared,
@@ -368,15 +377,15 @@ impl Ctx<'_> {
         Ok(Try { qp, layers, rc: rc.map(|r| r.1), bytes, encode_seconds: t.elapsed().as_secs_f64() })
     }
 
-    /// Finds the encode whose size is nearest `target` (see the module doc).
+    /// Finds the encode whose size is nearest `target` (see the module doc
+    /// for which is kept when none is within the tolerance).
     fn search(&self, codec: EvalCodec, target: usize) -> Result<(Try, bool, usize)> {
         let tol = self.opts.tolerance;
         let within = |b: usize| (b as f64 / target as f64 - 1.0).abs() <= tol;
         let mut tries = 0;
         let mut best: Option<Try> = None;
         let keep = |t: Try, best: &mut Option<Try>| {
-            let d = |b: usize| (b as f64 / target as f64).ln().abs();
-            if best.as_ref().is_none_or(|b| d(t.bytes.len()) < d(b.bytes.len())) {
+            if best.as_ref().is_none_or(|b| miss(t.bytes.len(), target, tol) < miss(b.bytes.len(), target, tol)) {
                 *best = Some(t);
             }
         };
@@ -550,5 +559,18 @@ impl Ctx<'_> {
             encodes_tried: tries,
             frames: per_frame,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::miss;
+
+    #[test]
+    fn a_missed_point_keeps_the_nearest_size_not_above_the_window() {
+        // 6 % over loses to 12 % under; within the window, nearer wins.
+        assert!(miss(880, 1000, 0.05) < miss(1060, 1000, 0.05));
+        assert!(miss(1040, 1000, 0.05) < miss(940, 1000, 0.05));
+        assert!(miss(1100, 1000, 0.05) < miss(1200, 1000, 0.05));
     }
 }
