@@ -53,11 +53,11 @@ fn bench(c: &mut Criterion) {
         for steps in [0u8, 1] {
             let mut p = Predictor::new(st.clone(), anchors.clone());
             let code = PredictorCode { extrapolation: Extrapolation::Rigid, steps };
-            let x0 = p.predict(code, Some(&g0), &f0.h, &at(&g0)).expect("predict");
+            let x0 = p.predict(code, Some(&g0), Some(&f0.h), &at(&g0)).expect("predict");
             p.commit(x0, &at(&g0));
             g.bench_function(format!("reconstruct-cgv-{steps}-steps/{n}"), |b| {
                 b.iter(|| {
-                    let x = p.predict(code, None, &f1.h, &at(&g1)).expect("predict");
+                    let x = p.predict(code, None, Some(&f1.h), &at(&g1)).expect("predict");
                     std::hint::black_box(&x);
                 })
             });

@@ -1,12 +1,14 @@
-//! The `.cgv` file format, versions 1 and 2 (documented in `docs/FORMAT.md`).
+//! The `.cgv` file format, versions 1 to 3 (documented in `docs/FORMAT.md`).
 //! Version 2 puts each frame in one chunk (version 1: one chunk per access
 //! unit, 20 bytes each, a quarter of a low-bitrate file) and adds one
-//! header field, `corrections` (see [`CorrectionMode`]). This writer writes
-//! version 2; the reader reads both.
+//! header field, `corrections` (see [`CorrectionMode`]). Version 3 has the
+//! layout of version 2 and lets a motion-corrected CGV file leave out the
+//! `H` and `lambda` streams. This writer writes version 3; the reader reads
+//! all three.
 //!
 //! ```text
 //! magic    8 bytes   89 43 47 56 0D 0A 1A 0A   ("\x89CGV\r\n\x1a\n")
-//! version  u16 LE    1 or 2
+//! version  u16 LE    1, 2 or 3
 //! flags    u16 LE    0
 //! length   u32 LE    header length L (at most 1 MiB)
 //! header   L bytes   UTF-8 JSON (serde), see [`Header`]
@@ -17,7 +19,7 @@
 //! Each chunk: `tag [4] | stream u16 | reserved u16 | frame u32 | length u32 |
 //! payload | crc u32` (CRC-32 of tag..payload). Tags: `FRAM` (what a frame
 //! needs besides its video: predictor, correction scale, anchors, see
-//! [`FrameInfo`]; in version 2 followed by the frame's access units, each
+//! [`FrameInfo`]; from version 2 followed by the frame's access units, each
 //! after its LEB128 length), `AUNT` (version 1: one H.264 access unit,
 //! Annex-B, of `stream` at `frame`), `CEND` (end of file). Chunks are
 //! ordered by frame, so a reader can start on frame 0 before the rest of the
@@ -28,7 +30,7 @@ use serde::{Deserialize, Serialize};
 
 pub const MAGIC: [u8; 8] = [0x89, b'C', b'G', b'V', b'\r', b'\n', 0x1A, b'\n'];
 /// The newest version this reader reads and this writer writes.
-pub const VERSION: u16 = 2;
+pub const VERSION: u16 = 3;
 /// Largest header accepted.
 pub const MAX_HEADER: usize = 1 << 20;
 /// Largest chunk payload accepted (an access unit of a 4096² frame at QP 0
@@ -272,18 +274,27 @@ impl Header {
                 return bad("motion corrections need a CGV file with unscaled dx, dy, dz streams".into());
             }
         }
+        if self.codec == CodecKind::Cgv
+            && (self.stream("H").is_none() || self.stream("lambda").is_none())
+            && self.corrections != CorrectionMode::Motion
+        {
+            return bad("only a motion-corrected CGV file may leave out the H and lambda streams".into());
+        }
         if self.codec == CodecKind::Cgv && self.anchors.len() < 4 && !closed_loop {
             return bad("a CGV file without correction streams needs at least 4 anchors".into());
         }
         Ok(())
     }
 
-    /// The oldest format version that can hold this header: 2 for motion
-    /// corrections, else 1.
+    /// The oldest format version that can hold this header: 3 for a CGV
+    /// file without H, 2 for motion corrections, else 1.
     pub fn min_version(&self) -> u16 {
-        match self.corrections {
-            CorrectionMode::Scaled => 1,
-            CorrectionMode::Motion => 2,
+        if self.codec == CodecKind::Cgv && self.stream("H").is_none() {
+            3
+        } else if self.corrections == CorrectionMode::Motion {
+            2
+        } else {
+            1
         }
     }
 
@@ -311,7 +322,7 @@ impl Header {
     }
 
     /// The number of chunks a complete version-1 file has before its END
-    /// chunk (version 2: one per frame).
+    /// chunk (versions 2 and 3: one per frame).
     pub fn expected_chunks(&self) -> u64 {
         let mut n = 0u64;
         for f in 0..self.frames {
@@ -424,9 +435,10 @@ pub fn parse_header(bytes: &[u8]) -> Result<Option<(Header, usize)>, ContainerEr
     header.validate()?;
     if header.min_version() > version {
         return Err(ContainerError::Header(format!(
-            "a version {version} file cannot use version {} fields (corrections: {:?})",
+            "a version {version} file cannot hold what version {} added (corrections: {:?}, streams: {})",
             header.min_version(),
-            header.corrections
+            header.corrections,
+            header.streams.iter().map(|s| s.name.as_str()).collect::<Vec<_>>().join(" ")
         )));
     }
     Ok(Some((header, end)))

@@ -100,10 +100,10 @@ fn encode_info_and_decode_motion_corrections() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let info = cgv(&["info", f.to_str().unwrap()]);
     let text = String::from_utf8_lossy(&info.stdout);
-    assert!(text.contains("format version 2") && text.contains("corrections   motion"), "{text}");
+    assert!(text.contains("format version 3") && text.contains("corrections   motion"), "{text}");
     let info = cgv(&["info", f.to_str().unwrap(), "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
-    assert_eq!((v["version"].as_u64(), v["header"]["corrections"].as_str()), (Some(2), Some("motion")));
+    assert_eq!((v["version"].as_u64(), v["header"]["corrections"].as_str()), (Some(3), Some("motion")));
     let glb = dir.join("decoded.glb");
     let dec = cgv(&["decode", f.to_str().unwrap(), "-o", glb.to_str().unwrap()]);
     assert!(dec.status.success(), "{}", String::from_utf8_lossy(&dec.stderr));

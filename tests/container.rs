@@ -55,7 +55,7 @@ fn unit(f: u32, s: usize) -> Vec<u8> {
     vec![0, 0, 0, 1, 9, f as u8, s as u8]
 }
 
-/// A structurally valid version-2 file: one chunk per frame.
+/// A structurally valid file of this writer's version: one chunk per frame.
 fn file(h: &Header) -> Vec<u8> {
     let mut out = container::write_header(h).unwrap();
     for f in 0..h.frames {
@@ -92,11 +92,12 @@ fn file_v1(h: &Header) -> Vec<u8> {
 fn reads_what_it_writes_in_both_layouts() {
     let h = header();
     let (v1, v2) = (file_v1(&h), file(&h));
-    // Version 2 saves 20 bytes per access unit but the frame's first.
+    // Versions 2 and 3 save 20 bytes per access unit but the frame's first.
     assert_eq!(v1.len() - v2.len(), (h.expected_chunks() as usize - 3) * 20 - 8);
     let a = container::read(&v1).unwrap();
     let f = container::read(&v2).unwrap();
-    assert_eq!((a.version, f.version), (1, 2));
+    assert_eq!((a.version, f.version), (1, 3));
+    assert_eq!(container::read(&with_version(v2, 2)).unwrap().header, h);
     assert_eq!((&a.header, &a.units, &a.frames), (&f.header, &f.units, &f.frames));
     assert_eq!(f.header, h);
     assert_eq!(f.units[0].len(), 3);
@@ -114,9 +115,9 @@ fn bad_magic_and_versions() {
     assert_eq!(container::read(&bytes).unwrap_err(), ContainerError::BadMagic);
     assert_eq!(container::read(b"GIF89a").unwrap_err(), ContainerError::BadMagic);
     let mut bytes = file(&header());
-    bytes[8] = 3;
-    assert_eq!(container::VERSION, 2);
-    assert_eq!(container::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 3 });
+    bytes[8] = 4;
+    assert_eq!(container::VERSION, 3);
+    assert_eq!(container::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 4 });
     bytes[8] = 0;
     assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 0 }));
 }
@@ -152,12 +153,13 @@ fn with_version(mut bytes: Vec<u8>, version: u16) -> Vec<u8> {
 fn motion_corrections_only_in_version_two() {
     // Scaled corrections add no header field.
     let bytes = file(&header());
-    assert_eq!(u16::from_le_bytes([bytes[8], bytes[9]]), 2);
+    assert_eq!(u16::from_le_bytes([bytes[8], bytes[9]]), 3);
     assert!(!String::from_utf8_lossy(&bytes).contains("corrections"));
     // Motion corrections: read back whole.
     let h = motion_header();
     let f = container::read(&file(&h)).unwrap();
-    assert_eq!((f.version, &f.header), (2, &h));
+    assert_eq!((f.version, &f.header), (3, &h));
+    assert_eq!(container::read(&with_version(file(&h), 2)).unwrap().header, h);
     // A version-1 file with the version-2 field is refused by name.
     let e = container::read(&file_v1(&h)).unwrap_err();
     assert!(matches!(&e, ContainerError::Header(m) if m.contains("version 1") && m.contains("Motion")), "{e}");
@@ -170,6 +172,25 @@ fn motion_corrections_only_in_version_two() {
     assert!(matches!(container::write_header(&bad).unwrap_err(), ContainerError::Header(_)));
     let mut bad = motion_header();
     bad.codec = CodecKind::Gv;
+    assert!(matches!(container::write_header(&bad).unwrap_err(), ContainerError::Header(_)));
+}
+
+#[test]
+fn only_motion_files_leave_out_h_and_lambda_from_version_three() {
+    let mut h = motion_header();
+    h.streams.retain(|s| s.name != "H" && s.name != "lambda");
+    let f = container::read(&file(&h)).unwrap();
+    assert_eq!((f.version, &f.header, h.min_version()), (3, &h, 3));
+    // The same header in a version-2 file is refused by name.
+    let e = container::read(&with_version(file(&h), 2)).unwrap_err();
+    assert!(matches!(&e, ContainerError::Header(m) if m.contains("version 2") && m.contains("dx dy dz")), "{e}");
+    // Scaled corrections still need H and lambda.
+    let mut bad = h.clone();
+    bad.corrections = CorrectionMode::Scaled;
+    let e = container::write_header(&bad).unwrap_err();
+    assert!(matches!(&e, ContainerError::Header(m) if m.contains("H and lambda")), "{e}");
+    let mut bad = header();
+    bad.streams.retain(|s| s.name != "lambda");
     assert!(matches!(container::write_header(&bad).unwrap_err(), ContainerError::Header(_)));
 }
 

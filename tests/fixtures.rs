@@ -89,3 +89,12 @@ fn v2_gv_and_scaled_cgv_fixtures_decode_as_frozen() {
     check("v2/walk-cgv.cgv", SolverKind::Cgv, 1e-5);
     check("v2/walk-cgv.cgv", SolverKind::Paper, 1e-4);
 }
+
+#[test]
+fn v3_motion_fixture_without_h_decodes_as_frozen() {
+    let f = container::read(&std::fs::read(fixture("v3/walk-cgv-motion.cgv")).unwrap()).unwrap();
+    assert_eq!((f.version, f.header.corrections), (3, CorrectionMode::Motion));
+    assert!(f.header.stream("H").is_none() && f.header.stream("lambda").is_none());
+    assert!(f.header.streams.iter().any(|s| s.layer == 2 && s.name == "dz"));
+    check("v3/walk-cgv-motion.cgv", SolverKind::Cgv, 1e-5);
+}

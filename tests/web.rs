@@ -1,5 +1,5 @@
 //! The wasm build in headless Chromium (wasm-bindgen-test): the container
-//! reader and the reconstruction on the v1 and v2 fixtures give the native
+//! reader and the reconstruction on the v1, v2 and v3 fixtures give the native
 //! decoder's positions; WebCodecs gives exactly openh264's samples; the
 //! renderer draws on WebGPU and on WebGL2.
 //!
@@ -21,6 +21,8 @@ const CGV: &[u8] = include_bytes!("fixtures/v1/walk-cgv.cgv");
 const CGV_POS: &[u8] = include_bytes!("fixtures/v1/walk-cgv.cgv.cgv.positions");
 const MOTION: &[u8] = include_bytes!("fixtures/v2/walk-cgv-motion.cgv");
 const MOTION_POS: &[u8] = include_bytes!("fixtures/v2/walk-cgv-motion.cgv.cgv.positions");
+const MOTION3: &[u8] = include_bytes!("fixtures/v3/walk-cgv-motion.cgv");
+const MOTION3_POS: &[u8] = include_bytes!("fixtures/v3/walk-cgv-motion.cgv.cgv.positions");
 
 #[wasm_bindgen(inline_js = r#"
 const decoders = new Map();
@@ -129,9 +131,12 @@ async fn webcodecs_samples_equal_openh264() {
 
 #[wasm_bindgen_test]
 async fn wasm_reconstruction_equals_native() {
-    for (name, bytes, pos, tol) in
-        [("gv2", GV, GV_POS, 1e-6f32), ("cgv", CGV, CGV_POS, 1e-5), ("motion", MOTION, MOTION_POS, 1e-5)]
-    {
+    for (name, bytes, pos, tol) in [
+        ("gv2", GV, GV_POS, 1e-6f32),
+        ("cgv", CGV, CGV_POS, 1e-5),
+        ("motion", MOTION, MOTION_POS, 1e-5),
+        ("motion3", MOTION3, MOTION3_POS, 1e-5),
+    ] {
         let diag = cgv::container::read(bytes).unwrap().header.source.diagonal;
         let (got, _) = decode(name, bytes).await;
         let want = floats(pos);

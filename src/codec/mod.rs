@@ -199,7 +199,19 @@ impl<D: VideoDecoder> SequenceDecoder<D> {
                 Rebuild::Gv
             }
             CodecKind::Cgv => {
-                require(&["H", "lambda"])?;
+                // Motion-corrected files may leave out H and λ (version 3),
+                // which only the paper's solver and H steps read.
+                let motion = h.corrections == CorrectionMode::Motion;
+                if solver == SolverKind::Paper && motion && h.stream("H").is_none() {
+                    return Err(Error::Argument(
+                        "the paper's solver needs H and lambda, which this motion-corrected file leaves out \
+                         (decode it with the cgv solver)"
+                            .into(),
+                    ));
+                }
+                if !motion || solver == SolverKind::Paper {
+                    require(&["H", "lambda"])?;
+                }
                 require(&SEED)?;
                 if CORRECTION.iter().any(|n| h.stream(n).is_some()) {
                     require(&CORRECTION)?;
@@ -280,13 +292,13 @@ impl<D: VideoDecoder> SequenceDecoder<D> {
             self.file.frames.get(f as usize).ok_or_else(|| Error::Argument(format!("frame {f} has no side data")))?;
         let anchors: Vec<Vec3> = info.anchors.iter().map(|p| Vec3::from(*p)).collect();
         let seed = positions(&get, SEED);
-        let hv = || get("H").ok_or_else(|| Error::Argument(format!("frame {f} has no H")));
+        let hv = get("H").map(Vec::as_slice);
         let positions = match &mut self.rebuild {
             Rebuild::Gv => positions(&get, ["x", "y", "z"])
                 .ok_or_else(|| Error::Argument(format!("GV frame {f} lacks a coordinate stream")))?,
             Rebuild::Cgv(pred, corrections) => {
                 let code = PredictorCode::from_byte(info.predictor)?;
-                let mut x = pred.predict(code, seed.as_deref(), hv()?, &anchors)?;
+                let mut x = pred.predict(code, seed.as_deref(), hv, &anchors)?;
                 if let Some(d) = positions(&get, CORRECTION) {
                     corrections.apply(&mut x, d);
                 }
@@ -298,7 +310,8 @@ impl<D: VideoDecoder> SequenceDecoder<D> {
                 if let Some(l) = get("lambda") {
                     solver.set_lambda(l);
                 }
-                let (x, st) = solver.solve_frame(hv()?, &anchors, seed.as_deref())?;
+                let hv = hv.ok_or_else(|| Error::Argument(format!("frame {f} has no H")))?;
+                let (x, st) = solver.solve_frame(hv, &anchors, seed.as_deref())?;
                 stats.solve = st;
                 x
             }

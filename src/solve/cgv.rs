@@ -240,41 +240,47 @@ impl Predictor {
         Ok(())
     }
 
-    fn check(&self, h: &[f32], anchors: &[Vec3]) -> Result<()> {
-        if h.len() != self.st.grid.len() || anchors.len() != self.anchors.len() {
+    fn check(&self, h: Option<&[f32]>, anchors: &[Vec3]) -> Result<()> {
+        if h.is_some_and(|h| h.len() != self.st.grid.len()) || anchors.len() != self.anchors.len() {
             return Err(Error::Argument("frame data does not match the grid or the anchors".into()));
         }
         Ok(())
     }
 
-    /// The prediction of the next frame with predictor `code`.
+    /// The prediction of the next frame with predictor `code`. `h` may be
+    /// absent (motion-corrected files leave it out) when `code` takes no
+    /// mean-curvature step.
     pub fn predict(
         &mut self,
         code: PredictorCode,
         seed: Option<&[Vec3]>,
-        h: &[f32],
+        h: Option<&[f32]>,
         anchors: &[Vec3],
     ) -> Result<Vec<Vec3>> {
         self.check(h, anchors)?;
         let mut x = self.extrapolate(code.extrapolation, seed, anchors)?;
-        for _ in 0..code.steps {
-            self.step(&mut x, h, anchors)?;
+        if code.steps > 0 {
+            let h = h.ok_or_else(|| Error::Argument("a mean-curvature step without H".into()))?;
+            for _ in 0..code.steps {
+                self.step(&mut x, h, anchors)?;
+            }
         }
         Ok(x)
     }
 
     /// Predictions for the encoder to choose from: every extrapolation in
     /// `allowed` (rigid alone while there are fewer than two past frames),
-    /// then 1..=`max_steps` H steps from the extrapolation closest to `truth`
-    /// (steps cost a sparse solve each; from the other extrapolations they
-    /// were never measured to win). `visit(code, prediction)` sees each.
+    /// then, with `h`, 1..=`max_steps` H steps from the extrapolation closest
+    /// to `truth` (steps cost a sparse solve each; from the other
+    /// extrapolations they were never measured to win). `visit(code,
+    /// prediction)` sees each.
     #[allow(clippy::too_many_arguments)]
     pub fn candidates(
         &mut self,
         allowed: &[Extrapolation],
         max_steps: u8,
         seed: Option<&[Vec3]>,
-        h: &[f32],
+        h: Option<&[f32]>,
         anchors: &[Vec3],
         truth: &[Vec3],
         visit: &mut dyn FnMut(PredictorCode, &[Vec3]),
@@ -293,7 +299,7 @@ impl Predictor {
                 best = Some((e, extrapolation, x));
             }
         }
-        if let Some((_, extrapolation, mut x)) = best {
+        if let (Some((_, extrapolation, mut x)), Some(h)) = (best, h) {
             for steps in 1..=max_steps.min(MAX_STEPS) {
                 self.step(&mut x, h, anchors)?;
                 visit(PredictorCode { extrapolation, steps }, &x);
@@ -310,7 +316,7 @@ impl Predictor {
         allowed: &[Extrapolation],
         max_steps: u8,
         seed: Option<&[Vec3]>,
-        h: &[f32],
+        h: Option<&[f32]>,
         anchors: &[Vec3],
         truth: &[Vec3],
     ) -> Result<(PredictorCode, Vec<Vec3>)> {

@@ -55,7 +55,8 @@ pub struct Args {
     /// CGV: how the corrections are coded. `scaled`: each frame's error,
     /// scaled to the frame's largest. `motion`: their running sum at a
     /// fixed scale, so H.264 skips what the prediction got right (better at
-    /// low and middle bitrates). `auto`: motion at QP 26 and coarser or
+    /// low and middle bitrates; such files leave out H and λ, which only the
+    /// paper's solver would read). `auto`: motion at QP 26 and coarser or
     /// below 0.5 bits per grid sample per frame, else scaled (measured, see
     /// docs/RESULTS.md).
     #[arg(long, value_enum, default_value = "auto")]
