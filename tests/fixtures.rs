@@ -15,7 +15,7 @@
 //! with rounding (1e-4).
 
 use cgv::codec::{h264, SequenceDecoder};
-use cgv::container::{self, CodecKind, CorrectionMode};
+use cgv::container::{self, CgvFile, CodecKind, CorrectionMode};
 use cgv::solve::SolverKind;
 use std::path::{Path, PathBuf};
 
@@ -24,9 +24,14 @@ fn fixture(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures").join(name)
 }
 
-fn decode(path: &Path, solver: SolverKind) -> Vec<f32> {
-    let bytes = std::fs::read(path).unwrap();
-    let file = container::read(&bytes).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+/// The fixture `name` (`vN/FILE`), read.
+fn open(name: &str) -> CgvFile {
+    let path = fixture(name);
+    let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    container::read(&bytes).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+fn decode(file: CgvFile, solver: SolverKind) -> Vec<f32> {
     let mut dec = SequenceDecoder::new(file, solver, h264::Decoder::new).unwrap();
     let mut out = Vec::new();
     for _ in 0..dec.frame_count() {
@@ -37,8 +42,9 @@ fn decode(path: &Path, solver: SolverKind) -> Vec<f32> {
 }
 
 fn check(name: &str, solver: SolverKind, tolerance: f64) {
-    let path = fixture(name);
-    let got = decode(&path, solver);
+    let file = open(name);
+    let diag = file.header.source.diagonal as f64;
+    let got = decode(file, solver);
     let expected_path = fixture(&format!("{name}.{solver}.positions"));
     if !expected_path.exists() && std::env::var("CGV_BLESS_FIXTURES").is_ok_and(|v| v == "1") {
         let bytes: Vec<u8> = got.iter().flat_map(|v| v.to_le_bytes()).collect();
@@ -48,21 +54,20 @@ fn check(name: &str, solver: SolverKind, tolerance: f64) {
         .unwrap_or_else(|e| panic!("{}: {e} (see the note at the top of this file)", expected_path.display()));
     let expected: Vec<f32> = bytes.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
     assert_eq!(got.len(), expected.len(), "{name}: sample count");
-    let diag = container::read(&std::fs::read(&path).unwrap()).unwrap().header.source.diagonal as f64;
     let worst = got.iter().zip(&expected).map(|(a, b)| (a - b).abs() as f64).fold(0.0, f64::max);
     assert!(worst <= tolerance * diag, "{name} ({solver}): differs by {worst} (> {tolerance} of {diag})");
 }
 
 #[test]
 fn v1_gv_fixture_decodes_as_frozen() {
-    let f = container::read(&std::fs::read(fixture("v1/walk-gv.cgv")).unwrap()).unwrap();
+    let f = open("v1/walk-gv.cgv");
     assert_eq!((f.header.codec, f.header.grid, f.header.frames), (CodecKind::Gv, 16, 4));
     check("v1/walk-gv.cgv", SolverKind::Cgv, 1e-6);
 }
 
 #[test]
 fn v1_cgv_fixture_decodes_as_frozen_with_both_solvers() {
-    let f = container::read(&std::fs::read(fixture("v1/walk-cgv.cgv")).unwrap()).unwrap();
+    let f = open("v1/walk-cgv.cgv");
     assert_eq!((f.header.codec, f.header.grid, f.header.frames), (CodecKind::Cgv, 16, 4));
     assert_eq!(f.header.key_frames, vec![0, 2]);
     assert!(f.header.streams.iter().any(|s| s.layer == 2 && s.name == "dx"));
@@ -72,7 +77,7 @@ fn v1_cgv_fixture_decodes_as_frozen_with_both_solvers() {
 
 #[test]
 fn v2_motion_fixture_decodes_as_frozen() {
-    let f = container::read(&std::fs::read(fixture("v2/walk-cgv-motion.cgv")).unwrap()).unwrap();
+    let f = open("v2/walk-cgv-motion.cgv");
     assert_eq!((f.version, f.header.corrections), (2, CorrectionMode::Motion));
     assert_eq!((f.header.codec, f.header.grid, f.header.frames), (CodecKind::Cgv, 16, 6));
     assert!(f.header.streams.iter().any(|s| s.layer == 2 && s.name == "dz"));
@@ -81,10 +86,10 @@ fn v2_motion_fixture_decodes_as_frozen() {
 
 #[test]
 fn v2_gv_and_scaled_cgv_fixtures_decode_as_frozen() {
-    let f = container::read(&std::fs::read(fixture("v2/walk-gv.cgv")).unwrap()).unwrap();
+    let f = open("v2/walk-gv.cgv");
     assert_eq!((f.version, f.header.codec, f.header.frames), (2, CodecKind::Gv, 4));
     check("v2/walk-gv.cgv", SolverKind::Cgv, 1e-6);
-    let f = container::read(&std::fs::read(fixture("v2/walk-cgv.cgv")).unwrap()).unwrap();
+    let f = open("v2/walk-cgv.cgv");
     assert_eq!((f.version, f.header.corrections, f.header.anchors.len()), (2, CorrectionMode::Scaled, 16));
     check("v2/walk-cgv.cgv", SolverKind::Cgv, 1e-5);
     check("v2/walk-cgv.cgv", SolverKind::Paper, 1e-4);
@@ -92,7 +97,7 @@ fn v2_gv_and_scaled_cgv_fixtures_decode_as_frozen() {
 
 #[test]
 fn v3_motion_fixture_without_h_decodes_as_frozen() {
-    let f = container::read(&std::fs::read(fixture("v3/walk-cgv-motion.cgv")).unwrap()).unwrap();
+    let f = open("v3/walk-cgv-motion.cgv");
     assert_eq!((f.version, f.header.corrections), (3, CorrectionMode::Motion));
     assert!(f.header.stream("H").is_none() && f.header.stream("lambda").is_none());
     assert!(f.header.streams.iter().any(|s| s.layer == 2 && s.name == "dz"));

@@ -73,7 +73,7 @@ pub enum Extrapolation {
     SmoothVelocity,
 }
 
-/// Every extrapolation, for [`Predictor::candidates`].
+/// Every extrapolation, for [`Predictor::closest`].
 pub const ALL_EXTRAPOLATIONS: [Extrapolation; 3] =
     [Extrapolation::Rigid, Extrapolation::Velocity, Extrapolation::SmoothVelocity];
 /// The extrapolations that keep motion-mode correction streams (see
@@ -268,48 +268,12 @@ impl Predictor {
         Ok(x)
     }
 
-    /// Predictions for the encoder to choose from: every extrapolation in
-    /// `allowed` (rigid alone while there are fewer than two past frames),
-    /// then, with `h`, 1..=`max_steps` H steps from the extrapolation closest
-    /// to `truth` (steps cost a sparse solve each; from the other
-    /// extrapolations they were never measured to win). `visit(code,
-    /// prediction)` sees each.
-    #[allow(clippy::too_many_arguments)]
-    pub fn candidates(
-        &mut self,
-        allowed: &[Extrapolation],
-        max_steps: u8,
-        seed: Option<&[Vec3]>,
-        h: Option<&[f32]>,
-        anchors: &[Vec3],
-        truth: &[Vec3],
-        visit: &mut dyn FnMut(PredictorCode, &[Vec3]),
-    ) -> Result<()> {
-        use Extrapolation::*;
-        self.check(h, anchors)?;
-        // Without two past frames every extrapolation is the rigid one.
-        let extrapolations: &[Extrapolation] =
-            if self.prev2.is_some() && !allowed.is_empty() { allowed } else { &[Rigid] };
-        let mut best: Option<(f64, Extrapolation, Vec<Vec3>)> = None;
-        for &extrapolation in extrapolations {
-            let x = self.extrapolate(extrapolation, seed, anchors)?;
-            visit(PredictorCode { extrapolation, steps: 0 }, &x);
-            let e = squared_distance(&x, truth);
-            if best.as_ref().is_none_or(|b| e < b.0) {
-                best = Some((e, extrapolation, x));
-            }
-        }
-        if let (Some((_, extrapolation, mut x)), Some(h)) = (best, h) {
-            for steps in 1..=max_steps.min(MAX_STEPS) {
-                self.step(&mut x, h, anchors)?;
-                visit(PredictorCode { extrapolation, steps }, &x);
-            }
-        }
-        Ok(())
-    }
-
-    /// The candidate (see [`candidates`](Self::candidates)) closest to
-    /// `truth`: what the encoder predicts a frame with.
+    /// The prediction closest to `truth`, what the encoder predicts a frame
+    /// with, among: every extrapolation in `allowed` (rigid alone while
+    /// there are fewer than two past frames), then, with `h`,
+    /// 1..=`max_steps` H steps from the extrapolation closest to `truth`
+    /// (steps cost a sparse solve each; from the other extrapolations they
+    /// were never measured to win). On a tie the earlier candidate wins.
     #[allow(clippy::too_many_arguments)]
     pub fn closest(
         &mut self,
@@ -320,14 +284,32 @@ impl Predictor {
         anchors: &[Vec3],
         truth: &[Vec3],
     ) -> Result<(PredictorCode, Vec<Vec3>)> {
+        use Extrapolation::*;
+        self.check(h, anchors)?;
+        // Without two past frames every extrapolation is the rigid one.
+        let extrapolations: &[Extrapolation] =
+            if self.prev2.is_some() && !allowed.is_empty() { allowed } else { &[Rigid] };
         let mut best: Option<(f64, PredictorCode, Vec<Vec3>)> = None;
-        self.candidates(allowed, max_steps, seed, h, anchors, truth, &mut |code, x| {
-            let e = squared_distance(x, truth);
+        for &extrapolation in extrapolations {
+            let x = self.extrapolate(extrapolation, seed, anchors)?;
+            let e = squared_distance(&x, truth);
             if best.as_ref().is_none_or(|b| e < b.0) {
-                best = Some((e, code, x.to_vec()));
+                best = Some((e, PredictorCode { extrapolation, steps: 0 }, x));
             }
-        })?;
-        best.map(|(_, code, x)| (code, x)).ok_or_else(|| Error::Numerical("no prediction".into()))
+        }
+        let (mut error, mut code, mut x) = best.ok_or_else(|| Error::Numerical("no prediction".into()))?;
+        if let Some(h) = h {
+            let extrapolation = code.extrapolation;
+            let mut y = x.clone();
+            for steps in 1..=max_steps.min(MAX_STEPS) {
+                self.step(&mut y, h, anchors)?;
+                let e = squared_distance(&y, truth);
+                if e < error {
+                    (error, code, x) = (e, PredictorCode { extrapolation, steps }, y.clone());
+                }
+            }
+        }
+        Ok((code, x))
     }
 
     /// Records the decoded frame (prediction plus correction).
