@@ -11,7 +11,7 @@ use cgv::codec::{choose_anchors, VideoDecoder};
 use cgv::grid::Grid;
 use cgv::param::{parameterize, ParamOptions};
 use cgv::resample::SampleMap;
-use cgv::solve::cgv::{Extrapolation, Predictor, PredictorCode};
+use cgv::solve::cgv::{Extrapolation, Predictor, PredictorCode, DEFAULT_MAX_LAG};
 use cgv::solve::paper::PaperSolver;
 use criterion::{criterion_group, criterion_main, Criterion};
 use glam::Vec3;
@@ -52,13 +52,32 @@ fn bench(c: &mut Criterion) {
         // made once per sequence, before the timed loop.
         for steps in [0u8, 1] {
             let mut p = Predictor::new(st.clone(), anchors.clone());
-            let code = PredictorCode { extrapolation: Extrapolation::Rigid, steps };
+            let code = PredictorCode { steps, ..PredictorCode::plain(Extrapolation::Rigid) };
             let x0 = p.predict(code, Some(&g0), Some(&f0.h), &at(&g0)).expect("predict");
             p.commit(x0, &at(&g0));
             g.bench_function(format!("reconstruct-cgv-{steps}-steps/{n}"), |b| {
                 b.iter(|| {
                     let x = p.predict(code, None, Some(&f1.h), &at(&g1)).expect("predict");
                     std::hint::black_box(&x);
+                })
+            });
+        }
+        // The motion decoder's whole step, commit included (the tangential
+        // coefficients, and with cycle predictions on, the new frame's
+        // smoothed velocity kept among the last 60): smoothed velocity with
+        // cycles off, and a cycle prediction (lag 2) with them on.
+        for (name, max_lag, code) in [
+            ("smoothed-velocity", 0, PredictorCode::plain(Extrapolation::SmoothVelocity)),
+            ("cycle", DEFAULT_MAX_LAG, PredictorCode { lag: 2, ..PredictorCode::plain(Extrapolation::Cycle) }),
+        ] {
+            let mut p = Predictor::new(st.clone(), Vec::new()).with_max_lag(max_lag);
+            for x in [&g0, &g1, &g0, &g1] {
+                p.commit(x.clone(), &[]);
+            }
+            g.bench_function(format!("reconstruct-motion-{name}-and-commit/{n}"), |b| {
+                b.iter(|| {
+                    let x = p.predict(code, None, None, &[]).expect("predict");
+                    p.commit(x, &[]);
                 })
             });
         }

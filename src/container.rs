@@ -1,14 +1,15 @@
-//! The `.cgv` file format, versions 1 to 3 (documented in `docs/FORMAT.md`).
+//! The `.cgv` file format, versions 1 to 4 (documented in `docs/FORMAT.md`).
 //! Version 2 puts each frame in one chunk (version 1: one chunk per access
 //! unit, 20 bytes each, a quarter of a low-bitrate file) and adds one
 //! header field, `corrections` (see [`CorrectionMode`]). Version 3 has the
 //! layout of version 2 and lets a motion-corrected CGV file leave out the
-//! `H` and `lambda` streams. This writer writes version 3; the reader reads
-//! all three.
+//! `H` and `lambda` streams. Version 4 adds cycle predictions: a lag byte
+//! in the frame chunk and the header field `max_lag`. This writer writes
+//! version 4; the reader reads all four.
 //!
 //! ```text
 //! magic    8 bytes   89 43 47 56 0D 0A 1A 0A   ("\x89CGV\r\n\x1a\n")
-//! version  u16 LE    1, 2 or 3
+//! version  u16 LE    1 to 4
 //! flags    u16 LE    0
 //! length   u32 LE    header length L (at most 1 MiB)
 //! header   L bytes   UTF-8 JSON (serde), see [`Header`]
@@ -30,7 +31,7 @@ use serde::{Deserialize, Serialize};
 
 pub const MAGIC: [u8; 8] = [0x89, b'C', b'G', b'V', b'\r', b'\n', 0x1A, b'\n'];
 /// The newest version this reader reads and this writer writes.
-pub const VERSION: u16 = 3;
+pub const VERSION: u16 = 4;
 /// Largest header accepted.
 pub const MAX_HEADER: usize = 1 << 20;
 /// Largest chunk payload accepted (an access unit of a 4096² frame at QP 0
@@ -107,17 +108,21 @@ pub struct StreamInfo {
     pub scaled: bool,
 }
 
-/// Per-frame side data (the `FRAM` chunk). Payload: `predictor u8 |
-/// reserved [u8; 3] (zero) | correction_scale f32 | anchors (f32 x, y, z
-/// each)`, little-endian.
+/// Per-frame side data (the `FRAM` chunk). Payload: `predictor u8 | lag u8
+/// | reserved [u8; 2] (zero) | correction_scale f32 | anchors (f32 x, y, z
+/// each)`, little-endian. The lag byte is zero before version 4.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct FrameInfo {
     /// How the `cgv` decoder predicts this frame before its correction is
     /// added (see `crate::solve::cgv::PredictorCode`): bits 0..=1 choose the
     /// extrapolation (0: the previous frame moved rigidly onto the anchors,
-    /// 1: constant velocity, 2: smoothed velocity; 3 is invalid), bits 2..=3
-    /// the number of mean-curvature steps.
+    /// 1: constant velocity, 2: smoothed velocity, 3: the velocity of
+    /// [`lag`](Self::lag) frames ago, version 4), bits 2..=3 the number of
+    /// mean-curvature steps.
     pub predictor: u8,
+    /// Version 4: the lag of a cycle prediction (2..=the header's
+    /// `max_lag`, and less than the frame's index), else 0.
+    pub lag: u8,
     /// Scale of the correction streams at this frame (0 without corrections).
     pub correction_scale: f32,
     pub anchors: Vec<[f32; 3]>,
@@ -125,19 +130,32 @@ pub struct FrameInfo {
 
 impl FrameInfo {
     pub fn to_bytes(&self) -> Vec<u8> {
-        let mut out = vec![self.predictor, 0, 0, 0];
+        let mut out = vec![self.predictor, self.lag, 0, 0];
         out.extend_from_slice(&self.correction_scale.to_le_bytes());
         out.extend(self.anchors.iter().flatten().flat_map(|v| v.to_le_bytes()));
         out
     }
 
-    fn parse(payload: &[u8], anchors: usize, offset: usize) -> Result<FrameInfo, ContainerError> {
+    /// The side data of frame `frame` of a file whose header is `header`.
+    fn parse(payload: &[u8], header: &Header, frame: u32, offset: usize) -> Result<FrameInfo, ContainerError> {
         let bad = |msg: String| ContainerError::Chunk { offset, msg };
+        let anchors = header.anchors.len();
         if payload.len() != 8 + anchors * 12 {
             return Err(bad(format!("frame chunk has {} bytes, expected {}", payload.len(), 8 + anchors * 12)));
         }
-        if payload[0] > MAX_PREDICTOR || payload[0] & 3 == 3 || payload[1..4] != [0, 0, 0] {
-            return Err(bad(format!("unknown predictor {:?}", &payload[..4])));
+        // A cycle prediction (code 3) names a lag the header allows and
+        // the frames before it can serve; nothing else has a lag.
+        let lag = payload[1];
+        let lag_ok = match payload[0] & 3 {
+            3 => (2..=header.max_lag).contains(&lag) && u32::from(lag) < frame,
+            _ => lag == 0,
+        };
+        if payload[0] > MAX_PREDICTOR || !lag_ok || payload[2..4] != [0, 0] {
+            return Err(bad(format!(
+                "unknown predictor {:?} at frame {frame} (lags up to {} allowed)",
+                &payload[..4],
+                header.max_lag
+            )));
         }
         let f32_at = |o: usize| f32::from_le_bytes([payload[o], payload[o + 1], payload[o + 2], payload[o + 3]]);
         let correction_scale = f32_at(4);
@@ -148,12 +166,12 @@ impl FrameInfo {
         if anchors.iter().flatten().any(|v| !v.is_finite()) {
             return Err(bad("non-finite anchor position".into()));
         }
-        Ok(FrameInfo { predictor: payload[0], correction_scale, anchors })
+        Ok(FrameInfo { predictor: payload[0], lag, correction_scale, anchors })
     }
 }
 
-/// Largest predictor code (bits 0..=1: extrapolation 0..=2, bits 2..=3: steps 0..=3).
-pub const MAX_PREDICTOR: u8 = 0b1110;
+/// Largest predictor code (bits 0..=1: extrapolation 0..=3, bits 2..=3: steps 0..=3).
+pub const MAX_PREDICTOR: u8 = 0b1111;
 
 /// The frames a stream is coded at.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -214,10 +232,18 @@ pub struct Header {
     /// Version 2: how the correction streams apply (absent: scaled).
     #[serde(default, skip_serializing_if = "is_scaled")]
     pub corrections: CorrectionMode,
+    /// Version 4: the longest lag of a cycle prediction in this file (0,
+    /// or absent: none). A decoder keeps this many past frames, plus one.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub max_lag: u8,
 }
 
 fn is_scaled(m: &CorrectionMode) -> bool {
     *m == CorrectionMode::Scaled
+}
+
+fn is_zero(v: &u8) -> bool {
+    *v == 0
 }
 
 /// The seam rule written by this version.
@@ -280,16 +306,22 @@ impl Header {
         {
             return bad("only a motion-corrected CGV file may leave out the H and lambda streams".into());
         }
+        if self.max_lag > 0 && !closed_loop {
+            return bad("cycle predictions (max_lag) need correction streams".into());
+        }
         if self.codec == CodecKind::Cgv && self.anchors.len() < 4 && !closed_loop {
             return bad("a CGV file without correction streams needs at least 4 anchors".into());
         }
         Ok(())
     }
 
-    /// The oldest format version that can hold this header: 3 for a CGV
-    /// file without H, 2 for motion corrections, else 1.
+    /// The oldest format version that can hold this header: 4 for cycle
+    /// predictions, 3 for a CGV file without H, 2 for motion corrections,
+    /// else 1.
     pub fn min_version(&self) -> u16 {
-        if self.codec == CodecKind::Cgv && self.stream("H").is_none() {
+        if self.max_lag > 0 {
+            4
+        } else if self.codec == CodecKind::Cgv && self.stream("H").is_none() {
             3
         } else if self.corrections == CorrectionMode::Motion {
             2
@@ -435,9 +467,10 @@ pub fn parse_header(bytes: &[u8]) -> Result<Option<(Header, usize)>, ContainerEr
     header.validate()?;
     if header.min_version() > version {
         return Err(ContainerError::Header(format!(
-            "a version {version} file cannot hold what version {} added (corrections: {:?}, streams: {})",
+            "a version {version} file cannot hold what version {} added (corrections: {:?}, max_lag: {}, streams: {})",
             header.min_version(),
             header.corrections,
+            header.max_lag,
             header.streams.iter().map(|s| s.name.as_str()).collect::<Vec<_>>().join(" ")
         )));
     }
@@ -629,7 +662,7 @@ impl StreamReader {
                     msg: format!("frame chunk has {} bytes, fewer than its {side} bytes of side data", p.len()),
                 });
             }
-            let info = FrameInfo::parse(&p[..side], header.anchors.len(), offset)?;
+            let info = FrameInfo::parse(&p[..side], header, frame, offset)?;
             let mut at = side;
             let mut units = Vec::new();
             for s in (0..nstreams).filter(|&s| header.stream_has_frame(s, frame)) {
@@ -674,7 +707,7 @@ impl StreamReader {
             if chunk.tag != TAG_FRAME {
                 return Err(expect("the frame chunk"));
             }
-            file.frames.push(FrameInfo::parse(chunk.payload, header.anchors.len(), offset)?);
+            file.frames.push(FrameInfo::parse(chunk.payload, header, frame, offset)?);
         }
         // Advance to the next expected chunk.
         let header = &file.header;

@@ -42,12 +42,13 @@ fn header() -> Header {
         settings: Settings { qp: 20, kbps: None, gop: 30, cabac: true, layers: 2, residual_steps: 8.0 },
         source: Default::default(),
         corrections: CorrectionMode::Scaled,
+        max_lag: 0,
     }
 }
 
 fn frame_info(h: &Header, f: u32) -> container::FrameInfo {
     let anchors = (0..h.anchors.len()).map(|i| [0, 1, 2].map(|c| (3 * i + c) as f32 + f as f32)).collect();
-    container::FrameInfo { predictor: 6, correction_scale: 0.5, anchors }
+    container::FrameInfo { predictor: 6, lag: 0, correction_scale: 0.5, anchors }
 }
 
 /// Not real H.264: the reader does not look inside.
@@ -92,12 +93,13 @@ fn file_v1(h: &Header) -> Vec<u8> {
 fn reads_what_it_writes_in_both_layouts() {
     let h = header();
     let (v1, v2) = (file_v1(&h), file(&h));
-    // Versions 2 and 3 save 20 bytes per access unit but the frame's first.
+    // Versions 2 to 4 save 20 bytes per access unit but the frame's first.
     assert_eq!(v1.len() - v2.len(), (h.expected_chunks() as usize - 3) * 20 - 8);
     let a = container::read(&v1).unwrap();
     let f = container::read(&v2).unwrap();
-    assert_eq!((a.version, f.version), (1, 3));
-    assert_eq!(container::read(&with_version(v2, 2)).unwrap().header, h);
+    assert_eq!((a.version, f.version), (1, 4));
+    assert_eq!(container::read(&with_version(v2.clone(), 2)).unwrap().header, h);
+    assert_eq!(container::read(&with_version(v2, 3)).unwrap().header, h);
     assert_eq!((&a.header, &a.units, &a.frames), (&f.header, &f.units, &f.frames));
     assert_eq!(f.header, h);
     assert_eq!(f.units[0].len(), 3);
@@ -115,9 +117,9 @@ fn bad_magic_and_versions() {
     assert_eq!(container::read(&bytes).unwrap_err(), ContainerError::BadMagic);
     assert_eq!(container::read(b"GIF89a").unwrap_err(), ContainerError::BadMagic);
     let mut bytes = file(&header());
-    bytes[8] = 4;
-    assert_eq!(container::VERSION, 3);
-    assert_eq!(container::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 4 });
+    bytes[8] = 5;
+    assert_eq!(container::VERSION, 4);
+    assert_eq!(container::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 5 });
     bytes[8] = 0;
     assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 0 }));
 }
@@ -153,12 +155,12 @@ fn with_version(mut bytes: Vec<u8>, version: u16) -> Vec<u8> {
 fn motion_corrections_only_in_version_two() {
     // Scaled corrections add no header field.
     let bytes = file(&header());
-    assert_eq!(u16::from_le_bytes([bytes[8], bytes[9]]), 3);
+    assert_eq!(u16::from_le_bytes([bytes[8], bytes[9]]), container::VERSION);
     assert!(!String::from_utf8_lossy(&bytes).contains("corrections"));
     // Motion corrections: read back whole.
     let h = motion_header();
     let f = container::read(&file(&h)).unwrap();
-    assert_eq!((f.version, &f.header), (3, &h));
+    assert_eq!((f.version, &f.header), (container::VERSION, &h));
     assert_eq!(container::read(&with_version(file(&h), 2)).unwrap().header, h);
     // A version-1 file with the version-2 field is refused by name.
     let e = container::read(&file_v1(&h)).unwrap_err();
@@ -180,7 +182,8 @@ fn only_motion_files_leave_out_h_and_lambda_from_version_three() {
     let mut h = motion_header();
     h.streams.retain(|s| s.name != "H" && s.name != "lambda");
     let f = container::read(&file(&h)).unwrap();
-    assert_eq!((f.version, &f.header, h.min_version()), (3, &h, 3));
+    assert_eq!((f.version, &f.header, h.min_version()), (container::VERSION, &h, 3));
+    assert_eq!(container::read(&with_version(file(&h), 3)).unwrap().header, h);
     // The same header in a version-2 file is refused by name.
     let e = container::read(&with_version(file(&h), 2)).unwrap_err();
     assert!(matches!(&e, ContainerError::Header(m) if m.contains("version 2") && m.contains("dx dy dz")), "{e}");
@@ -192,6 +195,62 @@ fn only_motion_files_leave_out_h_and_lambda_from_version_three() {
     let mut bad = header();
     bad.streams.retain(|s| s.name != "lambda");
     assert!(matches!(container::write_header(&bad).unwrap_err(), ContainerError::Header(_)));
+}
+
+#[test]
+fn cycle_predictions_from_version_four() {
+    let mut h = motion_header();
+    h.frames = 6;
+    h.max_lag = 3;
+    // Frame f predicts with lag f - 1 (the longest its past allows) up to 3.
+    let mut bytes = container::write_header(&h).unwrap();
+    for f in 0..h.frames {
+        let lag = (f as u8).saturating_sub(1).min(3);
+        let info = container::FrameInfo {
+            predictor: if lag >= 2 { 3 } else { 1 },
+            lag: if lag >= 2 { lag } else { 0 },
+            ..frame_info(&h, f)
+        };
+        let units: Vec<Vec<u8>> =
+            (0..h.streams.len()).filter(|&s| h.stream_has_frame(s, f)).map(|s| unit(f, s)).collect();
+        bytes.extend(container::write_frame(f, &info, &units.iter().map(Vec::as_slice).collect::<Vec<_>>()));
+    }
+    bytes.extend(container::write_chunk(container::TAG_END, 0, h.frames, &[]));
+    let f = container::read(&bytes).unwrap();
+    assert_eq!((f.version, h.min_version()), (4, 4));
+    assert_eq!(
+        f.frames.iter().map(|i| (i.predictor, i.lag)).collect::<Vec<_>>(),
+        [(1, 0), (1, 0), (1, 0), (3, 2), (3, 3), (3, 3)]
+    );
+    // The same file as version 3 is refused by name.
+    let e = container::read(&with_version(bytes, 3)).unwrap_err();
+    assert!(matches!(&e, ContainerError::Header(m) if m.contains("version 3") && m.contains("max_lag: 3")), "{e}");
+    // A lag the header does not allow, one that reaches before frame 0,
+    // and a lag below 2 (lag 1 is the velocity predictor).
+    for (frame, lag) in [(5, 4), (2, 2), (3, 1)] {
+        let mut bytes = container::write_header(&h).unwrap();
+        for f in 0..=frame {
+            let info = match f == frame {
+                true => container::FrameInfo { predictor: 3, lag, ..frame_info(&h, f) },
+                false => container::FrameInfo { predictor: 1, ..frame_info(&h, f) },
+            };
+            let units: Vec<Vec<u8>> =
+                (0..h.streams.len()).filter(|&s| h.stream_has_frame(s, f)).map(|s| unit(f, s)).collect();
+            bytes.extend(container::write_frame(f, &info, &units.iter().map(Vec::as_slice).collect::<Vec<_>>()));
+        }
+        let e = container::read(&bytes).unwrap_err();
+        assert!(
+            matches!(&e, ContainerError::Chunk { msg, .. } if msg.contains(&format!("unknown predictor [3, {lag}, 0, 0] at frame {frame}"))),
+            "{e}"
+        );
+    }
+    // Cycle predictions need correction streams.
+    let mut bad = header();
+    bad.streams.retain(|s| s.name != "dx" && s.name != "dy" && s.name != "dz");
+    assert!(container::write_header(&bad).is_ok());
+    bad.max_lag = 2;
+    let e = container::write_header(&bad).unwrap_err();
+    assert!(matches!(&e, ContainerError::Header(m) if m.contains("max_lag")), "{e}");
 }
 
 #[test]
@@ -285,12 +344,16 @@ fn chunks_out_of_order_or_extra_are_errors() {
 #[test]
 fn bad_frame_chunks_are_errors() {
     let h = header();
-    let good = container::FrameInfo { predictor: 1, correction_scale: 1.0, anchors: vec![[0.0; 3]; 4] };
+    let good = container::FrameInfo { predictor: 1, lag: 0, correction_scale: 1.0, anchors: vec![[0.0; 3]; 4] };
     let mut bad_bytes = good.to_bytes();
     bad_bytes.pop();
     let cases: Vec<Vec<u8>> = vec![
         container::FrameInfo { predictor: container::MAX_PREDICTOR + 1, ..good.clone() }.to_bytes(),
         container::FrameInfo { predictor: 3, ..good.clone() }.to_bytes(),
+        // A cycle prediction in a file whose header allows no lag, and a lag
+        // on another predictor.
+        container::FrameInfo { predictor: 3, lag: 2, ..good.clone() }.to_bytes(),
+        container::FrameInfo { lag: 2, ..good.clone() }.to_bytes(),
         container::FrameInfo { correction_scale: -1.0, ..good.clone() }.to_bytes(),
         container::FrameInfo { correction_scale: f32::INFINITY, ..good.clone() }.to_bytes(),
         container::FrameInfo { anchors: vec![[f32::NAN, 0.0, 0.0]; 4], ..good.clone() }.to_bytes(),

@@ -103,3 +103,14 @@ fn v3_motion_fixture_without_h_decodes_as_frozen() {
     assert!(f.header.streams.iter().any(|s| s.layer == 2 && s.name == "dz"));
     check("v3/walk-cgv-motion.cgv", SolverKind::Cgv, 1e-5);
 }
+
+#[test]
+fn v4_cycle_fixture_decodes_as_frozen() {
+    let f = open("v4/walk-cgv-cycle.cgv");
+    assert_eq!((f.version, f.header.corrections), (4, CorrectionMode::Motion));
+    // Cycle predictions (a lag of 36, the default motion's gait period,
+    // among others) and corrections on frames 0, 1, 3, 5, ... only.
+    assert!(f.header.max_lag >= 36 && f.frames.iter().any(|i| i.predictor & 3 == 3 && i.lag == 36));
+    assert_eq!(&f.header.key_frames[..4], [0, 1, 3, 5]);
+    check("v4/walk-cgv-cycle.cgv", SolverKind::Cgv, 1e-5);
+}

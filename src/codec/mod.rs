@@ -219,7 +219,8 @@ impl<D: VideoDecoder> SequenceDecoder<D> {
                 let st = Stencils::new(grid);
                 match solver {
                     SolverKind::Cgv => {
-                        Rebuild::Cgv(Predictor::new(st, h.anchors.clone()), Corrections::new(h.corrections))
+                        let predictor = Predictor::new(st, h.anchors.clone()).with_max_lag(h.max_lag);
+                        Rebuild::Cgv(predictor, Corrections::new(h.corrections))
                     }
                     SolverKind::Paper => Rebuild::Paper(PaperSolver::new(st, h.anchors.clone())),
                 }
@@ -297,7 +298,7 @@ impl<D: VideoDecoder> SequenceDecoder<D> {
             Rebuild::Gv => positions(&get, ["x", "y", "z"])
                 .ok_or_else(|| Error::Argument(format!("GV frame {f} lacks a coordinate stream")))?,
             Rebuild::Cgv(pred, corrections) => {
-                let code = PredictorCode::from_byte(info.predictor)?;
+                let code = PredictorCode::from_bytes(info.predictor, info.lag)?;
                 let mut x = pred.predict(code, seed.as_deref(), hv, &anchors)?;
                 if let Some(d) = positions(&get, CORRECTION) {
                     corrections.apply(&mut x, d);

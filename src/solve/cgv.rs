@@ -14,8 +14,11 @@
 //!
 //! 1. an extrapolation of the decoded past — the previous frame moved by the
 //!    rigid motion of its anchors onto this frame's (Horn 1987; the paper's
-//!    own warm start, section 5.3), constant velocity 2 x₋₁ − x₋₂, or
-//!    constant velocity smoothed over the grid ([`Extrapolation`]);
+//!    own warm start, section 5.3), constant velocity 2 x₋₁ − x₋₂,
+//!    constant velocity smoothed over the grid, or the smoothed velocity of
+//!    `lag` frames ago, x₋₁ + S(x₋ₗ − x₋ₗ₋₁), for motion that repeats (a
+//!    gait or a looped animation: long-term prediction, as in speech coding
+//!    and H.264's long-term reference pictures) ([`Extrapolation`]);
 //! 2. zero to [`MAX_STEPS`] mean-curvature steps: with the normals and
 //!    tangents of the current guess, the tangential coefficients a, b of the
 //!    previous decoded frame (no bits), this frame's decoded H and anchors,
@@ -71,18 +74,38 @@ pub enum Extrapolation {
     /// ([`SMOOTHING_PASSES`] averaging passes): the coding noise of the two
     /// past frames is not doubled, while the smooth motion of a body is kept.
     SmoothVelocity,
+    /// x₋₁ plus the velocity of [`PredictorCode::lag`] frames ago,
+    /// x₋ₗ − x₋ₗ₋₁, smoothed like [`SmoothVelocity`](Self::SmoothVelocity)
+    /// (format version 4): exact but for the smoothing for a motion that
+    /// repeats every `lag` frames while the body travels at constant
+    /// velocity (horse-gallop is a 24-frame cycle played twice). Unsmoothed,
+    /// it carried the coding noise of two more decoded frames into every
+    /// prediction (horse-gallop, N = 128: surface RMS 0.83 / 0.42 % against
+    /// 0.77 / 0.38 % smoothed at GV's `low` and `medium` sizes, and a
+    /// smoothness metric above GV's instead of 20-25 % below).
+    Cycle,
 }
 
 /// Every extrapolation, for [`Predictor::closest`].
-pub const ALL_EXTRAPOLATIONS: [Extrapolation; 3] =
-    [Extrapolation::Rigid, Extrapolation::Velocity, Extrapolation::SmoothVelocity];
+pub const ALL_EXTRAPOLATIONS: [Extrapolation; 4] =
+    [Extrapolation::Rigid, Extrapolation::Velocity, Extrapolation::SmoothVelocity, Extrapolation::Cycle];
 /// The extrapolations that keep motion-mode correction streams (see
 /// [`crate::container::CorrectionMode::Motion`]) within a range: those
 /// streams carry the running sum of the corrections, which telescopes to a
 /// change of velocity after velocity predictions but adds up whole
 /// displacements after rigid ones (no anchors: the previous frame); the
 /// range grew 1.3-2.3x on horse-gallop when rigid was allowed.
-pub const MOTION_EXTRAPOLATIONS: [Extrapolation; 2] = [Extrapolation::Velocity, Extrapolation::SmoothVelocity];
+/// A cycle prediction keeps the running sum bounded too: it adds
+/// v − v₋ₗ, a difference of two velocities.
+pub const MOTION_EXTRAPOLATIONS: [Extrapolation; 3] =
+    [Extrapolation::Velocity, Extrapolation::SmoothVelocity, Extrapolation::Cycle];
+
+/// The encoder's default longest lag: 2 s at 30 fps, enough for a gait or a
+/// gallop cycle (the default motion's is 36 frames, horse-gallop's 24). A
+/// file may ask for up to 255 (its FRAM byte); a decoder keeps the header's
+/// `max_lag` smoothed velocities: at N = 256 and a lag of 60, 60 fields of
+/// 786 KB.
+pub const DEFAULT_MAX_LAG: u8 = 60;
 
 /// Averaging passes that smooth the velocity field (each halves a sample's
 /// own weight against its four neighbours' mean). Chosen by measurement on
@@ -90,32 +113,43 @@ pub const MOTION_EXTRAPOLATIONS: [Extrapolation; 2] = [Extrapolation::Velocity, 
 pub const SMOOTHING_PASSES: usize = 8;
 
 /// A predictor code: the extrapolation (bits 0..=1) and the number of H
-/// steps (bits 2..=3).
+/// steps (bits 2..=3) of the FRAM chunk's predictor byte, and the lag of a
+/// cycle prediction (the byte after it; 0 for the other extrapolations).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct PredictorCode {
     pub extrapolation: Extrapolation,
     pub steps: u8,
+    pub lag: u8,
 }
 
 impl PredictorCode {
-    pub fn from_byte(b: u8) -> Result<PredictorCode> {
+    /// A code without mean-curvature steps.
+    pub fn plain(extrapolation: Extrapolation) -> PredictorCode {
+        PredictorCode { extrapolation, steps: 0, lag: 0 }
+    }
+
+    /// From the FRAM chunk's predictor and lag bytes (the container has
+    /// checked them against the format version and the header's `max_lag`).
+    pub fn from_bytes(b: u8, lag: u8) -> Result<PredictorCode> {
         let extrapolation = match b & 3 {
             0 => Extrapolation::Rigid,
             1 => Extrapolation::Velocity,
             2 => Extrapolation::SmoothVelocity,
-            _ => return Err(Error::Argument(format!("unknown predictor code {b}"))),
+            _ => Extrapolation::Cycle,
         };
-        if b > MAX_PREDICTOR {
-            return Err(Error::Argument(format!("unknown predictor code {b}")));
+        if b > MAX_PREDICTOR || (extrapolation == Extrapolation::Cycle) != (lag >= 2) {
+            return Err(Error::Argument(format!("unknown predictor code {b} with lag {lag}")));
         }
-        Ok(PredictorCode { extrapolation, steps: b >> 2 })
+        Ok(PredictorCode { extrapolation, steps: b >> 2, lag })
     }
 
+    /// The predictor byte (see [`lag`](Self::lag) for the other).
     pub fn to_byte(self) -> u8 {
         let e = match self.extrapolation {
             Extrapolation::Rigid => 0,
             Extrapolation::Velocity => 1,
             Extrapolation::SmoothVelocity => 2,
+            Extrapolation::Cycle => 3,
         };
         e | (self.steps.min(MAX_STEPS) << 2)
     }
@@ -127,8 +161,14 @@ pub struct Predictor {
     anchors: Vec<u32>,
     /// `LᵀL + w PᵀP`, factored when the first H step is asked for.
     chol: Option<Cholesky>,
-    prev: Option<(Vec<Vec3>, Vec<Vec3>)>,
-    prev2: Option<Vec<Vec3>>,
+    /// The last two decoded frames, newest first (`past[0]` is x₋₁).
+    past: std::collections::VecDeque<Vec<Vec3>>,
+    /// With `max_lag` > 0: the smoothed velocities S(x₋ₖ − x₋ₖ₋₁) of the
+    /// decoded frames, newest (k = 1) first, at most `max_lag` of them.
+    velocities: std::collections::VecDeque<Vec<Vec3>>,
+    /// The anchors of x₋₁.
+    prev_anchors: Vec<Vec3>,
+    max_lag: u8,
     /// Tangential coefficients of the previous decoded frame (or the seed).
     a: Vec<f32>,
     b: Vec<f32>,
@@ -136,7 +176,38 @@ pub struct Predictor {
 
 impl Predictor {
     pub fn new(st: Stencils, anchors: Vec<u32>) -> Predictor {
-        Predictor { st, anchors, chol: None, prev: None, prev2: None, a: Vec::new(), b: Vec::new() }
+        Predictor {
+            st,
+            anchors,
+            chol: None,
+            past: Default::default(),
+            velocities: Default::default(),
+            prev_anchors: Vec::new(),
+            max_lag: 0,
+            a: Vec::new(),
+            b: Vec::new(),
+        }
+    }
+
+    /// Allows cycle predictions with lags up to `max_lag` (the header's
+    /// `max_lag`): the predictor then keeps that many smoothed velocities.
+    pub fn with_max_lag(mut self, max_lag: u8) -> Predictor {
+        self.max_lag = max_lag;
+        self
+    }
+
+    /// x₋₁ + S(x₋ₗ − x₋ₗ₋₁), if that far a past has been decoded.
+    fn cycle(&self, lag: u8) -> Result<Vec<Vec3>> {
+        match (self.past.front(), self.velocities.get((lag as usize).wrapping_sub(1))) {
+            (Some(p), Some(v)) if lag >= 2 && lag <= self.max_lag => {
+                Ok(p.iter().zip(v).map(|(p, d)| *p + *d).collect())
+            }
+            _ => Err(Error::Argument(format!(
+                "a cycle prediction with lag {lag} after {} decoded frames (the file allows lags up to {})",
+                self.velocities.len() + 1,
+                self.max_lag
+            ))),
+        }
     }
 
     fn factor(&mut self) -> Result<&Cholesky> {
@@ -170,31 +241,40 @@ impl Predictor {
     }
 
     /// Step 1: the extrapolated guess. Frame 0 starts from `seed`.
-    fn extrapolate(&self, how: Extrapolation, seed: Option<&[Vec3]>, anchors: &[Vec3]) -> Result<Vec<Vec3>> {
-        match (&self.prev, &self.prev2, how) {
+    fn extrapolate(&self, code: PredictorCode, seed: Option<&[Vec3]>, anchors: &[Vec3]) -> Result<Vec<Vec3>> {
+        let (prev, prev2) = (self.past.front(), self.past.get(1));
+        match (prev, prev2, code.extrapolation) {
             (None, _, _) => seed.map(<[Vec3]>::to_vec).ok_or_else(|| Error::Argument("frame 0 needs the seed".into())),
-            (Some((p, _)), Some(p2), Extrapolation::Velocity) => {
-                Ok(p.iter().zip(p2).map(|(a, b)| *a * 2.0 - *b).collect())
-            }
-            (Some((p, _)), Some(p2), Extrapolation::SmoothVelocity) => {
-                let mut v: Vec<Vec3> = p.iter().zip(p2).map(|(a, b)| *a - *b).collect();
-                let mut next = v.clone();
-                for _ in 0..SMOOTHING_PASSES {
-                    for (i, o) in next.iter_mut().enumerate() {
-                        let s = self.st.nbr[i];
-                        let mean = (v[s[0] as usize] + v[s[1] as usize] + v[s[2] as usize] + v[s[3] as usize]) * 0.25;
-                        *o = (v[i] + mean) * 0.5;
-                    }
-                    std::mem::swap(&mut v, &mut next);
-                }
+            (Some(_), _, Extrapolation::Cycle) => self.cycle(code.lag),
+            (Some(p), Some(p2), Extrapolation::Velocity) => Ok(p.iter().zip(p2).map(|(a, b)| *a * 2.0 - *b).collect()),
+            (Some(p), Some(p2), Extrapolation::SmoothVelocity) => {
+                // The same numbers as the stored velocity, when there is one.
+                let v = match self.velocities.front() {
+                    Some(v) => v.clone(),
+                    None => self.smooth(p.iter().zip(p2).map(|(a, b)| *a - *b).collect()),
+                };
                 Ok(p.iter().zip(&v).map(|(a, d)| *a + *d).collect())
             }
-            (Some((p, _)), _, _) if self.anchors.len() < 3 => Ok(p.clone()),
-            (Some((p, pa)), _, _) => {
-                let m = rigid::fit(pa, anchors);
+            (Some(p), _, _) if self.anchors.len() < 3 => Ok(p.clone()),
+            (Some(p), _, _) => {
+                let m = rigid::fit(&self.prev_anchors, anchors);
                 Ok(p.iter().map(|&q| m.apply(q)).collect())
             }
         }
+    }
+
+    /// A velocity field after [`SMOOTHING_PASSES`] averaging passes.
+    fn smooth(&self, mut v: Vec<Vec3>) -> Vec<Vec3> {
+        let mut next = v.clone();
+        for _ in 0..SMOOTHING_PASSES {
+            for (i, o) in next.iter_mut().enumerate() {
+                let s = self.st.nbr[i];
+                let mean = (v[s[0] as usize] + v[s[1] as usize] + v[s[2] as usize] + v[s[3] as usize]) * 0.25;
+                *o = (v[i] + mean) * 0.5;
+            }
+            std::mem::swap(&mut v, &mut next);
+        }
+        v
     }
 
     /// Step 2: one mean-curvature step from `x`.
@@ -258,7 +338,7 @@ impl Predictor {
         anchors: &[Vec3],
     ) -> Result<Vec<Vec3>> {
         self.check(h, anchors)?;
-        let mut x = self.extrapolate(code.extrapolation, seed, anchors)?;
+        let mut x = self.extrapolate(code, seed, anchors)?;
         if code.steps > 0 {
             let h = h.ok_or_else(|| Error::Argument("a mean-curvature step without H".into()))?;
             for _ in 0..code.steps {
@@ -270,7 +350,8 @@ impl Predictor {
 
     /// The prediction closest to `truth`, what the encoder predicts a frame
     /// with, among: every extrapolation in `allowed` (rigid alone while
-    /// there are fewer than two past frames), then, with `h`,
+    /// there are fewer than two past frames; a cycle with every lag the
+    /// decoded past and `max_lag` allow), then, with `h`,
     /// 1..=`max_steps` H steps from the extrapolation closest to `truth`
     /// (steps cost a sparse solve each; from the other extrapolations they
     /// were never measured to win). On a tie the earlier candidate wins.
@@ -288,36 +369,69 @@ impl Predictor {
         self.check(h, anchors)?;
         // Without two past frames every extrapolation is the rigid one.
         let extrapolations: &[Extrapolation] =
-            if self.prev2.is_some() && !allowed.is_empty() { allowed } else { &[Rigid] };
+            if self.past.len() >= 2 && !allowed.is_empty() { allowed } else { &[Rigid] };
         let mut best: Option<(f64, PredictorCode, Vec<Vec3>)> = None;
         for &extrapolation in extrapolations {
-            let x = self.extrapolate(extrapolation, seed, anchors)?;
+            let code = match extrapolation {
+                // The lag is found without building each prediction.
+                Cycle => match self.closest_lag(truth) {
+                    Some(lag) => PredictorCode { lag, ..PredictorCode::plain(Cycle) },
+                    None => continue,
+                },
+                _ => PredictorCode::plain(extrapolation),
+            };
+            let x = self.extrapolate(code, seed, anchors)?;
             let e = squared_distance(&x, truth);
             if best.as_ref().is_none_or(|b| e < b.0) {
-                best = Some((e, PredictorCode { extrapolation, steps: 0 }, x));
+                best = Some((e, code, x));
             }
         }
         let (mut error, mut code, mut x) = best.ok_or_else(|| Error::Numerical("no prediction".into()))?;
         if let Some(h) = h {
-            let extrapolation = code.extrapolation;
+            let base = code;
             let mut y = x.clone();
             for steps in 1..=max_steps.min(MAX_STEPS) {
                 self.step(&mut y, h, anchors)?;
                 let e = squared_distance(&y, truth);
                 if e < error {
-                    (error, code, x) = (e, PredictorCode { extrapolation, steps }, y.clone());
+                    (error, code, x) = (e, PredictorCode { steps, ..base }, y.clone());
                 }
             }
         }
         Ok((code, x))
     }
 
+    /// The lag whose cycle prediction lands closest to `truth` (the
+    /// shortest on a tie), if the decoded past allows any.
+    fn closest_lag(&self, truth: &[Vec3]) -> Option<u8> {
+        let p = self.past.front()?;
+        let longest = (self.max_lag as usize).min(self.velocities.len());
+        let mut best: Option<(f64, u8)> = None;
+        for l in 2..=longest {
+            let e: f64 = truth
+                .iter()
+                .zip(p.iter().zip(&self.velocities[l - 1]))
+                .map(|(t, (p, v))| (*p + *v).distance_squared(*t) as f64)
+                .sum();
+            if best.is_none_or(|b| e < b.0) {
+                best = Some((e, l as u8));
+            }
+        }
+        best.map(|b| b.1)
+    }
+
     /// Records the decoded frame (prediction plus correction).
     pub fn commit(&mut self, x: Vec<Vec3>, anchors: &[Vec3]) {
         let f = self.st.features(&x);
         (self.a, self.b) = (f.a, f.b);
-        self.prev2 = self.prev.take().map(|(p, _)| p);
-        self.prev = Some((x, anchors.to_vec()));
+        if let (true, Some(p)) = (self.max_lag > 0, self.past.front()) {
+            let v = self.smooth(x.iter().zip(p).map(|(a, b)| *a - *b).collect());
+            self.velocities.push_front(v);
+            self.velocities.truncate(self.max_lag as usize);
+        }
+        self.past.push_front(x);
+        self.past.truncate(2);
+        self.prev_anchors = anchors.to_vec();
     }
 }
 

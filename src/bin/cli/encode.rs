@@ -64,6 +64,19 @@ pub struct Args {
     /// CGV: most mean-curvature steps the encoder may choose per frame (0..=3).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(0..=3))]
     max_steps: u8,
+    /// CGV with motion corrections: code the corrections on every K-th frame
+    /// only; the frames between are predicted alone and cost no picture.
+    /// Worth it at the lowest bitrates, where a picture's fixed cost is a
+    /// large part of a frame's bits (see docs/RESULTS.md).
+    #[arg(long, default_value_t = 1, value_name = "K", value_parser = clap::value_parser!(u32).range(1..))]
+    correction_interval: u32,
+    /// CGV: the longest lag, in frames, of a cycle prediction (x₋₁ plus the
+    /// velocity of LAG frames ago), which makes a repeating motion (a gait,
+    /// a looped animation) nearly free after its first cycle. 0 turns cycle
+    /// prediction off; the file records the longest lag it uses, and a
+    /// decoder keeps that many past frames.
+    #[arg(long, default_value_t = cgv::solve::cgv::DEFAULT_MAX_LAG)]
+    max_lag: u8,
     /// Grid size N (even, at least 16).
     #[arg(long, default_value_t = 128)]
     grid: usize,
@@ -115,6 +128,8 @@ pub fn run(args: Args) -> Result<()> {
             Corrections::Motion => CorrectionMode::Motion,
         },
         max_steps: args.max_steps,
+        max_lag: args.max_lag,
+        correction_interval: args.correction_interval,
         anchors: args.anchors,
         layers: args.layers,
         residual_steps: args.residual_steps,

@@ -123,6 +123,7 @@ fn cgv_info(args: &Args) -> Result<()> {
                 "file": path, "version": file.version, "bytes": file.bytes, "kbps": file.bytes as f64 * 8.0 / 1000.0 / seconds,
                 "header": h, "stream_bytes": stream_bytes,
                 "predictors": file.frames.iter().map(|f| f.predictor).collect::<Vec<_>>(),
+                "lags": file.frames.iter().map(|f| f.lag).collect::<Vec<_>>(),
                 "correction_scales": file.frames.iter().map(|f| f.correction_scale).collect::<Vec<_>>(),
             }))?
         );
@@ -168,15 +169,25 @@ fn cgv_info(args: &Args) -> Result<()> {
     }
     if h.streams.iter().any(|s| s.name == "dx") {
         // How the encoder chose to predict each frame (see src/solve/cgv.rs).
-        let mut counts = [0usize; 3];
+        let mut counts = [0usize; 4];
         let mut with_h = 0;
+        let mut lags = std::collections::BTreeMap::<u8, usize>::new();
         for f in &file.frames {
-            counts[(f.predictor & 3).min(2) as usize] += 1;
+            counts[(f.predictor & 3) as usize] += 1;
             with_h += usize::from(f.predictor >> 2 > 0);
+            if f.lag > 0 {
+                *lags.entry(f.lag).or_default() += 1;
+            }
         }
+        let lags: Vec<String> = lags.iter().map(|(l, n)| format!("{n} at lag {l}")).collect();
         println!(
-            "  predictors    rigid {}, velocity {}, smoothed velocity {}; with mean-curvature steps {}",
-            counts[0], counts[1], counts[2], with_h
+            "  predictors    rigid {}, velocity {}, smoothed velocity {}, cycle {}{}; with mean-curvature steps {}",
+            counts[0],
+            counts[1],
+            counts[2],
+            counts[3],
+            if lags.is_empty() { String::new() } else { format!(" ({})", lags.join(", ")) },
+            with_h
         );
     }
     Ok(())
