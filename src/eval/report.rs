@@ -35,10 +35,14 @@ pub fn markdown(r: &Report) -> String {
                 p.name,
                 p.target_kbps_30fps,
                 c.codec,
-                match (c.codec, c.corrections) {
-                    (super::EvalCodec::Cgv, Some(CorrectionMode::Motion)) => " (motion)",
-                    (super::EvalCodec::Cgv, Some(CorrectionMode::Scaled)) => " (scaled)",
-                    _ => "",
+                match (c.codec, c.corrections, c.correction_interval) {
+                    (super::EvalCodec::Cgv, Some(CorrectionMode::Motion), Some(k)) if k > 1 => {
+                        format!(" (motion, corrections every {k} frames)")
+                    }
+                    (super::EvalCodec::Cgv, Some(CorrectionMode::Motion), _) => " (motion)".into(),
+                    (super::EvalCodec::Cgv, Some(CorrectionMode::Scaled), _) => " (scaled)".into(),
+                    (_, _, Some(k)) if k > 1 => format!(" (corrections every {k} frames)"),
+                    _ => String::new(),
                 },
                 c.kbps_30fps,
                 c.kbps,
@@ -77,6 +81,11 @@ pub fn markdown(r: &Report) -> String {
     }
     if !r.bd_rates.is_empty() {
         let _ = writeln!(s, "\n## BD-rate against GV (negative: fewer bits for the same quality)\n");
+        let _ = writeln!(
+            s,
+            "Each cell: one least-squares cubic per curve (Bjøntegaard 2001) / monotone piecewise cubic \
+             (VCEG-AL22; steadier where a curve flattens at the grid's floor).\n"
+        );
         let _ = writeln!(s, "| codec | surface RMS | vertex RMS | smoothness |");
         let _ = writeln!(s, "|---|---|---|---|");
         let mut codecs: Vec<EvalCodec> = r.bd_rates.iter().map(|b| b.codec).collect();
@@ -86,8 +95,10 @@ pub fn markdown(r: &Report) -> String {
                 r.bd_rates
                     .iter()
                     .find(|b| b.codec == c && b.metric == m)
-                    .and_then(|b| b.percent)
-                    .map_or("– (needs 4+ undominated points overlapping in quality)".into(), |v| format!("{v:+.1} %"))
+                    .and_then(|b| Some((b.percent?, b.percent_pchip?)))
+                    .map_or("– (needs 4+ undominated points overlapping in quality)".into(), |(v, w)| {
+                        format!("{v:+.1} % / {w:+.1} %")
+                    })
             };
             let _ = writeln!(s, "| {c} | {} | {} | {} |", get("surface_rms"), get("vertex_rms"), get("smoothness"));
         }

@@ -47,6 +47,12 @@ pub struct Args {
     /// CGV: anchor samples per frame (default: 16 for the paper codec, none for cgv).
     #[arg(long)]
     anchors: Option<usize>,
+    /// cgv-motion: code the corrections on every K-th frame, as in `cgv encode`.
+    #[arg(long, default_value_t = 1, value_name = "K", value_parser = clap::value_parser!(u32).range(1..))]
+    correction_interval: u32,
+    /// cgv: the longest lag of a cycle prediction (0: off), as in `cgv encode`.
+    #[arg(long, default_value_t = cgv::solve::cgv::DEFAULT_MAX_LAG)]
+    max_lag: u8,
     /// Write the report as JSON.
     #[arg(long, value_name = "OUT.json")]
     json: Option<PathBuf>,
@@ -78,8 +84,14 @@ pub fn run(args: Args) -> Result<()> {
     }
     let plots = args.plot.as_deref().map(plot_paths).transpose()?;
     let src = args.input.open()?;
-    let mut base =
-        EncodeOptions { grid: args.grid, key_interval: args.keyframes, anchors: args.anchors, ..Default::default() };
+    let mut base = EncodeOptions {
+        grid: args.grid,
+        key_interval: args.keyframes,
+        anchors: args.anchors,
+        max_lag: args.max_lag,
+        correction_interval: args.correction_interval,
+        ..Default::default()
+    };
     base.video.gop = args.gop;
     let opts = EvalOptions {
         base,
