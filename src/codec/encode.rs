@@ -56,15 +56,15 @@ pub struct EncodeOptions {
     pub corrections: CorrectionMode,
     /// CGV: most mean-curvature steps a frame's predictor may take.
     pub max_steps: u8,
-    /// CGV with motion corrections: code the corrections every this many
-    /// frames (the file's key frames); the frames between are the
-    /// prediction alone, and cost no picture at all (an all-skip picture
-    /// still costs about 10 bytes a stream).
+    /// CGV with motion corrections: code the corrections on frames 0, 1
+    /// and every this many frames after (the file's key frames); the frames
+    /// between are the prediction alone, and cost no picture at all (an
+    /// all-skip picture still costs about 10 bytes a stream).
     pub correction_interval: u32,
     /// CGV with corrections: the longest lag a cycle prediction may use
-    /// (0: none). The file's `max_lag` is the longest lag the uncoded loop
-    /// chose, at most this, so that a decoder keeps no more past frames
-    /// than the motion needs.
+    /// (0: none). The file uses cycles only where they pay ([`CYCLE_GAIN`]),
+    /// and its `max_lag` is the longest lag the uncoded loop chose, so that
+    /// a decoder keeps no more past velocities than the motion needs.
     pub max_lag: u8,
     /// 1, or 2 for a residual layer on every stream but the seeds.
     pub layers: u8,
