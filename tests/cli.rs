@@ -100,10 +100,21 @@ fn encode_info_and_decode_motion_corrections() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let info = cgv(&["info", f.to_str().unwrap()]);
     let text = String::from_utf8_lossy(&info.stdout);
-    assert!(text.contains("format version 3") && text.contains("corrections   motion"), "{text}");
+    assert!(text.contains("format version 4") && text.contains("corrections   motion"), "{text}");
     let info = cgv(&["info", f.to_str().unwrap(), "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
-    assert_eq!((v["version"].as_u64(), v["header"]["corrections"].as_str()), (Some(3), Some("motion")));
+    assert_eq!((v["version"].as_u64(), v["header"]["corrections"].as_str()), (Some(4), Some("motion")));
+    // Corrections every second frame: frames 0, 1, 3, 5, 7 carry them.
+    let sparse = dir.join("sparse.cgv");
+    let out = cgv(&[&args[..], &["--correction-interval", "2", "-o", sparse.to_str().unwrap()]].concat());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let info = cgv(&["info", sparse.to_str().unwrap(), "--json"]);
+    let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    assert_eq!(v["header"]["key_frames"], serde_json::json!([0, 1, 3, 5, 7]));
+    let dec = cgv(&["decode", sparse.to_str().unwrap(), "-o", dir.join("sparse.glb").to_str().unwrap()]);
+    assert!(dec.status.success(), "{}", String::from_utf8_lossy(&dec.stderr));
+    let zero = cgv(&[&args[..], &["--correction-interval", "0", "-o", sparse.to_str().unwrap()]].concat());
+    assert!(!zero.status.success());
     let glb = dir.join("decoded.glb");
     let dec = cgv(&["decode", f.to_str().unwrap(), "-o", glb.to_str().unwrap()]);
     assert!(dec.status.success(), "{}", String::from_utf8_lossy(&dec.stderr));
