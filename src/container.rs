@@ -233,7 +233,7 @@ pub struct Header {
     #[serde(default, skip_serializing_if = "is_scaled")]
     pub corrections: CorrectionMode,
     /// Version 4: the longest lag of a cycle prediction in this file (0,
-    /// or absent: none). A decoder keeps this many past frames, plus one.
+    /// or absent: none). A decoder keeps this many past smoothed velocities.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub max_lag: u8,
 }
