@@ -115,6 +115,14 @@ fn encode_info_and_decode_motion_corrections() {
     assert!(dec.status.success(), "{}", String::from_utf8_lossy(&dec.stderr));
     let zero = cgv(&[&args[..], &["--correction-interval", "0", "-o", sparse.to_str().unwrap()]].concat());
     assert!(!zero.status.success());
+    // Scaled corrections have no interval: refused by name, nothing written.
+    let scaled = dir.join("scaled.cgv");
+    let out = cgv(&["encode", "builtin:walk", "--frames", "0..4", "--grid", "16", "--corrections", "scaled"]
+        .iter()
+        .chain(&["--correction-interval", "2", "-o", scaled.to_str().unwrap()])
+        .copied()
+        .collect::<Vec<_>>());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("motion corrections") && !scaled.exists());
     let glb = dir.join("decoded.glb");
     let dec = cgv(&["decode", f.to_str().unwrap(), "-o", glb.to_str().unwrap()]);
     assert!(dec.status.success(), "{}", String::from_utf8_lossy(&dec.stderr));

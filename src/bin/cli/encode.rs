@@ -64,17 +64,19 @@ pub struct Args {
     /// CGV: most mean-curvature steps the encoder may choose per frame (0..=3).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(0..=3))]
     max_steps: u8,
-    /// CGV with motion corrections: code the corrections on every K-th frame
-    /// only; the frames between are predicted alone and cost no picture.
-    /// Worth it at the lowest bitrates, where a picture's fixed cost is a
-    /// large part of a frame's bits (see docs/RESULTS.md).
+    /// CGV with motion corrections: code the corrections on frames 0 and 1
+    /// and every K-th frame after; the frames between are predicted alone
+    /// and cost no picture. Worth it at the lowest bitrates, where a
+    /// picture's fixed cost is a large part of a frame's bits (2 won
+    /// samba's lowest points, see docs/RESULTS.md).
     #[arg(long, default_value_t = 1, value_name = "K", value_parser = clap::value_parser!(u32).range(1..))]
     correction_interval: u32,
     /// CGV: the longest lag, in frames, of a cycle prediction (x₋₁ plus the
-    /// velocity of LAG frames ago), which makes a repeating motion (a gait,
-    /// a looped animation) nearly free after its first cycle. 0 turns cycle
-    /// prediction off; the file records the longest lag it uses, and a
-    /// decoder keeps that many past frames.
+    /// smoothed velocity of LAG frames ago), which makes a repeating motion
+    /// (a gait, a looped animation) nearly free after its first cycle. Used
+    /// only if it cuts the corrections by a quarter; 0 turns it off. The
+    /// file records the longest lag it uses, and a decoder keeps that many
+    /// past velocities.
     #[arg(long, default_value_t = cgv::solve::cgv::DEFAULT_MAX_LAG)]
     max_lag: u8,
     /// Grid size N (even, at least 16).
@@ -137,6 +139,9 @@ pub fn run(args: Args) -> Result<()> {
         param: ParamOptions { area_correction: args.area_correction, ..Default::default() },
         reference: 0,
     };
+    if opts.correction_interval > 1 && opts.corrections != CorrectionMode::Motion {
+        bail!("--correction-interval applies to motion corrections, and these are scaled (add --corrections motion)");
+    }
     let pb = super::progress(src.frame_count(), "encoding", args.json);
     let (bytes, report) = encode(src.as_ref(), &opts, &mut |stage, done, _| {
         if done == 1 {
