@@ -270,13 +270,12 @@ pub fn encode_prepared(
     let anchors = if opts.codec == CodecKind::Cgv { choose_anchors(&first_grid, anchor_count) } else { Vec::new() };
     let allowed: &[Extrapolation] = if motion { &MOTION_EXTRAPOLATIONS } else { &ALL_EXTRAPOLATIONS };
     let uncoded = if closed_loop && (motion || opts.max_lag > 0) {
-        let without = uncoded_loop(src, map, &st, &first_grid, allowed, 0, &corrected)?;
-        // Cycle predictions only where the motion repeats (see CYCLE_GAIN).
-        let with = match opts.max_lag {
-            0 => None,
-            lag => Some(uncoded_loop(src, map, &st, &first_grid, allowed, lag, &corrected)?),
-        };
-        match with {
+        // Without cycles, and with them where allowed: cycle predictions
+        // only where the motion repeats (see CYCLE_GAIN).
+        let lags: &[u8] = if opts.max_lag > 0 { &[0, opts.max_lag] } else { &[0] };
+        let mut runs = uncoded_loops(src, map, &st, &first_grid, allowed, lags, &corrected)?.into_iter();
+        let without = runs.next().ok_or_else(|| Error::Numerical("no uncoded loop".into()))?;
+        match runs.next() {
             Some(w) if w.energy < CYCLE_GAIN * without.energy => Some(w),
             _ => Some(without),
         }
@@ -517,39 +516,52 @@ impl UncodedLoop {
     }
 }
 
-/// Runs the loop once without coding (no anchors, no H steps: what the
-/// motion predictor uses): the frames with corrections (`corrected`) are
-/// decoded as the true ones, the others as their prediction.
-fn uncoded_loop(
+/// Runs the loop without coding (no anchors, no H steps: what the motion
+/// predictor uses), once for each longest lag in `lags`, over one reading
+/// of the frames: the frames with corrections (`corrected`) are decoded as
+/// the true ones, the others as their prediction.
+fn uncoded_loops(
     src: &dyn FrameSource,
     map: &SampleMap,
     st: &Stencils,
     seed: &[Vec3],
     allowed: &[Extrapolation],
-    max_lag: u8,
+    lags: &[u8],
     corrected: &dyn Fn(usize) -> bool,
-) -> Result<UncodedLoop> {
-    let mut sim = Predictor::new(st.clone(), Vec::new()).with_max_lag(max_lag);
-    let mut sum = vec![Vec3::ZERO; st.grid.len()];
-    let mut out = UncodedLoop { ranges: [Range::default(); 3], longest_lag: 0, energy: 0.0 };
+) -> Result<Vec<UncodedLoop>> {
+    struct Run {
+        sim: Predictor,
+        sum: Vec<Vec3>,
+        out: UncodedLoop,
+    }
+    let mut runs: Vec<Run> = lags
+        .iter()
+        .map(|&lag| Run {
+            sim: Predictor::new(st.clone(), Vec::new()).with_max_lag(lag),
+            sum: vec![Vec3::ZERO; st.grid.len()],
+            out: UncodedLoop { ranges: [Range::default(); 3], longest_lag: 0, energy: 0.0 },
+        })
+        .collect();
     for fi in 0..src.frame_count() {
         let g = map.apply(&src.read_frame(fi)?);
-        let (code, pred): (PredictorCode, _) = sim.closest(allowed, 0, Some(seed), None, &[], &g)?;
-        out.longest_lag = out.longest_lag.max(code.lag);
-        if !corrected(fi) {
-            sim.commit(pred, &[]);
-            continue;
+        for Run { sim, sum, out } in &mut runs {
+            let (code, pred): (PredictorCode, _) = sim.closest(allowed, 0, Some(seed), None, &[], &g)?;
+            out.longest_lag = out.longest_lag.max(code.lag);
+            if !corrected(fi) {
+                sim.commit(pred, &[]);
+                continue;
+            }
+            out.energy += crate::solve::cgv::squared_distance(&g, &pred);
+            for ((s, p), q) in sum.iter_mut().zip(&g).zip(&pred) {
+                *s += *p - *q;
+            }
+            for (c, r) in out.ranges.iter_mut().enumerate() {
+                r.add(&sum.iter().map(|s| s[c]).collect::<Vec<f32>>());
+            }
+            sim.commit(g.clone(), &[]);
         }
-        out.energy += crate::solve::cgv::squared_distance(&g, &pred);
-        for ((s, p), q) in sum.iter_mut().zip(&g).zip(&pred) {
-            *s += *p - *q;
-        }
-        for (c, r) in out.ranges.iter_mut().enumerate() {
-            r.add(&sum.iter().map(|s| s[c]).collect::<Vec<f32>>());
-        }
-        sim.commit(g, &[]);
     }
-    Ok(out)
+    Ok(runs.into_iter().map(|r| r.out).collect())
 }
 
 /// The coarsest QP the motion-mode correction streams are coded at (a
