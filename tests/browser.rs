@@ -353,42 +353,74 @@ fn viewer_plays_renders_and_recovers_in_headless_chromium() {
     eprintln!("screenshots in {}", art.display());
 }
 
-/// Playback speed in the browser on samba at N = 128 (not a pass/fail test:
-/// speed is measured, not asserted). Run:
-/// `cargo test --release --test browser -- --ignored --nocapture`
-/// (after pkg-scripts/web.sh). Prints time to first frame, WebCodecs and
+/// Playback speed in the browser against the native decoder on the same
+/// file (not pass/fail tests: speed is measured, not asserted). Run:
+/// `cargo test --release --test browser -- --ignored --nocapture --test-threads 1 viewer_speed`
+/// (after pkg-scripts/web.sh). Each prints the native reconstruction ms per
+/// frame, then per backend the time to first frame, WebCodecs and wasm
 /// reconstruction ms per frame, and the playback rate.
-#[test]
-#[ignore]
-fn viewer_speed_on_samba_at_128() {
+fn viewer_speed(name: &str, grid: usize, qp: u8, fill_holes: bool) {
     let (dir, _server, port) = site();
-    let samba = common::real_sequence("samba");
-    let src = cgv::mesh::open_sequence(samba.to_str().unwrap(), &Default::default()).unwrap();
-    let mut opts = cgv::codec::EncodeOptions { grid: 128, ..Default::default() };
-    opts.video.qp = 30;
+    let path = common::real_sequence(name);
+    let open = cgv::mesh::OpenOptions { fill_holes, ..Default::default() };
+    let src = cgv::mesh::open_sequence(path.to_str().unwrap(), &open).unwrap();
+    let frames = src.frame_count();
+    let mut opts = cgv::codec::EncodeOptions { grid, ..Default::default() };
+    opts.video.qp = qp;
+    // The correction mode `cgv encode` picks by default.
+    opts.corrections = cgv::codec::auto_corrections(&opts.video, grid, src.fps());
     let (bytes, _) = cgv::codec::encode(src.as_ref(), &opts, &mut |_, _, _| {}).unwrap();
-    std::fs::write(dir.join("samba-128.cgv"), &bytes).unwrap();
+    let file_name = format!("{name}-{grid}.cgv");
+    std::fs::write(dir.join(&file_name), &bytes).unwrap();
+    let file = cgv::container::read(&bytes).unwrap();
+    let header = file.header.clone();
+    let mut dec =
+        cgv::codec::SequenceDecoder::new(file, cgv::solve::SolverKind::Cgv, cgv::codec::h264::Decoder::new).unwrap();
+    let native: f64 = (0..frames).map(|_| dec.next_frame().unwrap().1.solve_seconds).sum::<f64>() / frames as f64;
+    let label = format!(
+        "{name} N={grid} QP {qp} ({} bytes, {:?} corrections, max lag {})",
+        bytes.len(),
+        header.corrections,
+        header.max_lag
+    );
+    println!("{label}: native reconstruction {:.2} ms/frame", native * 1e3);
     let browser = Browser::start(&dir.join("profile"));
     for query in ["", "&webgl"] {
-        browser.go(&format!("http://127.0.0.1:{port}/?src=samba-128.cgv&autoplay{query}"));
+        // Not playing while it decodes: drawing on the software renderers
+        // takes the same two cores, and the timings would measure that.
+        browser.go(&format!("http://127.0.0.1:{port}/?src={file_name}{query}"));
         browser.wait(
-            "all of samba",
-            "const p = document.getElementById('a'); return (p.frames || []).length === 175;",
+            &format!("all of {name}"),
+            &format!("const p = document.getElementById('a'); return (p.frames || []).length === {frames};"),
             600,
         );
-        // Let it play from the cache for a few seconds for the frame rate.
+        let s = browser.js("return Object.assign({}, document.getElementById('a').stats);", json!([]));
+        // Then play from the cache for a few seconds for the frame rate.
+        browser.js("document.getElementById('a').play();", json!([]));
         std::thread::sleep(Duration::from_secs(4));
-        let s = browser.js("return document.getElementById('a').stats;", json!([]));
+        let fps = browser.js("return document.getElementById('a').stats.fps;", json!([]));
         println!(
-            "samba N=128 QP 30 ({} bytes, {:.0} kbit/s): {} first frame after {:.0} ms; WebCodecs {:.2} ms/frame, \
+            "{label}, {:.0} kbit/s: {} first frame after {:.0} ms; WebCodecs {:.2} ms/frame, \
              reconstruction {:.2} ms/frame, playback {:.0} fps",
-            bytes.len(),
             s["kbps"].as_f64().unwrap_or(0.0),
             s["backend"],
             s["firstFrameMs"].as_f64().unwrap_or(0.0),
             s["decodeMs"].as_f64().unwrap_or(0.0),
             s["reconstructMs"].as_f64().unwrap_or(0.0),
-            s["fps"].as_f64().unwrap_or(0.0)
+            fps.as_f64().unwrap_or(0.0)
         );
     }
+}
+
+#[test]
+#[ignore]
+fn viewer_speed_on_samba_at_128() {
+    viewer_speed("samba", 128, 30, false);
+}
+
+/// A file that uses cycle predictions (format v4), at the larger grid.
+#[test]
+#[ignore]
+fn viewer_speed_on_horse_gallop_at_256() {
+    viewer_speed("horse-gallop", 256, 30, true);
 }
