@@ -1,15 +1,17 @@
-//! The `.cgv` file format, versions 1 to 4 (documented in `docs/FORMAT.md`).
+//! The `.cgv` file format, versions 1 to 5 (documented in `docs/FORMAT.md`).
 //! Version 2 puts each frame in one chunk (version 1: one chunk per access
 //! unit, 20 bytes each, a quarter of a low-bitrate file) and adds one
 //! header field, `corrections` (see [`CorrectionMode`]). Version 3 has the
 //! layout of version 2 and lets a motion-corrected CGV file leave out the
 //! `H` and `lambda` streams. Version 4 adds cycle predictions: a lag byte
-//! in the frame chunk and the header field `max_lag`. This writer writes
-//! version 4; the reader reads all four.
+//! in the frame chunk and the header field `max_lag`. Version 5 adds a
+//! filter byte to the frame chunk: the averaging passes the decoder applies
+//! to the frame's correction. This writer writes version 5; the reader
+//! reads all five.
 //!
 //! ```text
 //! magic    8 bytes   89 43 47 56 0D 0A 1A 0A   ("\x89CGV\r\n\x1a\n")
-//! version  u16 LE    1 to 4
+//! version  u16 LE    1 to 5
 //! flags    u16 LE    0
 //! length   u32 LE    header length L (at most 1 MiB)
 //! header   L bytes   UTF-8 JSON (serde), see [`Header`]
@@ -31,7 +33,7 @@ use serde::{Deserialize, Serialize};
 
 pub const MAGIC: [u8; 8] = [0x89, b'C', b'G', b'V', b'\r', b'\n', 0x1A, b'\n'];
 /// The newest version this reader reads and this writer writes.
-pub const VERSION: u16 = 4;
+pub const VERSION: u16 = 5;
 /// Largest header accepted.
 pub const MAX_HEADER: usize = 1 << 20;
 /// Largest chunk payload accepted (an access unit of a 4096² frame at QP 0
@@ -109,8 +111,9 @@ pub struct StreamInfo {
 }
 
 /// Per-frame side data (the `FRAM` chunk). Payload: `predictor u8 | lag u8
-/// | reserved [u8; 2] (zero) | correction_scale f32 | anchors (f32 x, y, z
-/// each)`, little-endian. The lag byte is zero before version 4.
+/// | filter u8 | reserved u8 (zero) | correction_scale f32 | anchors (f32
+/// x, y, z each)`, little-endian. The lag byte is zero before version 4,
+/// the filter byte before version 5.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct FrameInfo {
     /// How the `cgv` decoder predicts this frame before its correction is
@@ -123,6 +126,10 @@ pub struct FrameInfo {
     /// Version 4: the lag of a cycle prediction (2..=the header's
     /// `max_lag`, and less than the frame's index), else 0.
     pub lag: u8,
+    /// Version 5: averaging passes the `cgv` decoder applies to this
+    /// frame's correction before adding it (0..=[`MAX_FILTER`]; see
+    /// `crate::codec::Corrections`).
+    pub filter: u8,
     /// Scale of the correction streams at this frame (0 without corrections).
     pub correction_scale: f32,
     pub anchors: Vec<[f32; 3]>,
@@ -130,14 +137,21 @@ pub struct FrameInfo {
 
 impl FrameInfo {
     pub fn to_bytes(&self) -> Vec<u8> {
-        let mut out = vec![self.predictor, self.lag, 0, 0];
+        let mut out = vec![self.predictor, self.lag, self.filter, 0];
         out.extend_from_slice(&self.correction_scale.to_le_bytes());
         out.extend(self.anchors.iter().flatten().flat_map(|v| v.to_le_bytes()));
         out
     }
 
-    /// The side data of frame `frame` of a file whose header is `header`.
-    fn parse(payload: &[u8], header: &Header, frame: u32, offset: usize) -> Result<FrameInfo, ContainerError> {
+    /// The side data of frame `frame` of a version-`version` file whose
+    /// header is `header`.
+    fn parse(
+        payload: &[u8],
+        header: &Header,
+        version: u16,
+        frame: u32,
+        offset: usize,
+    ) -> Result<FrameInfo, ContainerError> {
         let bad = |msg: String| ContainerError::Chunk { offset, msg };
         let anchors = header.anchors.len();
         if payload.len() != 8 + anchors * 12 {
@@ -150,11 +164,15 @@ impl FrameInfo {
             3 => (2..=header.max_lag).contains(&lag) && u32::from(lag) < frame,
             _ => lag == 0,
         };
-        if payload[0] > MAX_PREDICTOR || !lag_ok || payload[2..4] != [0, 0] {
+        let filter = payload[2];
+        let filter_ok = filter == 0 || (version >= 5 && filter <= MAX_FILTER);
+        if payload[0] > MAX_PREDICTOR || !lag_ok || !filter_ok || payload[3] != 0 {
             return Err(bad(format!(
-                "unknown predictor {:?} at frame {frame} (lags up to {} allowed)",
+                "unknown predictor {:?} at frame {frame} (lags up to {} allowed; filters up to {} from version 5, \
+                 this file is version {version})",
                 &payload[..4],
-                header.max_lag
+                header.max_lag,
+                MAX_FILTER
             )));
         }
         let f32_at = |o: usize| f32::from_le_bytes([payload[o], payload[o + 1], payload[o + 2], payload[o + 3]]);
@@ -166,9 +184,12 @@ impl FrameInfo {
         if anchors.iter().flatten().any(|v| !v.is_finite()) {
             return Err(bad("non-finite anchor position".into()));
         }
-        Ok(FrameInfo { predictor: payload[0], lag, correction_scale, anchors })
+        Ok(FrameInfo { predictor: payload[0], lag, filter, correction_scale, anchors })
     }
 }
+
+/// Most averaging passes a frame's correction filter may ask for.
+pub const MAX_FILTER: u8 = 8;
 
 /// Largest predictor code (bits 0..=1: extrapolation 0..=3, bits 2..=3: steps 0..=3).
 pub const MAX_PREDICTOR: u8 = 0b1111;
@@ -662,7 +683,7 @@ impl StreamReader {
                     msg: format!("frame chunk has {} bytes, fewer than its {side} bytes of side data", p.len()),
                 });
             }
-            let info = FrameInfo::parse(&p[..side], header, frame, offset)?;
+            let info = FrameInfo::parse(&p[..side], header, file.version, frame, offset)?;
             let mut at = side;
             let mut units = Vec::new();
             for s in (0..nstreams).filter(|&s| header.stream_has_frame(s, frame)) {
@@ -707,7 +728,7 @@ impl StreamReader {
             if chunk.tag != TAG_FRAME {
                 return Err(expect("the frame chunk"));
             }
-            file.frames.push(FrameInfo::parse(chunk.payload, header, frame, offset)?);
+            file.frames.push(FrameInfo::parse(chunk.payload, header, file.version, frame, offset)?);
         }
         // Advance to the next expected chunk.
         let header = &file.header;

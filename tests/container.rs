@@ -48,7 +48,7 @@ fn header() -> Header {
 
 fn frame_info(h: &Header, f: u32) -> container::FrameInfo {
     let anchors = (0..h.anchors.len()).map(|i| [0, 1, 2].map(|c| (3 * i + c) as f32 + f as f32)).collect();
-    container::FrameInfo { predictor: 6, lag: 0, correction_scale: 0.5, anchors }
+    container::FrameInfo { predictor: 6, lag: 0, filter: 0, correction_scale: 0.5, anchors }
 }
 
 /// Not real H.264: the reader does not look inside.
@@ -93,13 +93,14 @@ fn file_v1(h: &Header) -> Vec<u8> {
 fn reads_what_it_writes_in_both_layouts() {
     let h = header();
     let (v1, v2) = (file_v1(&h), file(&h));
-    // Versions 2 to 4 save 20 bytes per access unit but the frame's first.
+    // Versions 2 to 5 save 20 bytes per access unit but the frame's first.
     assert_eq!(v1.len() - v2.len(), (h.expected_chunks() as usize - 3) * 20 - 8);
     let a = container::read(&v1).unwrap();
     let f = container::read(&v2).unwrap();
-    assert_eq!((a.version, f.version), (1, 4));
-    assert_eq!(container::read(&with_version(v2.clone(), 2)).unwrap().header, h);
-    assert_eq!(container::read(&with_version(v2, 3)).unwrap().header, h);
+    assert_eq!((a.version, f.version), (1, 5));
+    for version in 2..=4 {
+        assert_eq!(container::read(&with_version(v2.clone(), version)).unwrap().header, h);
+    }
     assert_eq!((&a.header, &a.units, &a.frames), (&f.header, &f.units, &f.frames));
     assert_eq!(f.header, h);
     assert_eq!(f.units[0].len(), 3);
@@ -117,9 +118,9 @@ fn bad_magic_and_versions() {
     assert_eq!(container::read(&bytes).unwrap_err(), ContainerError::BadMagic);
     assert_eq!(container::read(b"GIF89a").unwrap_err(), ContainerError::BadMagic);
     let mut bytes = file(&header());
-    bytes[8] = 5;
-    assert_eq!(container::VERSION, 4);
-    assert_eq!(container::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 5 });
+    bytes[8] = 6;
+    assert_eq!(container::VERSION, 5);
+    assert_eq!(container::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 6 });
     bytes[8] = 0;
     assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 0 }));
 }
@@ -217,7 +218,7 @@ fn cycle_predictions_from_version_four() {
     }
     bytes.extend(container::write_chunk(container::TAG_END, 0, h.frames, &[]));
     let f = container::read(&bytes).unwrap();
-    assert_eq!((f.version, h.min_version()), (4, 4));
+    assert_eq!((f.version, h.min_version()), (container::VERSION, 4));
     assert_eq!(
         f.frames.iter().map(|i| (i.predictor, i.lag)).collect::<Vec<_>>(),
         [(1, 0), (1, 0), (1, 0), (3, 2), (3, 3), (3, 3)]
@@ -251,6 +252,39 @@ fn cycle_predictions_from_version_four() {
     bad.max_lag = 2;
     let e = container::write_header(&bad).unwrap_err();
     assert!(matches!(&e, ContainerError::Header(m) if m.contains("max_lag")), "{e}");
+}
+
+/// A motion file whose frame `f` asks for `filter(f)` averaging passes.
+fn filtered_file(h: &Header, filter: impl Fn(u32) -> u8) -> Vec<u8> {
+    let mut bytes = container::write_header(h).unwrap();
+    for f in 0..h.frames {
+        let info = container::FrameInfo { predictor: 1, filter: filter(f), ..frame_info(h, f) };
+        let units: Vec<Vec<u8>> =
+            (0..h.streams.len()).filter(|&s| h.stream_has_frame(s, f)).map(|s| unit(f, s)).collect();
+        bytes.extend(container::write_frame(f, &info, &units.iter().map(Vec::as_slice).collect::<Vec<_>>()));
+    }
+    bytes.extend(container::write_chunk(container::TAG_END, 0, h.frames, &[]));
+    bytes
+}
+
+#[test]
+fn correction_filters_from_version_five() {
+    let h = motion_header();
+    let bytes = filtered_file(&h, |f| [0, 1, container::MAX_FILTER][f as usize % 3]);
+    let f = container::read(&bytes).unwrap();
+    assert_eq!(f.version, 5);
+    assert_eq!(f.frames.iter().map(|i| i.filter).collect::<Vec<_>>(), [0, 1, container::MAX_FILTER]);
+    // A version-4 reader's file had the byte reserved: a filter there is
+    // refused by name, no filter still reads.
+    let e = container::read(&with_version(bytes, 4)).unwrap_err();
+    assert!(
+        matches!(&e, ContainerError::Chunk { msg, .. } if msg.contains("[1, 0, 1, 0] at frame 1") && msg.contains("version 4")),
+        "{e}"
+    );
+    assert!(container::read(&with_version(filtered_file(&h, |_| 0), 4)).is_ok());
+    // More passes than the format allows.
+    let e = container::read(&filtered_file(&h, |f| if f == 2 { container::MAX_FILTER + 1 } else { 0 })).unwrap_err();
+    assert!(matches!(&e, ContainerError::Chunk { msg, .. } if msg.contains("at frame 2")), "{e}");
 }
 
 #[test]
@@ -344,9 +378,13 @@ fn chunks_out_of_order_or_extra_are_errors() {
 #[test]
 fn bad_frame_chunks_are_errors() {
     let h = header();
-    let good = container::FrameInfo { predictor: 1, lag: 0, correction_scale: 1.0, anchors: vec![[0.0; 3]; 4] };
+    let good =
+        container::FrameInfo { predictor: 1, lag: 0, filter: 0, correction_scale: 1.0, anchors: vec![[0.0; 3]; 4] };
     let mut bad_bytes = good.to_bytes();
     bad_bytes.pop();
+    // The reserved byte after the filter.
+    let mut reserved = good.to_bytes();
+    reserved[3] = 1;
     let cases: Vec<Vec<u8>> = vec![
         container::FrameInfo { predictor: container::MAX_PREDICTOR + 1, ..good.clone() }.to_bytes(),
         container::FrameInfo { predictor: 3, ..good.clone() }.to_bytes(),
@@ -354,6 +392,10 @@ fn bad_frame_chunks_are_errors() {
         // on another predictor.
         container::FrameInfo { predictor: 3, lag: 2, ..good.clone() }.to_bytes(),
         container::FrameInfo { lag: 2, ..good.clone() }.to_bytes(),
+        // A filter in a version-1 file, and more passes than any version allows.
+        container::FrameInfo { filter: 1, ..good.clone() }.to_bytes(),
+        container::FrameInfo { filter: container::MAX_FILTER + 1, ..good.clone() }.to_bytes(),
+        reserved,
         container::FrameInfo { correction_scale: -1.0, ..good.clone() }.to_bytes(),
         container::FrameInfo { correction_scale: f32::INFINITY, ..good.clone() }.to_bytes(),
         container::FrameInfo { anchors: vec![[f32::NAN, 0.0, 0.0]; 4], ..good.clone() }.to_bytes(),
@@ -367,7 +409,7 @@ fn bad_frame_chunks_are_errors() {
         let e = container::read(&bytes).unwrap_err();
         assert!(matches!(e, ContainerError::Chunk { .. }), "{payload:?}: {e}");
     }
-    // Version 2: the same side data, then the frame's three access units
+    // Version 2 and later: the same side data, then the frame's three access units
     // (frame 0 has streams 0, 1 and 2), or too few, too many, bad lengths.
     let units = |side: &[u8], rest: &[u8]| [side, rest].concat();
     let good_units: &[u8] = &[1, 7, 1, 8, 1, 9];
@@ -378,7 +420,8 @@ fn bad_frame_chunks_are_errors() {
     v2.push(units(&good.to_bytes(), &[1, 7, 1, 8, 0x80, 0x80, 0x80, 0x80, 0x01]));
     v2.push(good.to_bytes()[..10].to_vec());
     for payload in v2 {
-        let mut bytes = container::write_header(&h).unwrap();
+        // As version 4, whose filter byte was reserved.
+        let mut bytes = with_version(container::write_header(&h).unwrap(), 4);
         bytes.extend(container::write_chunk(container::TAG_FRAME, 0, 0, &payload));
         let e = container::read(&bytes).unwrap_err();
         assert!(matches!(e, ContainerError::Chunk { .. }), "{payload:?}: {e}");

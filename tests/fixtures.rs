@@ -114,3 +114,14 @@ fn v4_cycle_fixture_decodes_as_frozen() {
     assert_eq!(&f.header.key_frames[..4], [0, 1, 3, 5]);
     check("v4/walk-cgv-cycle.cgv", SolverKind::Cgv, 1e-5);
 }
+
+#[test]
+fn v5_filter_fixture_decodes_as_frozen() {
+    let f = open("v5/walk-cgv-filter.cgv");
+    assert_eq!((f.version, f.header.corrections), (5, CorrectionMode::Motion));
+    // Corrections filtered by each of the encoder's choices on some frame.
+    for passes in [1, 2, 4] {
+        assert!(f.frames.iter().any(|i| i.filter == passes), "no frame with {passes} passes");
+    }
+    check("v5/walk-cgv-filter.cgv", SolverKind::Cgv, 1e-5);
+}

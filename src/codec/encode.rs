@@ -66,6 +66,11 @@ pub struct EncodeOptions {
     /// and its `max_lag` is the longest lag the uncoded loop chose, so that
     /// a decoder keeps no more past velocities than the motion needs.
     pub max_lag: u8,
+    /// CGV with corrections: let the encoder choose a filter for each
+    /// frame's correction (format version 5, see
+    /// [`Corrections`](super::Corrections)); off, every frame's is 0 (for
+    /// measuring what the filter does).
+    pub correction_filter: bool,
     /// 1, or 2 for a residual layer on every stream but the seeds.
     pub layers: u8,
     /// Layer-2 range, in layer-1 quantization steps.
@@ -90,6 +95,7 @@ impl Default for EncodeOptions {
             max_steps: 1,
             correction_interval: 1,
             max_lag: DEFAULT_MAX_LAG,
+            correction_filter: true,
             layers: 1,
             residual_steps: 8.0,
             solver: SolverKind::Cgv,
@@ -335,20 +341,10 @@ pub fn encode_prepared(
         if info.coverage == Coverage::First {
             // The seed is one frame that every later frame is predicted
             // from: finer than the rest, at a constant QP.
-            // The motion corrections build on it: capped with them.
-            let qp = if motion { vs.qp.min(MOTION_MAX_QP) } else { vs.qp };
-            vs.qp = qp.saturating_sub(SEED_QP_OFFSET).max(SEED_MIN_QP);
+            vs.qp = vs.qp.saturating_sub(SEED_QP_OFFSET).max(SEED_MIN_QP);
             vs.kbps = None;
         } else if let Some(kbps) = opts.video.kbps {
             vs.kbps = Some((kbps * weight(info.coverage) / total_weight).max(1.0));
-        }
-        if motion && is_correction(&info.name) {
-            // Coarser than MOTION_MAX_QP the loop breaks down.
-            if vs.kbps.is_some() && vs.qp_max.is_none() {
-                (vs.qp, vs.qp_max) = (0, Some(MOTION_MAX_QP));
-            }
-            vs.qp = vs.qp.min(MOTION_MAX_QP);
-            vs.qp_max = vs.qp_max.map(|m| m.min(MOTION_MAX_QP));
         }
         streams.push(Stream {
             info: info.clone(),
@@ -392,7 +388,7 @@ pub fn encode_prepared(
     // predictor on the decoded data (closed loop), so what it corrects is
     // exactly what the decoder will have.
     let mut predictor = Predictor::new(st.clone(), anchors.clone()).with_max_lag(max_lag);
-    let mut corrections = Corrections::new(header.corrections);
+    let mut corrections = Corrections::new(header.corrections, st.clone());
     let mut seconds_coding = 0.0;
     let mut side_bytes = 0;
     let (pre, post): (Vec<usize>, Vec<usize>) = (0..streams.len()).partition(|&k| {
@@ -414,6 +410,7 @@ pub fn encode_prepared(
         let mut info = FrameInfo {
             predictor: 0,
             lag: 0,
+            filter: 0,
             correction_scale: 0.0,
             anchors: anchor_pos.iter().map(|p| p.to_array()).collect(),
         };
@@ -435,7 +432,12 @@ pub fn encode_prepared(
             let get = |name: &str| -> Option<&Vec<f32>> { header.stream(name).and_then(|s| vals[s].as_ref()) };
             let mut x = pred;
             match super::positions(&get, CORRECTION) {
-                Some(d) => corrections.apply(&mut x, d),
+                Some(d) => {
+                    if opts.correction_filter {
+                        info.filter = corrections.best_filter(&x, &d, &g);
+                    }
+                    corrections.apply(&mut x, d, info.filter);
+                }
                 None if !corrected(fi) => {}
                 None => return Err(Error::Video("corrections were not coded".into())),
             }
@@ -563,14 +565,6 @@ fn uncoded_loops(
     }
     Ok(runs.into_iter().map(|r| r.out).collect())
 }
-
-/// The coarsest QP the motion-mode correction streams are coded at (a
-/// coarser request codes them at this one). Their 8 bits span the whole
-/// range of the running sum, and H.264's step at QP 49-51 (80-224 levels)
-/// leaves the loop nothing to correct with: on 60 frames of pcow at N = 128
-/// the error was 1.7 % at QP 44, 2.3 % at 48 and 7.3 % at 51, where the
-/// file was also larger than at 48.
-pub const MOTION_MAX_QP: u8 = 48;
 
 /// The correction mode that measured better for these settings (cgv eval
 /// on samba, pcow and horse-gallop at N = 128 and 256, docs/RESULTS.md):

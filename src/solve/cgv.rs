@@ -264,17 +264,8 @@ impl Predictor {
     }
 
     /// A velocity field after [`SMOOTHING_PASSES`] averaging passes.
-    fn smooth(&self, mut v: Vec<Vec3>) -> Vec<Vec3> {
-        let mut next = v.clone();
-        for _ in 0..SMOOTHING_PASSES {
-            for (i, o) in next.iter_mut().enumerate() {
-                let s = self.st.nbr[i];
-                let mean = (v[s[0] as usize] + v[s[1] as usize] + v[s[2] as usize] + v[s[3] as usize]) * 0.25;
-                *o = (v[i] + mean) * 0.5;
-            }
-            std::mem::swap(&mut v, &mut next);
-        }
-        v
+    fn smooth(&self, v: Vec<Vec3>) -> Vec<Vec3> {
+        smooth(&self.st, v, SMOOTHING_PASSES)
     }
 
     /// Step 2: one mean-curvature step from `x`.
@@ -433,6 +424,21 @@ impl Predictor {
         self.past.truncate(2);
         self.prev_anchors = anchors.to_vec();
     }
+}
+
+/// A field on the grid after `passes` averaging passes, each of which
+/// halves a sample's own weight against its four neighbours' mean.
+pub fn smooth(st: &Stencils, mut v: Vec<Vec3>, passes: usize) -> Vec<Vec3> {
+    let mut next = v.clone();
+    for _ in 0..passes {
+        for (i, o) in next.iter_mut().enumerate() {
+            let s = st.nbr[i];
+            let mean = (v[s[0] as usize] + v[s[1] as usize] + v[s[2] as usize] + v[s[3] as usize]) * 0.25;
+            *o = (v[i] + mean) * 0.5;
+        }
+        std::mem::swap(&mut v, &mut next);
+    }
+    v
 }
 
 /// Sum of squared distances between corresponding points.

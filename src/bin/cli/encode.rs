@@ -52,6 +52,12 @@ pub struct Args {
     /// H and the anchors alone (smaller, but it drifts; for measurement).
     #[arg(long)]
     no_correction: bool,
+    /// CGV: never filter a frame's correction (format v5 lets the encoder
+    /// smooth each frame's correction by 1, 2 or 4 averaging passes where
+    /// that lands closer to the true frame, which keeps H.264's block noise
+    /// at low bitrates from piling up; for measurement).
+    #[arg(long)]
+    no_correction_filter: bool,
     /// CGV: how the corrections are coded. `scaled`: each frame's error,
     /// scaled to the frame's largest. `motion`: their running sum at a
     /// fixed scale, so H.264 skips what the prediction got right (better at
@@ -124,6 +130,7 @@ pub fn run(args: Args) -> Result<()> {
         video,
         key_interval: args.keyframes,
         correction: !args.no_correction,
+        correction_filter: !args.no_correction_filter,
         corrections: match args.corrections {
             Corrections::Auto => cgv::codec::auto_corrections(&video, args.grid, src.fps()),
             Corrections::Scaled => CorrectionMode::Scaled,

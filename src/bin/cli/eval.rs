@@ -53,6 +53,9 @@ pub struct Args {
     /// cgv: the longest lag of a cycle prediction (0: off), as in `cgv encode`.
     #[arg(long, default_value_t = cgv::solve::cgv::DEFAULT_MAX_LAG)]
     max_lag: u8,
+    /// cgv: never filter a frame's correction, as in `cgv encode` (for measurement).
+    #[arg(long)]
+    no_correction_filter: bool,
     /// Write the report as JSON.
     #[arg(long, value_name = "OUT.json")]
     json: Option<PathBuf>,
@@ -90,6 +93,7 @@ pub fn run(args: Args) -> Result<()> {
         anchors: args.anchors,
         max_lag: args.max_lag,
         correction_interval: args.correction_interval,
+        correction_filter: !args.no_correction_filter,
         ..Default::default()
     };
     base.video.gop = args.gop;

@@ -124,6 +124,7 @@ fn cgv_info(args: &Args) -> Result<()> {
                 "header": h, "stream_bytes": stream_bytes,
                 "predictors": file.frames.iter().map(|f| f.predictor).collect::<Vec<_>>(),
                 "lags": file.frames.iter().map(|f| f.lag).collect::<Vec<_>>(),
+                "filters": file.frames.iter().map(|f| f.filter).collect::<Vec<_>>(),
                 "correction_scales": file.frames.iter().map(|f| f.correction_scale).collect::<Vec<_>>(),
             }))?
         );
@@ -189,6 +190,18 @@ fn cgv_info(args: &Args) -> Result<()> {
             if lags.is_empty() { String::new() } else { format!(" ({})", lags.join(", ")) },
             with_h
         );
+        let mut filters = std::collections::BTreeMap::<u8, usize>::new();
+        for f in file.frames.iter().filter(|f| f.filter > 0) {
+            *filters.entry(f.filter).or_default() += 1;
+        }
+        if !filters.is_empty() {
+            let by: Vec<String> = filters.iter().map(|(p, n)| format!("{n} with {p}")).collect();
+            println!(
+                "  corrections   filtered on {} frames (averaging passes: {})",
+                filters.values().sum::<usize>(),
+                by.join(", ")
+            );
+        }
     }
     Ok(())
 }
