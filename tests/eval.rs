@@ -90,8 +90,23 @@ fn bitrate_matcher_lands_within_five_percent_on_the_default_motion() {
             assert!(r.vertex_rms > 0.0 && r.vertex_rms < 0.05 && r.kg > 0.0, "{r:?}");
         }
     }
+    // The cgv entry kept, of its variants that fit, the lowest surface RMS,
+    // and reports the others it measured.
+    for p in &report.points {
+        let c = p.results.iter().find(|r| r.codec == EvalCodec::Cgv).unwrap();
+        assert!(!c.passed_over.is_empty(), "{}: no variant reported", p.name);
+        for v in &c.passed_over {
+            let fits = v.bytes as f64 <= p.target_bytes as f64 * 1.05;
+            assert!(
+                !fits || v.surface_rms.unwrap() >= c.surface_rms.unwrap(),
+                "{}: kept {:?} over {v:?}",
+                p.name,
+                c.surface_rms
+            );
+        }
+    }
     // Two points per codec: no BD-rate (it needs four), said so.
     assert!(report.bd_rates.iter().all(|b| b.percent.is_none()));
     let md = eval::report::markdown(&report);
-    assert!(md.contains("| cgv |") && md.contains("BD-rate"), "{md}");
+    assert!(md.contains("| cgv |") && md.contains("BD-rate") && md.contains("variants not kept"), "{md}");
 }

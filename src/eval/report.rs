@@ -13,6 +13,19 @@ fn opt_pct(x: Option<f64>) -> String {
     x.map_or("–".into(), pct)
 }
 
+/// "motion", "scaled", "motion, corrections every 2 frames".
+fn variant_label(corrections: Option<CorrectionMode>, interval: Option<u32>) -> String {
+    let mode = match corrections {
+        Some(CorrectionMode::Motion) => "motion",
+        Some(CorrectionMode::Scaled) => "scaled",
+        None => "no corrections",
+    };
+    match interval {
+        Some(k) if k > 1 => format!("{mode}, corrections every {k} frames"),
+        _ => mode.into(),
+    }
+}
+
 /// Tables like the paper's 1 and 2, and the figures it did not report.
 pub fn markdown(r: &Report) -> String {
     let mut s = String::new();
@@ -35,13 +48,9 @@ pub fn markdown(r: &Report) -> String {
                 p.name,
                 p.target_kbps_30fps,
                 c.codec,
-                match (c.codec, c.corrections, c.correction_interval) {
-                    (super::EvalCodec::Cgv, Some(CorrectionMode::Motion), Some(k)) if k > 1 => {
-                        format!(" (motion, corrections every {k} frames)")
-                    }
-                    (super::EvalCodec::Cgv, Some(CorrectionMode::Motion), _) => " (motion)".into(),
-                    (super::EvalCodec::Cgv, Some(CorrectionMode::Scaled), _) => " (scaled)".into(),
-                    (_, _, Some(k)) if k > 1 => format!(" (corrections every {k} frames)"),
+                match (c.codec, c.correction_interval) {
+                    (EvalCodec::Cgv, _) => format!(" ({})", variant_label(c.corrections, c.correction_interval)),
+                    (_, Some(k)) if k > 1 => format!(" (corrections every {k} frames)"),
                     _ => String::new(),
                 },
                 c.kbps_30fps,
@@ -77,6 +86,35 @@ pub fn markdown(r: &Report) -> String {
                 c.video_decode_ms_per_frame,
                 c.reconstruct_ms_per_frame
             );
+        }
+    }
+    if r.points.iter().any(|p| p.results.iter().any(|c| !c.passed_over.is_empty())) {
+        let _ = writeln!(s, "\n## The `cgv` entry's variants not kept\n");
+        let _ = writeln!(
+            s,
+            "At each point the `cgv` entry keeps, of its variants no larger than the target allows, the one with \
+             the lowest surface RMS (vertex RMS when surface distances are off). These are the others.\n"
+        );
+        let _ = writeln!(s, "| rate point | variant | QP / layers | bytes | smoothness (1e-4 of diag.) | vertex RMS | surface RMS | worst frame / mean |");
+        let _ = writeln!(s, "|---|---|---|---|---|---|---|---|");
+        for p in &r.points {
+            for c in &p.results {
+                for v in &c.passed_over {
+                    let _ = writeln!(
+                        s,
+                        "| {} | {} | {} / {} | {} | {:.2} | {} | {} | {:.2} |",
+                        p.name,
+                        variant_label(v.corrections, v.correction_interval),
+                        v.qp,
+                        v.layers,
+                        v.bytes,
+                        v.smoothness * 1e4,
+                        pct(v.vertex_rms),
+                        opt_pct(v.surface_rms),
+                        v.worst_over_mean
+                    );
+                }
+            }
         }
     }
     if !r.bd_rates.is_empty() {
