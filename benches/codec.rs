@@ -7,7 +7,8 @@
 use cgv::codec::features::Stencils;
 use cgv::codec::h264::{Decoder, Encoder, VideoSettings};
 use cgv::codec::quant::Quantizer;
-use cgv::codec::{choose_anchors, VideoDecoder};
+use cgv::codec::{choose_anchors, Corrections, VideoDecoder};
+use cgv::container::CorrectionMode;
 use cgv::grid::Grid;
 use cgv::param::{parameterize, ParamOptions};
 use cgv::resample::SampleMap;
@@ -81,6 +82,20 @@ fn bench(c: &mut Criterion) {
                 })
             });
         }
+        // Format v5: applying a motion correction after the frame's filter,
+        // at the most passes the encoder chooses (4), and the encoder's
+        // choice among its filters.
+        let d: Vec<Vec3> = g1.iter().zip(&g0).map(|(a, b)| (*a - *b) * 0.1).collect();
+        let mut corr = Corrections::new(CorrectionMode::Motion, st.clone());
+        corr.apply(&mut g0.clone(), vec![Vec3::ZERO; g0.len()], 0);
+        g.bench_function(format!("correction-filter-4-passes/{n}"), |b| {
+            b.iter(|| {
+                let mut x = g0.clone();
+                corr.clone().apply(&mut x, d.clone(), 4);
+                x
+            })
+        });
+        g.bench_function(format!("correction-filter-choice/{n}"), |b| b.iter(|| corr.best_filter(&g0, &d, &g1)));
         g.bench_function(format!("reconstruct-paper/{n}"), |b| {
             b.iter(|| {
                 let mut s = PaperSolver::new(st.clone(), anchors.clone());
