@@ -100,10 +100,23 @@ fn encode_info_and_decode_motion_corrections() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let info = cgv(&["info", f.to_str().unwrap()]);
     let text = String::from_utf8_lossy(&info.stdout);
-    assert!(text.contains("format version 4") && text.contains("corrections   motion"), "{text}");
+    assert!(text.contains("format version 5") && text.contains("corrections   motion"), "{text}");
     let info = cgv(&["info", f.to_str().unwrap(), "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
-    assert_eq!((v["version"].as_u64(), v["header"]["corrections"].as_str()), (Some(4), Some("motion")));
+    assert_eq!((v["version"].as_u64(), v["header"]["corrections"].as_str()), (Some(5), Some("motion")));
+    assert_eq!(v["filters"].as_array().map(Vec::len), Some(8));
+    // At a coarse QP the encoder filters corrections, and info says so;
+    // --no-correction-filter leaves every frame's filter at 0.
+    for (flag, filtered) in [(None, true), (Some("--no-correction-filter"), false)] {
+        let coarse = dir.join("coarse.cgv");
+        let mut a = args.to_vec();
+        a.extend(["--qp", "48", "-o", coarse.to_str().unwrap()]);
+        a.extend(flag);
+        let out = cgv(&a);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        let text = String::from_utf8_lossy(&cgv(&["info", coarse.to_str().unwrap()]).stdout).to_string();
+        assert_eq!(text.contains("filtered on"), filtered, "{flag:?}: {text}");
+    }
     // Corrections every second frame: frames 0, 1, 3, 5, 7 carry them.
     let sparse = dir.join("sparse.cgv");
     let out = cgv(&[&args[..], &["--correction-interval", "2", "-o", sparse.to_str().unwrap()]].concat());
