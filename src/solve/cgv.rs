@@ -429,6 +429,10 @@ impl Predictor {
 /// A field on the grid after `passes` averaging passes, each of which
 /// halves a sample's own weight against its four neighbours' mean.
 pub fn smooth(st: &Stencils, mut v: Vec<Vec3>, passes: usize) -> Vec<Vec3> {
+    if passes == 0 {
+        // Most frames' corrections (filter 0): no scratch copy of the field.
+        return v;
+    }
     let mut next = v.clone();
     for _ in 0..passes {
         for (i, o) in next.iter_mut().enumerate() {
