@@ -254,8 +254,8 @@ impl<D: VideoDecoder> SequenceDecoder<D> {
                 let st = Stencils::new(grid);
                 match solver {
                     SolverKind::Cgv => {
-                        let predictor = Predictor::new(st, h.anchors.clone()).with_max_lag(h.max_lag);
-                        Rebuild::Cgv(predictor, Corrections::new(h.corrections, Stencils::new(grid)))
+                        let predictor = Predictor::new(st.clone(), h.anchors.clone()).with_max_lag(h.max_lag);
+                        Rebuild::Cgv(predictor, Corrections::new(h.corrections, st))
                     }
                     SolverKind::Paper => Rebuild::Paper(PaperSolver::new(st, h.anchors.clone())),
                 }
