@@ -1,13 +1,14 @@
 //! Parameterization and resampling speed (issue targets on the 2-core CI
 //! machine: samba's reference frame parameterized in under 5 s, resampling at
-//! 100+ frames/s at N = 256). Uses samba from ../shared/data when present
+//! 100+ frames/s at N = 256), and the parameterization the encoder runs,
+//! which scores the area-correction passes by the grid's resampling error. Uses samba from ../shared/data when present
 //! (unpacked under target/), else the embedded default motion.
 //!
 //! Run: `cargo bench --bench param`
 
 use cgv::grid::Grid;
 use cgv::mesh::{open_sequence, FrameSource, OpenOptions};
-use cgv::param::{parameterize, ParamOptions};
+use cgv::param::{choose::parameterize_for_grid, parameterize, ParamOptions};
 use cgv::resample::SampleMap;
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::path::Path;
@@ -41,6 +42,13 @@ fn bench(c: &mut Criterion) {
     g.bench_function(format!("parameterize/{name}"), |b| {
         b.iter(|| parameterize(&topo, &frame, &ParamOptions::default()).expect("parameterize"))
     });
+    // What the encoder runs: the passes scored by the grid's resampling error.
+    for n in [128usize, 256] {
+        let grid = Grid::new(n).expect("grid");
+        g.bench_function(format!("parameterize-for-grid/{name}/{n}"), |b| {
+            b.iter(|| parameterize_for_grid(&topo, &frame, grid, &ParamOptions::default()).expect("parameterize"))
+        });
+    }
     g.bench_function(format!("parameterize-conformal-only/{name}"), |b| {
         b.iter(|| {
             parameterize(&topo, &frame, &ParamOptions { area_correction: 0.0, ..Default::default() }).expect("param")

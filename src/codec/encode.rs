@@ -13,7 +13,8 @@ use crate::container::{
 use crate::error::{Error, Result};
 use crate::grid::Grid;
 use crate::mesh::{analyze, Bounds, FrameSource};
-use crate::param::{parameterize, ParamOptions, Parameterization};
+use crate::param::choose::parameterize_for_grid;
+use crate::param::{ParamOptions, Parameterization};
 use crate::resample::SampleMap;
 use crate::solve::cgv::{
     Extrapolation, Predictor, PredictorCode, ALL_EXTRAPOLATIONS, DEFAULT_MAX_LAG, MOTION_EXTRAPOLATIONS,
@@ -185,7 +186,7 @@ pub fn prepare(src: &dyn FrameSource, opts: &EncodeOptions) -> Result<Prepared> 
     if let Err(problem) = analyze(topology, &reference).require_sphere() {
         return Err(Error::mesh(src.label(), problem));
     }
-    let param = parameterize(topology, &reference, &opts.param)?;
+    let param = parameterize_for_grid(topology, &reference, grid, &opts.param)?;
     let map = SampleMap::build(grid, &topology.faces, &param)?;
     Ok(Prepared { param, map, seconds: t_start.elapsed().as_secs_f64() })
 }

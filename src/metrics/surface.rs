@@ -75,9 +75,21 @@ pub fn one_sided(positions: &[Vec3], faces: &[[u32; 3]], target: &Target) -> (f6
 
 /// Symmetric distance between surfaces A and B.
 pub fn symmetric(a: &[Vec3], a_faces: &[[u32; 3]], b: &[Vec3], b_faces: &[[u32; 3]]) -> Result<SurfaceDistance> {
+    symmetric_to(a, a_faces, b, b_faces, &Target::new(b, b_faces)?)
+}
+
+/// [`symmetric`] with B's query mesh already built (`b_target`), for
+/// measuring many surfaces against one.
+pub fn symmetric_to(
+    a: &[Vec3],
+    a_faces: &[[u32; 3]],
+    b: &[Vec3],
+    b_faces: &[[u32; 3]],
+    b_target: &Target,
+) -> Result<SurfaceDistance> {
     let ta = Target::new(a, a_faces)?;
-    let tb = Target::new(b, b_faces)?;
-    let (rms_a_to_b, max_a_to_b) = one_sided(a, a_faces, &tb);
+    let tb = b_target;
+    let (rms_a_to_b, max_a_to_b) = one_sided(a, a_faces, tb);
     let (rms_b_to_a, max_b_to_a) = one_sided(b, b_faces, &ta);
     Ok(SurfaceDistance {
         rms: rms_a_to_b.max(rms_b_to_a),

@@ -103,6 +103,11 @@ pub struct Args {
     /// Parameterization: area correction exponent (0 keeps the map conformal).
     #[arg(long, default_value_t = ParamOptions::default().area_correction)]
     area_correction: f64,
+    /// Parameterization: most area-correction passes. Of the maps they go
+    /// through, the one whose grid lies closest to the reference frame's
+    /// surface is kept.
+    #[arg(long, default_value_t = ParamOptions::default().area_passes)]
+    area_passes: usize,
     /// Print the report as JSON.
     #[arg(long)]
     json: bool,
@@ -143,7 +148,7 @@ pub fn run(args: Args) -> Result<()> {
         layers: args.layers,
         residual_steps: args.residual_steps,
         solver: args.solver,
-        param: ParamOptions { area_correction: args.area_correction, ..Default::default() },
+        param: ParamOptions { area_correction: args.area_correction, area_passes: args.area_passes, cones: None },
         reference: 0,
     };
     if opts.correction_interval > 1 && opts.corrections != CorrectionMode::Motion {
@@ -183,6 +188,15 @@ pub fn run(args: Args) -> Result<()> {
             println!("  stream {name:<8} {b:>10} bytes");
         }
         println!("  frame chunks    {:>10} bytes (chunk framing, anchors, predictor, scale)", report.side_bytes);
+        let p = &report.parameterization;
+        if let Some(score) = p.score {
+            let diagonal = cgv::mesh::Bounds::of(&src.read_frame(opts.reference)?).diagonal() as f64;
+            println!(
+                "  grid: resamples the reference frame to {:.4} % of its bounding-box diagonal (RMS surface distance; {} area-correction passes kept)",
+                100.0 * score / diagonal,
+                p.area_passes
+            );
+        }
         println!(
             "  time: parameterize {:.2} s, coding {:.2} s, total {:.2} s ({:.1} ms/frame)",
             report.seconds_parameterize,

@@ -8,7 +8,7 @@ use anyhow::{bail, Context, Result};
 use cgv::grid::Grid;
 use cgv::mesh::{analyze, Bounds};
 use cgv::metrics::surface;
-use cgv::param::{parameterize, ParamOptions};
+use cgv::param::{choose::parameterize_for_grid, ParamOptions};
 use cgv::resample::SampleMap;
 use rayon::prelude::*;
 use std::path::PathBuf;
@@ -35,7 +35,8 @@ pub struct Args {
     /// values give shrunken parts (heads, limbs) more samples at some cost in angles.
     #[arg(long, default_value_t = ParamOptions::default().area_correction)]
     area_correction: f64,
-    /// Number of area-correction passes.
+    /// Most area-correction passes. Of the maps they go through, the one
+    /// whose grid lies closest to the reference frame's surface is kept.
     #[arg(long, default_value_t = ParamOptions::default().area_passes)]
     area_passes: usize,
     /// Measure the resampling error on every K-th frame (0: not at all).
@@ -70,7 +71,8 @@ pub fn run(args: Args) -> Result<()> {
 
     let t = Instant::now();
     let opts = ParamOptions { area_correction: args.area_correction, area_passes: args.area_passes, cones: None };
-    let param = parameterize(&topology, &reference, &opts).context("parameterizing the reference frame")?;
+    let param =
+        parameterize_for_grid(&topology, &reference, grid, &opts).context("parameterizing the reference frame")?;
     let param_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let map = SampleMap::build(grid, &topology.faces, &param)?;
@@ -159,7 +161,10 @@ pub fn run(args: Args) -> Result<()> {
         let c = &param.conformal;
         let d = &param.distortion;
         println!("{} -> {} ({} frames, grid {}x{})", src.label().display(), out.display(), n_frames, grid.n, grid.n);
-        println!("  parameterization  {:.2} s (cones at vertices {:?}, corner {})", param_s, param.cones, param.corner);
+        println!(
+            "  parameterization  {:.2} s (cones at vertices {:?}, corner {}; {} area-correction passes kept)",
+            param_s, param.cones, param.corner, param.area_passes
+        );
         println!(
             "  angle distortion  sigma1/sigma2 mean {:.3}, p95 {:.3} (conformal map: mean {:.3}, p95 {:.3})",
             d.conformal_mean, d.conformal_p95, c.conformal_mean, c.conformal_p95
