@@ -90,15 +90,18 @@ fn bitrate_matcher_lands_within_five_percent_on_the_default_motion() {
             assert!(r.vertex_rms > 0.0 && r.vertex_rms < 0.05 && r.kg > 0.0, "{r:?}");
         }
     }
-    // The cgv entry kept, of its variants that fit, the lowest surface RMS,
-    // and reports the others it measured.
+    // The cgv entry kept, of its variants that fit, the lowest surface RMS
+    // (one without a frame past eval::SPIKE times its mean before one
+    // with), and reports the others it measured.
     for p in &report.points {
         let c = p.results.iter().find(|r| r.codec == EvalCodec::Cgv).unwrap();
         assert!(!c.passed_over.is_empty(), "{}: no variant reported", p.name);
+        let spikes = |w: f64| w > eval::SPIKE;
         for v in &c.passed_over {
             let fits = v.bytes as f64 <= p.target_bytes as f64 * 1.05;
+            let (vs, cs) = (spikes(v.worst_over_mean), spikes(c.worst_over_mean));
             assert!(
-                !fits || v.surface_rms.unwrap() >= c.surface_rms.unwrap(),
+                !fits || (vs && !cs) || (vs == cs && v.surface_rms.unwrap() >= c.surface_rms.unwrap()),
                 "{}: kept {:?} over {v:?}",
                 p.name,
                 c.surface_rms
