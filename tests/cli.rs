@@ -31,6 +31,10 @@ fn remesh_writes_glb_png_and_reports_error() {
     assert_eq!(v["grid_vertices"], 1024);
     assert_eq!(v["error"]["frames_measured"], 3);
     assert!(v["error"]["rms_mean"].as_f64().unwrap() < 0.02);
+    // The map kept is the one whose grid lies closest to the reference frame.
+    let passes = v["parameterization"]["area_passes"].as_u64().unwrap();
+    assert!((1..=200).contains(&passes), "{passes} passes");
+    assert!(v["parameterization"]["score"].as_f64().unwrap() > 0.0);
     assert!(glb.exists() && dir.join("walk.png").exists());
     let png = std::fs::read(dir.join("walk.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
@@ -64,6 +68,26 @@ fn encode_info_and_decode_a_gv_file() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(v["report"]["frames"], 72);
+    // --area-passes caps the passes, and the text report names the grid's error.
+    let capped = dir.join("capped.cgv");
+    let out = cgv(&[
+        "encode",
+        "builtin:walk",
+        "--codec",
+        "gv",
+        "--grid",
+        "16",
+        "--area-passes",
+        "10",
+        "-o",
+        capped.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("grid: resamples the reference frame to"), "{text}");
+    let line = text.lines().find(|l| l.contains("area-correction passes kept")).unwrap_or_default();
+    let kept = line.split("; ").nth(1).and_then(|t| t.split(' ').next()).and_then(|n| n.parse::<u32>().ok());
+    assert!(kept.is_some_and(|k| (1..=10).contains(&k)), "{text}");
     let info = cgv(&["info", cgv_file.to_str().unwrap(), "--json"]);
     assert!(info.status.success(), "{}", String::from_utf8_lossy(&info.stderr));
     let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
