@@ -62,7 +62,8 @@ pub fn cotangent_weights(faces: &[[u32; 3]], adj: &Adjacency, pos: &[DVec3]) -> 
 /// The linear system of a map to the orbifold, for any positive weights.
 pub struct OrbifoldSystem<'a> {
     faces: &'a [[u32; 3]],
-    cut: &'a Cut,
+    /// The cut's cones (top, right, bottom, left), pinned at [`CONE_UV`].
+    cones: [u32; 4],
     /// For half-edge h (i -> j): the isometry taking j's canonical position
     /// into the frame of i's canonical copy, as seen across h's face.
     rel: Vec<Iso>,
@@ -74,7 +75,7 @@ pub struct OrbifoldSystem<'a> {
 }
 
 impl<'a> OrbifoldSystem<'a> {
-    pub fn new(faces: &'a [[u32; 3]], nv: usize, cut: &'a Cut) -> Self {
+    pub fn new(faces: &'a [[u32; 3]], nv: usize, cut: &Cut) -> Self {
         let mut index = vec![0u32; nv];
         let mut n = 0u32;
         for (v, slot) in index.iter_mut().enumerate() {
@@ -93,11 +94,11 @@ impl<'a> OrbifoldSystem<'a> {
                 Iso { s: gi.s * gj.s, t: gi.s * (gj.t - gi.t) }
             })
             .collect();
-        OrbifoldSystem { faces, cut, rel, index, unknowns: n as usize, chol: None, lu: None }
+        OrbifoldSystem { faces, cones: cut.cones, rel, index, unknowns: n as usize, chol: None, lu: None }
     }
 
     fn cone_uv(&self, v: u32) -> DVec2 {
-        CONE_UV[self.cut.cones.iter().position(|&c| c == v).unwrap_or(0)]
+        CONE_UV[self.cones.iter().position(|&c| c == v).unwrap_or(0)]
     }
 
     /// Rows of the system for weights `w` (one per half-edge: the weight of
@@ -161,8 +162,7 @@ impl<'a> OrbifoldSystem<'a> {
     pub fn solve_general(&mut self, w: &[f64]) -> Result<Vec<DVec2>> {
         let (entries, mut rhs) = self.assemble(w);
         let lu = self.lu.get_or_insert_with(|| SparseLu::new(self.unknowns));
-        lu.factor(&entries)?;
-        lu.solve(&mut rhs, 2)?;
+        lu.solve(&entries, &mut rhs, 2)?;
         Ok(self.unpack(&rhs))
     }
 }
