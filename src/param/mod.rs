@@ -24,21 +24,24 @@
 //!    conformal map.
 //! 3. **Chosen by the grid.** Mean area stretch is not what the codecs pay
 //!    for; the grid's resampling error is. The encoder scores the maps the
-//!    passes go through by that error and keeps the best ([`choose`]).
+//!    passes go through by that error and keeps the best, and places the
+//!    cones by the same error ([`choose`]). The passes themselves run in
+//!    [`area`], resumable so that cone placements can race.
 //!
 //! Both the conformal and the final map's distortion are reported.
 
+pub mod area;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod choose;
 pub mod cut;
 pub mod distortion;
 pub mod orbifold;
 
-use crate::error::{Error, Result};
-use crate::mesh::{Adjacency, Topology};
-use cut::{Cut, Graph, Iso};
+use crate::error::Result;
+use crate::mesh::Topology;
+use cut::Iso;
 use distortion::Distortion;
-use glam::{DVec2, DVec3, Vec3};
+use glam::{DVec2, Vec3};
 
 /// How to parameterize.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -134,120 +137,7 @@ pub fn parameterize_scored(
     topology: &Topology,
     positions: &[Vec3],
     opts: &ParamOptions,
-    mut score: Option<Score>,
+    score: Option<Score>,
 ) -> Result<Parameterization> {
-    let faces = &topology.faces;
-    let nv = topology.vertex_count;
-    if nv < 5 || positions.len() != nv {
-        return Err(Error::Argument(format!(
-            "cannot parameterize a mesh of {nv} vertices ({} positions)",
-            positions.len()
-        )));
-    }
-    if !(opts.area_correction.is_finite() && (0.0..=2.0).contains(&opts.area_correction)) {
-        return Err(Error::Argument(format!("area correction {} is not in [0, 2]", opts.area_correction)));
-    }
-    if let Err(problem) = crate::mesh::analyze(topology, positions).require_sphere() {
-        return Err(Error::Argument(format!("cannot parameterize: the surface {problem}")));
-    }
-    let pos: Vec<DVec3> = positions.iter().map(|p| p.as_dvec3()).collect();
-    let adj = Adjacency::build(faces);
-    let graph = Graph::new(nv, faces, &pos);
-    let (cones, corner) = match opts.cones {
-        Some(c) => c,
-        None => cut::choose_cones(&graph, nv),
-    };
-
-    let total_image_area =
-        |p: &Parameterization| -> f64 { (0..faces.len()).map(|f| distortion::signed_area(p.face_uv(faces, f))).sum() };
-    let weights = orbifold::cotangent_weights(faces, &adj, &pos);
-    let mut result = None;
-    for mirror in [false, true] {
-        let cut = Cut::new(faces, &adj, &graph, nv, cones, corner, mirror)?;
-        let mut system = orbifold::OrbifoldSystem::new(faces, nv, &cut);
-        let uv = system.solve_symmetric(&weights)?;
-        let mut p = Parameterization {
-            cones: cut.cones,
-            corner,
-            uv,
-            corner_iso: cut.corner_iso.clone(),
-            conformal: Distortion::default(),
-            distortion: Distortion::default(),
-            area_passes: 0,
-            score: None,
-            options: opts.clone(),
-        };
-        if total_image_area(&p) < 0.0 {
-            continue;
-        }
-        p.conformal = distortion::measure(faces, &pos, |f| p.face_uv(faces, f));
-        let area3: Vec<f64> = faces.iter().map(|f| distortion::surface_area(&pos, f)).collect();
-        let mut w = weights.clone();
-        let mut best = p.conformal.area_log_mean;
-        // The lowest score so far: (score, map, passes).
-        let mut kept: Option<(f64, Vec<DVec2>, usize)> = None;
-        // Whether the passes are past their use: the last score is
-        // SCORE_GIVE_UP times the kept one.
-        let mut rate = |p: &Parameterization, kept: &mut Option<(f64, Vec<DVec2>, usize)>| -> Result<bool> {
-            let Some(score) = score.as_mut() else { return Ok(false) };
-            let s = score(p)?;
-            match kept {
-                Some(k) if s >= k.0 => Ok(s > SCORE_GIVE_UP * k.0),
-                _ => {
-                    *kept = Some((s, p.uv.clone(), p.area_passes));
-                    Ok(false)
-                }
-            }
-        };
-        for _ in 0..if opts.area_correction > 0.0 { opts.area_passes } else { 0 } {
-            // Local area stretch at each vertex: area-weighted RMS over its faces.
-            let fs = distortion::face_stretch(faces, &pos, |f| p.face_uv(faces, f));
-            let mut num = vec![0.0; nv];
-            let mut den = vec![0.0; nv];
-            for (f, face) in faces.iter().enumerate() {
-                let s = fs[f].min(STRETCH_CAP);
-                for &v in face {
-                    num[v as usize] += area3[f] * s * s;
-                    den[v as usize] += area3[f];
-                }
-            }
-            for (h, wh) in w.iter_mut().enumerate() {
-                let j = crate::mesh::adjacency::target(faces, h as u32) as usize;
-                let sigma = (num[j] / den[j].max(1e-300)).sqrt().clamp(1e-12, STRETCH_CAP);
-                *wh /= sigma.powf(opts.area_correction);
-            }
-            // Keep the weights in a sane range: only their ratios matter.
-            let mean = w.iter().sum::<f64>() / w.len() as f64;
-            w.iter_mut().for_each(|x| *x /= mean);
-            let uv = system.solve_general(&w)?;
-            let trial = Parameterization { uv, ..p.clone() };
-            let d = distortion::measure(faces, &pos, |f| trial.face_uv(faces, f));
-            if d.flipped_faces > 0 || d.area_log_mean.partial_cmp(&best) != Some(std::cmp::Ordering::Less) {
-                break;
-            }
-            best = d.area_log_mean;
-            p.uv = trial.uv;
-            p.area_passes += 1;
-            if SCORED_PASSES.contains(&p.area_passes) && rate(&p, &mut kept)? {
-                break;
-            }
-        }
-        if !SCORED_PASSES.contains(&p.area_passes) {
-            rate(&p, &mut kept)?;
-        }
-        if let Some((s, uv, passes)) = kept {
-            (p.uv, p.area_passes, p.score) = (uv, passes, Some(s));
-        }
-        p.distortion = distortion::measure(faces, &pos, |f| p.face_uv(faces, f));
-        result = Some(p);
-        break;
-    }
-    let p = result.ok_or_else(|| Error::Numerical("the map reverses orientation in both cone orders".into()))?;
-    if p.distortion.flipped_faces > 0 {
-        return Err(Error::Numerical(format!(
-            "the parameterization folds over ({} faces reversed); try another --area-correction",
-            p.distortion.flipped_faces
-        )));
-    }
-    Ok(p)
+    area::AreaPasses::start(topology, positions, opts)?.finish(score)
 }

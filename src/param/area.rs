@@ -1,0 +1,220 @@
+//! Area correction, as passes that can be paused and resumed: the stretch
+//! minimization of Yoshizawa, Belyaev & Seidel ("A fast and simple
+//! stretch-minimizing mesh parameterization", SMI 2004) with area stretch in
+//! place of their L2 stretch (see the [module overview](super), step 2).
+//!
+//! Each pass divides every half-edge weight by the area stretch at its far
+//! vertex to the power η and re-solves the orbifold Tutte system; the passes
+//! stop once the mean |ln area ratio| stops falling, a face flips, or the
+//! pass budget is spent. With a score (lower is better) the map is rated
+//! after the passes in [`SCORED_PASSES`] and the best one kept; the passes
+//! give up once a score is [`SCORE_GIVE_UP`] times the best.
+//!
+//! [`AreaPasses::advance`] runs them up to a pass count and returns, so that
+//! [`choose`](super::choose) can race several cone placements and finish
+//! only the one that leads.
+
+use super::cut::{self, Cut, Graph};
+use super::distortion;
+use super::orbifold::{self, OrbifoldSystem};
+use super::{ParamOptions, Parameterization, Score, SCORED_PASSES, SCORE_GIVE_UP, STRETCH_CAP};
+use crate::error::{Error, Result};
+use crate::mesh::{Adjacency, Topology};
+use glam::{DVec2, DVec3, Vec3};
+
+/// A parameterization in progress: the conformal map, then as many area
+/// passes as [`advance`](Self::advance) has run.
+pub struct AreaPasses<'a> {
+    faces: &'a [[u32; 3]],
+    pos: Vec<DVec3>,
+    /// 3D area of each face.
+    area3: Vec<f64>,
+    system: OrbifoldSystem<'a>,
+    /// Half-edge weights of the last pass.
+    w: Vec<f64>,
+    /// The map after the passes so far.
+    p: Parameterization,
+    /// Mean |ln area ratio| of `p`: a pass must lower it.
+    area_log_mean: f64,
+    /// The best-scored map so far: (score, map, passes).
+    kept: Option<(f64, Vec<DVec2>, usize)>,
+    /// Passes after which the last score was taken.
+    scored_at: Option<usize>,
+    /// No more passes will run.
+    done: bool,
+}
+
+impl<'a> AreaPasses<'a> {
+    /// Cuts the surface, solves the conformal map (step 1) and readies the
+    /// passes. Errors when the surface is not a closed genus-0 manifold, the
+    /// options are out of range, or the cones cannot be cut apart.
+    pub fn start(topology: &'a Topology, positions: &[Vec3], opts: &ParamOptions) -> Result<AreaPasses<'a>> {
+        let faces = &topology.faces;
+        let nv = topology.vertex_count;
+        if nv < 5 || positions.len() != nv {
+            return Err(Error::Argument(format!(
+                "cannot parameterize a mesh of {nv} vertices ({} positions)",
+                positions.len()
+            )));
+        }
+        if !(opts.area_correction.is_finite() && (0.0..=2.0).contains(&opts.area_correction)) {
+            return Err(Error::Argument(format!("area correction {} is not in [0, 2]", opts.area_correction)));
+        }
+        if let Err(problem) = crate::mesh::analyze(topology, positions).require_sphere() {
+            return Err(Error::Argument(format!("cannot parameterize: the surface {problem}")));
+        }
+        let pos: Vec<DVec3> = positions.iter().map(|p| p.as_dvec3()).collect();
+        let adj = Adjacency::build(faces);
+        let graph = Graph::new(nv, faces, &pos);
+        let (cones, corner) = match opts.cones {
+            Some(c) => c,
+            None => cut::choose_cones(&graph, nv),
+        };
+        let weights = orbifold::cotangent_weights(faces, &adj, &pos);
+        // The cones' order around the square decides the map's orientation;
+        // the mirrored order is tried when the first one comes out reversed.
+        for mirror in [false, true] {
+            let cut = Cut::new(faces, &adj, &graph, nv, cones, corner, mirror)?;
+            let mut system = OrbifoldSystem::new(faces, nv, &cut);
+            let uv = system.solve_symmetric(&weights)?;
+            let mut p = Parameterization {
+                cones: cut.cones,
+                corner,
+                uv,
+                corner_iso: cut.corner_iso,
+                conformal: distortion::Distortion::default(),
+                distortion: distortion::Distortion::default(),
+                area_passes: 0,
+                score: None,
+                options: opts.clone(),
+            };
+            let image_area: f64 = (0..faces.len()).map(|f| distortion::signed_area(p.face_uv(faces, f))).sum();
+            if image_area < 0.0 {
+                continue;
+            }
+            p.conformal = distortion::measure(faces, &pos, |f| p.face_uv(faces, f));
+            let area3 = faces.iter().map(|f| distortion::surface_area(&pos, f)).collect();
+            let area_log_mean = p.conformal.area_log_mean;
+            return Ok(AreaPasses {
+                faces,
+                pos,
+                area3,
+                system,
+                w: weights,
+                p,
+                area_log_mean,
+                kept: None,
+                scored_at: None,
+                done: false,
+            });
+        }
+        Err(Error::Numerical("the map reverses orientation in both cone orders".into()))
+    }
+
+    /// The cones (top, right, bottom, left) and corner of this map.
+    pub fn cones(&self) -> ([u32; 4], u32) {
+        (self.p.cones, self.p.corner)
+    }
+
+    /// The best score so far (None before the first, or without a score).
+    pub fn score(&self) -> Option<f64> {
+        self.kept.as_ref().map(|k| k.0)
+    }
+
+    /// Runs passes until `until` of them have run or they stop. When they
+    /// stop, the last map is scored if it was not yet.
+    pub fn advance(&mut self, until: usize, mut score: Option<Score>) -> Result<()> {
+        self.run(until, &mut score)
+    }
+
+    fn run(&mut self, until: usize, score: &mut Option<Score>) -> Result<()> {
+        let opts = &self.p.options;
+        let budget = if opts.area_correction > 0.0 { opts.area_passes } else { 0 };
+        let eta = opts.area_correction;
+        let (faces, nv) = (self.faces, self.pos.len());
+        while !self.done && self.p.area_passes < until {
+            if self.p.area_passes >= budget {
+                return self.stop(score);
+            }
+            // Local area stretch at each vertex: area-weighted RMS over its faces.
+            let fs = distortion::face_stretch(faces, &self.pos, |f| self.p.face_uv(faces, f));
+            let mut num = vec![0.0; nv];
+            let mut den = vec![0.0; nv];
+            for (f, face) in faces.iter().enumerate() {
+                let s = fs[f].min(STRETCH_CAP);
+                for &v in face {
+                    num[v as usize] += self.area3[f] * s * s;
+                    den[v as usize] += self.area3[f];
+                }
+            }
+            for (h, wh) in self.w.iter_mut().enumerate() {
+                let j = crate::mesh::adjacency::target(faces, h as u32) as usize;
+                let sigma = (num[j] / den[j].max(1e-300)).sqrt().clamp(1e-12, STRETCH_CAP);
+                *wh /= sigma.powf(eta);
+            }
+            // Keep the weights in a sane range: only their ratios matter.
+            let mean = self.w.iter().sum::<f64>() / self.w.len() as f64;
+            self.w.iter_mut().for_each(|x| *x /= mean);
+            let uv = self.system.solve_general(&self.w)?;
+            let trial = Parameterization { uv, ..self.p.clone() };
+            let d = distortion::measure(faces, &self.pos, |f| trial.face_uv(faces, f));
+            if d.flipped_faces > 0 || d.area_log_mean.partial_cmp(&self.area_log_mean) != Some(std::cmp::Ordering::Less)
+            {
+                return self.stop(score);
+            }
+            self.area_log_mean = d.area_log_mean;
+            self.p.uv = trial.uv;
+            self.p.area_passes += 1;
+            if SCORED_PASSES.contains(&self.p.area_passes) && self.rate(score)? {
+                self.done = true;
+            }
+        }
+        if self.p.area_passes >= budget {
+            return self.stop(score);
+        }
+        Ok(())
+    }
+
+    /// Runs the remaining passes and returns the kept map.
+    pub fn finish(mut self, mut score: Option<Score>) -> Result<Parameterization> {
+        self.run(usize::MAX, &mut score)?;
+        let mut p = self.p;
+        if let Some((s, uv, passes)) = self.kept {
+            (p.uv, p.area_passes, p.score) = (uv, passes, Some(s));
+        }
+        let faces = self.faces;
+        p.distortion = distortion::measure(faces, &self.pos, |f| p.face_uv(faces, f));
+        if p.distortion.flipped_faces > 0 {
+            return Err(Error::Numerical(format!(
+                "the parameterization folds over ({} faces reversed); try another --area-correction",
+                p.distortion.flipped_faces
+            )));
+        }
+        Ok(p)
+    }
+
+    /// No more passes: scores the last map if it was not yet.
+    fn stop(&mut self, score: &mut Option<Score>) -> Result<()> {
+        self.done = true;
+        if self.scored_at != Some(self.p.area_passes) {
+            self.rate(score)?;
+        }
+        Ok(())
+    }
+
+    /// Scores the current map, keeping it if it is the best so far; true
+    /// when the passes are past their use (the score is SCORE_GIVE_UP times
+    /// the kept one).
+    fn rate(&mut self, score: &mut Option<Score>) -> Result<bool> {
+        let Some(score) = score.as_mut() else { return Ok(false) };
+        let s = score(&self.p)?;
+        self.scored_at = Some(self.p.area_passes);
+        match &self.kept {
+            Some(k) if s >= k.0 => Ok(s > SCORE_GIVE_UP * k.0),
+            _ => {
+                self.kept = Some((s, self.p.uv.clone(), self.p.area_passes));
+                Ok(false)
+            }
+        }
+    }
+}
