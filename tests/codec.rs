@@ -112,16 +112,19 @@ fn motion_corrections_round_trip_without_drift() {
     // QP 18: since format v4 the three correction streams share one range
     // width (the widest axis's), so QP 20 is coarser on the narrow axes
     // than it was (measured: 1.06e-3 RMS at QP 20, in a smaller file).
+    // QP 17: since the cones are placed by the grid's resampling error the
+    // motion's N = 64 grid differs, and its worst frame was 1.001e-3 RMS at
+    // QP 18 (0.89e-3 at 17, flat over the 12 frames: no drift either way).
     let src = cgv::demo::motion(12);
     let mut opts = EncodeOptions {
         codec: CodecKind::Cgv,
         grid: 64,
         corrections: CorrectionMode::Motion,
-        video: VideoSettings { qp: 18, ..Default::default() },
+        video: VideoSettings { qp: 17, ..Default::default() },
         ..Default::default()
     };
     let (bytes, errs) = round_trip(&src, &opts, SolverKind::Cgv);
-    eprintln!("cgv motion QP 18: {bytes} bytes, {errs:?}");
+    eprintln!("cgv motion QP 17: {bytes} bytes, {errs:?}");
     assert_faithful_without_drift(&errs);
     let (file_bytes, _) = encode(&src, &opts, &mut |_, _, _| {}).unwrap();
     let file = container::read(&file_bytes).unwrap();

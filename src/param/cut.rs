@@ -143,32 +143,42 @@ fn argmax(values: impl Iterator<Item = f64>) -> u32 {
     best.1
 }
 
-/// Picks four cones on the extremities (farthest-point sampling of geodesic
-/// distance) and the corner vertex farthest from all of them.
-pub fn choose_cones(graph: &Graph, nv: usize) -> ([u32; 4], u32) {
+/// The first `k` extremities by farthest-point sampling of geodesic
+/// distance (the seed, the point farthest from vertex 0, left out).
+pub fn extremities(graph: &Graph, nv: usize, k: usize) -> Vec<u32> {
     let free = vec![false; nv];
     let d0 = graph.dijkstra(0, &free).0;
-    let mut cones = vec![argmax(d0.iter().copied())];
+    let mut picks = vec![argmax(d0.iter().copied())];
     let mut min_d = vec![f64::INFINITY; nv];
-    while cones.len() < 5 {
-        let d = graph.dijkstra(*cones.last().unwrap_or(&0), &free).0;
+    while picks.len() < k + 1 {
+        let d = graph.dijkstra(*picks.last().unwrap_or(&0), &free).0;
         for (m, x) in min_d.iter_mut().zip(d) {
             *m = m.min(x);
         }
-        cones.push(argmax(min_d.iter().copied()));
+        picks.push(argmax(min_d.iter().copied()));
     }
-    // The first pick only seeds the search (it is the farthest from vertex 0);
-    // replace it by the point farthest from the other four if that differs.
-    ([cones[1], cones[2], cones[3], cones[4]], {
-        let mut min_d = vec![f64::INFINITY; nv];
-        for &c in &cones[1..5] {
-            let d = graph.dijkstra(c, &free).0;
-            for (m, x) in min_d.iter_mut().zip(d) {
-                *m = m.min(x);
-            }
+    picks.split_off(1)
+}
+
+/// The vertex farthest from all of `cones`.
+pub fn corner_for(graph: &Graph, nv: usize, cones: &[u32]) -> u32 {
+    let free = vec![false; nv];
+    let mut min_d = vec![f64::INFINITY; nv];
+    for &c in cones {
+        let d = graph.dijkstra(c, &free).0;
+        for (m, x) in min_d.iter_mut().zip(d) {
+            *m = m.min(x);
         }
-        argmax(min_d.iter().copied())
-    })
+    }
+    argmax(min_d.iter().copied())
+}
+
+/// Picks four cones on the extremities (farthest-point sampling of geodesic
+/// distance) and the corner vertex farthest from all of them.
+pub fn choose_cones(graph: &Graph, nv: usize) -> ([u32; 4], u32) {
+    let e = extremities(graph, nv, 4);
+    let cones = [e[0], e[1], e[2], e[3]];
+    (cones, corner_for(graph, nv, &cones))
 }
 
 impl Cut {
