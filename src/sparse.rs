@@ -124,8 +124,8 @@ impl SparseLu {
             self.symbolic = Some(symbolic);
         }
         let symbolic = self.symbolic.as_ref().ok_or_else(|| Error::Numerical("LU analysis missing".into()))?;
-        // Sequential: the wasm build has no thread pool, and the passes of
-        // several cone placements are what runs side by side natively.
+        // Sequential: the wasm build has no thread pool. (Natively faer's
+        // global parallelism could be passed here; not measured.)
         let par = Par::Seq;
         let scratch = StackReq::any_of(&[
             symbolic.factorize_numeric_lu_scratch::<f64>(par, Default::default()),

@@ -111,11 +111,6 @@ impl<'a> AreaPasses<'a> {
         Err(Error::Numerical("the map reverses orientation in both cone orders".into()))
     }
 
-    /// The cones (top, right, bottom, left) and corner of this map.
-    pub fn cones(&self) -> ([u32; 4], u32) {
-        (self.p.cones, self.p.corner)
-    }
-
     /// The best score so far (None before the first, or without a score).
     pub fn score(&self) -> Option<f64> {
         self.kept.as_ref().map(|k| k.0)

@@ -22,7 +22,7 @@
 
 use super::area::AreaPasses;
 use super::{parameterize_scored, ParamOptions, Parameterization, SCORED_PASSES};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::grid::Grid;
 use crate::mesh::Topology;
 use crate::metrics::surface;
@@ -111,11 +111,11 @@ pub fn parameterize_for_grid(
             }));
         }
     }
-    match (racers.into_iter().next(), first_error) {
-        (Some(r), _) => r.finish(Some(&mut score)),
-        (None, Some(err)) => Err(err),
-        // No extremities to choose among (a mesh too small for them).
-        (None, None) => parameterize_scored(topology, reference, opts, Some(&mut score)),
+    match racers.into_iter().next() {
+        Some(leader) => leader.finish(Some(&mut score)),
+        // Every placement failed (there are always CONE_CANDIDATES of them,
+        // so there is an error to report).
+        None => Err(first_error.unwrap_or_else(|| Error::Numerical("no cone placement could be cut".into()))),
     }
 }
 
