@@ -3,22 +3,23 @@
 //! compress, 23 s/frame to reconstruct, on a 2011 PC). Default motion.
 //!
 //! Run: `cargo bench --bench codec`
+#![allow(clippy::unwrap_used, clippy::expect_used)] // tests may stop on any failure
 
-use cgv::codec::features::Stencils;
 use cgv::codec::h264::{Decoder, Encoder, VideoSettings};
-use cgv::codec::quant::Quantizer;
-use cgv::codec::{choose_anchors, Corrections, VideoDecoder};
-use cgv::container::CorrectionMode;
+use cgv::codec::{choose_anchors, Corrections};
+use cgv::format::quant::Quantizer;
+use cgv::format::CorrectionMode;
+use cgv::grid::stencil::Stencils;
 use cgv::grid::Grid;
 use cgv::param::{parameterize, ParamOptions};
 use cgv::resample::SampleMap;
-use cgv::solve::cgv::{Extrapolation, Predictor, PredictorCode, DEFAULT_MAX_LAG};
 use cgv::solve::paper::PaperSolver;
+use cgv::solve::predictor::{Extrapolation, Predictor, PredictorCode, DEFAULT_MAX_LAG};
 use criterion::{criterion_group, criterion_main, Criterion};
 use glam::Vec3;
 
 fn bench(c: &mut Criterion) {
-    let m = cgv::demo::motion(2);
+    let m = cgv::mesh::builtin::motion(2);
     let param = parameterize(&m.topology, &m.frames[0], &ParamOptions::default()).expect("parameterize");
     let mut g = c.benchmark_group("codec");
     g.sample_size(10);

@@ -5,10 +5,12 @@
 //! (unpacked under target/), else the embedded default motion.
 //!
 //! Run: `cargo bench --bench param`
+#![allow(clippy::unwrap_used, clippy::expect_used)] // tests may stop on any failure
 
+use cgv::geometry_image::parameterize_for_grid;
 use cgv::grid::Grid;
 use cgv::mesh::{open_sequence, FrameSource, OpenOptions};
-use cgv::param::{choose::parameterize_for_grid, parameterize, ParamOptions};
+use cgv::param::{parameterize, ParamOptions};
 use cgv::resample::SampleMap;
 use criterion::{criterion_group, criterion_main, Criterion};
 use std::path::Path;
@@ -33,7 +35,7 @@ fn samba() -> Option<Box<dyn FrameSource>> {
 fn bench(c: &mut Criterion) {
     let (name, src): (&str, Box<dyn FrameSource>) = match samba() {
         Some(s) => ("samba", s),
-        None => ("builtin-walk", Box::new(cgv::demo::default_motion())),
+        None => ("builtin-walk", Box::new(cgv::mesh::builtin::default_motion())),
     };
     let topo = src.topology().clone();
     let frame = src.read_frame(0).expect("first frame");

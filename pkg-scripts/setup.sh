@@ -7,6 +7,7 @@
 #   nasm                                     openh264's assembly (2-5x faster H.264)
 #   chromium, chromium-driver                browser tests
 #   mesa-vulkan-drivers                      lavapipe, for rendering without a GPU
+#   nodejs, npm; tests/node (npm ci)         the Khronos glTF-Validator the tests run on our GLBs
 set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -33,6 +34,8 @@ command -v nasm >/dev/null || missing+=(nasm)
 command -v chromium >/dev/null || missing+=(chromium)
 command -v chromedriver >/dev/null || missing+=(chromium-driver)
 command -v xz >/dev/null || missing+=(xz-utils)
+command -v node >/dev/null || missing+=(nodejs)
+command -v npm >/dev/null || missing+=(npm)
 # A TrueType font for the labels of `cgv eval --plot` (plotters lays text out with one).
 [ -e /usr/share/fonts/truetype/dejavu/DejaVuSans.ttf ] || [ -e /usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf ] || missing+=(fonts-dejavu-core)
 [ -e /usr/share/vulkan/icd.d/lvp_icd.x86_64.json ] || ls /usr/share/vulkan/icd.d/lvp_icd*.json >/dev/null 2>&1 || missing+=(mesa-vulkan-drivers)
@@ -52,6 +55,12 @@ if [ -n "$want" ] && [ "$have" != "$want" ]; then
   # --locked: its lock file pins a crate release the registry lacks.
   CARGO_TARGET_DIR="$cache/wasm-bindgen-build" cargo install -q wasm-bindgen-cli --version "$want" --root "$cache/tools"
   rm -rf "$cache/wasm-bindgen-build"
+fi
+
+# The glTF-Validator for the tests, pinned by tests/node/package-lock.json.
+if [ ! -d "$here/tests/node/node_modules/gltf-validator" ]; then
+  say "installing the Khronos glTF-Validator (npm ci in tests/node)"
+  (cd "$here/tests/node" && npm ci --no-audit --no-fund --silent)
 fi
 
 # Mesa (lavapipe) warns without a runtime dir; harmless, but noisy in logs.

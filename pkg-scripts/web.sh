@@ -1,12 +1,11 @@
 #!/usr/bin/env bash
 # Builds the web viewer's package: the library for wasm32, wasm-bindgen
 # (--target web) into www/pkg/ (ignored), and wasm-opt when it is installed.
-# Sourced or run; expects pkg-scripts/setup.sh to have run (wasm target,
-# wasm-bindgen-cli, CARGO_TARGET_DIR).
+# Runs on its own: it sets up what is missing first (the wasm target,
+# wasm-bindgen-cli, CARGO_TARGET_DIR and PATH; quick when all is there).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
-: "${CARGO_TARGET_DIR:=$HOME/.cache/cgv/target}"
-export CARGO_TARGET_DIR
+source pkg-scripts/setup.sh
 cargo build --release --lib --target wasm32-unknown-unknown
 wasm="$CARGO_TARGET_DIR/wasm32-unknown-unknown/release/cgv.wasm"
 rm -rf www/pkg

@@ -60,13 +60,20 @@ pub enum Error {
     /// A mesh or frame is valid in its format but unusable as a motion.
     #[error("{}: {problem}", path.display())]
     Mesh { path: PathBuf, problem: MeshProblem },
-    /// A `.cgv` file is malformed (see [`crate::container::ContainerError`]).
+    /// A `.cgv` file is malformed (see [`crate::format::ContainerError`]).
     #[error("{}: {source}", path.display())]
     Container {
         path: PathBuf,
         #[source]
-        source: crate::container::ContainerError,
+        source: crate::format::ContainerError,
     },
+    /// Decoding a file would need more memory than the caller allows.
+    #[error(
+        "decoding this file needs about {:.1} MiB, more than the limit of {:.1} MiB (the CLI's --memory-limit raises it)",
+        *needed as f64 / 1048576.0,
+        *limit as f64 / 1048576.0
+    )]
+    Memory { needed: u64, limit: u64 },
     /// An H.264 stream could not be encoded or decoded.
     #[error("video: {0}")]
     Video(String),

@@ -14,14 +14,27 @@ pub struct AtomicFile {
     file: Option<std::io::BufWriter<std::fs::File>>,
 }
 
+/// Checks, before any work, that the folder `path` is to be written in
+/// exists, so that a long encode does not end in an error about it.
+pub fn check_output_folder(path: &Path) -> Result<()> {
+    let parent = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    if parent.is_dir() {
+        Ok(())
+    } else {
+        Err(Error::Argument(format!("{}: the folder {} does not exist", path.display(), parent.display())))
+    }
+}
+
 impl AtomicFile {
     pub fn create(path: &Path) -> Result<Self> {
         let name = path.file_name().ok_or_else(|| Error::Argument(format!("{} is not a file path", path.display())))?;
+        check_output_folder(path)?;
         let mut tmp_name = std::ffi::OsString::from(".");
         tmp_name.push(name);
         tmp_name.push(format!(".{}.partial", std::process::id()));
         let tmp = path.with_file_name(tmp_name);
-        let file = std::fs::File::create(&tmp).map_err(|e| Error::io(&tmp, e))?;
+        // Errors name the file asked for, not the temporary one.
+        let file = std::fs::File::create(&tmp).map_err(|e| Error::io(path, e))?;
         Ok(Self { path: path.to_path_buf(), tmp, file: Some(std::io::BufWriter::new(file)) })
     }
 
@@ -30,17 +43,17 @@ impl AtomicFile {
     }
 
     pub fn write_all(&mut self, bytes: &[u8]) -> Result<()> {
-        let tmp = &self.tmp;
-        self.file.as_mut().expect("AtomicFile used after commit").write_all(bytes).map_err(|e| Error::io(tmp, e))
+        let file = self.file.as_mut().ok_or_else(|| Error::Argument("AtomicFile used after commit".into()))?;
+        file.write_all(bytes).map_err(|e| Error::io(&self.path, e))
     }
 
     /// Flushes, syncs and renames the file into place.
     pub fn commit(mut self) -> Result<()> {
-        let file = self.file.take().expect("AtomicFile committed twice");
+        let file = self.file.take().ok_or_else(|| Error::Argument("AtomicFile committed twice".into()))?;
         // Closed at the end of this block, before the rename.
         {
-            let file = file.into_inner().map_err(|e| Error::io(&self.tmp, e.into_error()))?;
-            file.sync_all().map_err(|e| Error::io(&self.tmp, e))?;
+            let file = file.into_inner().map_err(|e| Error::io(&self.path, e.into_error()))?;
+            file.sync_all().map_err(|e| Error::io(&self.path, e))?;
         }
         std::fs::rename(&self.tmp, &self.path).map_err(|e| Error::io(&self.path, e))
     }

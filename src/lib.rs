@@ -3,7 +3,7 @@
 //! The reference implementation of *conformal geometry videos* (Quynh, He,
 //! Chen, Xia, Sun, Hoi: "Modeling 3D articulated motions with conformal
 //! geometry videos (CGVs)", ACM Multimedia 2011). A platform-free core: mesh
-//! sequence I/O ([`mesh`]), the embedded default motion ([`demo`]), seamless
+//! sequence I/O ([`mesh`], the embedded default motion in [`mesh::builtin`]), seamless
 //! geometry images ([`param`], [`grid`], [`resample`]) and metrics
 //! ([`metrics`]). Platform code lives at the edges (the `cgv` binary).
 
@@ -12,17 +12,19 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod codec;
-pub mod container;
-pub mod demo;
 pub mod error;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod eval;
+pub mod format;
 pub mod fsutil;
+#[cfg(not(target_arch = "wasm32"))]
+pub mod geometry_image;
 pub mod grid;
 pub mod image;
 pub mod mesh;
 pub mod metrics;
 pub mod param;
+#[cfg(feature = "render")]
 pub mod render;
 pub mod resample;
 pub mod solve;

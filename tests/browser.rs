@@ -9,6 +9,7 @@
 //! Needs what `pkg-scripts/setup.sh` installs (chromium, chromium-driver)
 //! and the web package (`pkg-scripts/web.sh`, which `pkg-scripts/test.sh`
 //! runs first). Screenshots are kept in the test's temp folder as artifacts.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // tests may stop on any failure
 
 mod common;
 
@@ -372,10 +373,9 @@ fn viewer_speed(name: &str, grid: usize, qp: u8, fill_holes: bool) {
     let (bytes, _) = cgv::codec::encode(src.as_ref(), &opts, &mut |_, _, _| {}).unwrap();
     let file_name = format!("{name}-{grid}.cgv");
     std::fs::write(dir.join(&file_name), &bytes).unwrap();
-    let file = cgv::container::read(&bytes).unwrap();
+    let file = cgv::format::read(&bytes).unwrap();
     let header = file.header.clone();
-    let mut dec =
-        cgv::codec::SequenceDecoder::new(file, cgv::solve::SolverKind::Cgv, cgv::codec::h264::Decoder::new).unwrap();
+    let mut dec = cgv::codec::FileDecoder::new(file, cgv::solve::SolverKind::Predictive).unwrap();
     let native: f64 = (0..frames).map(|_| dec.next_frame().unwrap().1.solve_seconds).sum::<f64>() / frames as f64;
     let label = format!(
         "{name} N={grid} QP {qp} ({} bytes, {:?} corrections, max lag {})",

@@ -1,4 +1,5 @@
 //! The `cgv` binary as a user runs it.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // tests may stop on any failure
 
 mod common;
 
@@ -240,4 +241,147 @@ fn render_draws_the_figure_offscreen() {
     assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("has 4"));
     let out = cgv(&["render", fixture, "--mode", "error", "-o", dir.join("y.png").to_str().unwrap()]);
     assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("--reference"));
+}
+
+/// The command's standard error as text.
+fn stderr(out: &std::process::Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+#[test]
+fn bad_options_fail_by_name_before_the_motion_is_read() {
+    // The input does not exist: each option's error must come first.
+    let dir = common::temp_dir("cli-options");
+    let out_file = dir.join("o.cgv");
+    let o = out_file.to_str().unwrap();
+    let cases: [(&[&str], &str); 5] = [
+        (&["--grid", "2200"], "grid size 2200 must be even and in 16..=2160"),
+        (&["--grid", "8"], "grid size 8 must be even and in 16..=2160"),
+        (&["--qp", "60"], "QP 60 is not in 0..=51"),
+        (&["--kbps", "0"], "a bitrate of 0 kbit/s is not above 0"),
+        (&["--layers", "3"], "layers must be 1 or 2"),
+    ];
+    for (extra, want) in cases {
+        let mut args = vec!["encode", "no-such-motion", "-o", o];
+        args.extend_from_slice(extra);
+        let out = cgv(&args);
+        let err = stderr(&out);
+        assert!(!out.status.success() && err.contains(want) && !err.contains("no-such-motion"), "{extra:?}: {err}");
+        assert_eq!(err.lines().count(), 1, "{extra:?}: one line, said once: {err}");
+    }
+    // A missing output folder is named as such, before any work.
+    let out = cgv(&["encode", "no-such-motion", "-o", "no-such-dir/o.cgv"]);
+    assert!(stderr(&out).contains("no-such-dir/o.cgv: the folder no-such-dir does not exist"), "{}", stderr(&out));
+    assert!(std::fs::read_dir(&dir).unwrap().next().is_none(), "nothing written");
+}
+
+#[test]
+fn a_bad_file_is_reported_once() {
+    let dir = common::temp_dir("cli-once");
+    let zero = dir.join("zero.cgv");
+    std::fs::write(&zero, [0u8; 64]).unwrap();
+    let out = cgv(&["decode", zero.to_str().unwrap(), "-o", dir.join("z.glb").to_str().unwrap()]);
+    let err = stderr(&out);
+    assert_eq!(err.trim(), format!("error: {}: not a .cgv file (bad magic number)", zero.display()), "{err}");
+}
+
+/// A one-frame motion-corrected file whose header asks a decoder for a
+/// 2160 x 2160 grid and 255 past velocities (about 14 GB), with one-byte
+/// access units that are no H.264 at all.
+fn greedy_file() -> Vec<u8> {
+    use cgv::format::{self, stream, Coverage, FrameInfo, Header, Quantizer, StreamInfo};
+    let stream = |name, coverage| StreamInfo {
+        name,
+        layer: 1,
+        refines: None,
+        quant: Quantizer::new(-1.0, 1.0),
+        coverage,
+        scaled: false,
+    };
+    let mut streams: Vec<StreamInfo> = stream::SEED.map(|n| stream(n, Coverage::First)).to_vec();
+    streams.extend(stream::CORRECTION.map(|n| stream(n, Coverage::All)));
+    let header = Header {
+        grid: 2160,
+        seam: format::SEAM_RULE.into(),
+        frames: 1,
+        fps: 30.0,
+        codec: format::CodecKind::Cgv,
+        streams,
+        key_frames: vec![0],
+        anchors: vec![],
+        solver: format::SolverKind::Predictive,
+        settings: format::Settings { qp: 20, kbps: None, gop: 30, cabac: true, layers: 1, residual_steps: 0.0 },
+        source: Default::default(),
+        corrections: format::CorrectionMode::Motion,
+        max_lag: 255,
+    };
+    let mut bytes = format::write_header(&header).unwrap();
+    bytes.extend(format::write_frame(0, &FrameInfo::default(), &[&[1u8][..]; 6]));
+    bytes.extend(format::write_chunk(format::TAG_END, 0, 1, &[]));
+    bytes
+}
+
+#[test]
+fn a_file_asking_for_too_much_memory_is_refused() {
+    let dir = common::temp_dir("cli-memory");
+    let path = dir.join("greedy.cgv");
+    std::fs::write(&path, greedy_file()).unwrap();
+    let glb = dir.join("g.glb");
+    let out = cgv(&["decode", path.to_str().unwrap(), "-o", glb.to_str().unwrap()]);
+    let err = stderr(&out);
+    assert!(!out.status.success() && err.contains("more than the limit of 1024.0 MiB"), "{err}");
+    // Allowed more, it gets as far as H.264, which refuses the bytes.
+    let out = cgv(&["decode", path.to_str().unwrap(), "-o", glb.to_str().unwrap(), "--memory-limit", "20000"]);
+    let err = stderr(&out);
+    assert!(!out.status.success() && err.contains("H.264") && !err.contains("limit"), "{err}");
+    assert!(!glb.exists());
+}
+
+/// Runs the Khronos glTF-Validator (tests/node, installed by
+/// pkg-scripts/setup.sh) on `files`; returns each file's report line.
+fn validate_gltf(files: &[&std::path::Path]) -> Vec<serde_json::Value> {
+    let here = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/node");
+    assert!(here.join("node_modules/gltf-validator").exists(), "run pkg-scripts/setup.sh (npm ci in tests/node)");
+    let out = Command::new("node").arg(here.join("validate-gltf.mjs")).args(files).output().unwrap();
+    String::from_utf8_lossy(&out.stdout).lines().map(|l| serde_json::from_str(l).unwrap()).collect()
+}
+
+#[test]
+fn every_glb_we_write_passes_the_khronos_validator() {
+    let dir = common::temp_dir("cli-gltf-valid");
+    let p = |n: &str| dir.join(n).to_str().unwrap().to_string();
+    let ok = |out: std::process::Output| assert!(out.status.success(), "{}", stderr(&out));
+    ok(cgv(&["remesh", "builtin:walk", "--frames", "0..5", "--grid", "16", "-o", &p("remesh.glb")]));
+    ok(cgv(&["encode", "builtin:walk", "--frames", "0..5", "--grid", "16", "-o", &p("w.cgv")]));
+    ok(cgv(&["decode", &p("w.cgv"), "-o", &p("decoded.glb")]));
+    ok(cgv(&["remesh", "builtin:walk", "--frames", "0..1", "--grid", "16", "-o", &p("one-frame.glb")]));
+    let files = ["remesh.glb", "decoded.glb", "one-frame.glb"].map(|n| dir.join(n));
+    let reports = validate_gltf(&files.iter().map(|f| f.as_path()).collect::<Vec<_>>());
+    assert_eq!(reports.len(), 3);
+    for r in &reports {
+        assert_eq!(r["errors"], 0, "{r}");
+    }
+    // The validator finds what it should: the stride-less shared view that
+    // the writer once produced is an error.
+    let glb = std::fs::read(&files[0]).unwrap();
+    let json_len = u32::from_le_bytes([glb[12], glb[13], glb[14], glb[15]]) as usize;
+    let mut doc: serde_json::Value = serde_json::from_slice(&glb[20..20 + json_len]).unwrap();
+    assert_eq!(doc["bufferViews"][1]["byteStride"], 12);
+    doc["bufferViews"][1].as_object_mut().unwrap().remove("byteStride");
+    let mut json = serde_json::to_vec(&doc).unwrap();
+    while json.len() % 4 != 0 {
+        json.push(b' ');
+    }
+    let mut broken = glb[..12].to_vec();
+    broken.extend((json.len() as u32).to_le_bytes());
+    broken.extend(b"JSON");
+    broken.extend(&json);
+    broken.extend(&glb[20 + json_len..]);
+    let total = broken.len() as u32;
+    broken[8..12].copy_from_slice(&total.to_le_bytes());
+    let bad = dir.join("stride-less.glb");
+    std::fs::write(&bad, broken).unwrap();
+    let r = &validate_gltf(&[bad.as_path()])[0];
+    assert!(r["errors"].as_u64().unwrap() > 0, "{r}");
+    assert!(r["messages"].to_string().contains("MESH_PRIMITIVE_ACCESSOR_WITHOUT_BYTESTRIDE"), "{r}");
 }

@@ -1,9 +1,11 @@
 //! Encoding and decoding round trips on the default motion.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // tests may stop on any failure
 
 mod common;
 
-use cgv::codec::{encode, h264, h264::VideoSettings, Corrections, EncodeOptions, SequenceDecoder, FILTER_CHOICES};
-use cgv::container::{self, CodecKind, CorrectionMode};
+use cgv::codec::{encode, h264::VideoSettings, Corrections, EncodeOptions, FileDecoder, FILTER_CHOICES};
+use cgv::format::{self, CodecKind, CorrectionMode};
+use cgv::format::{Extrapolation, StreamName};
 use cgv::grid::Grid;
 use cgv::mesh::{Bounds, FrameSource};
 use cgv::solve::SolverKind;
@@ -13,8 +15,8 @@ use glam::Vec3;
 /// max vertex error against the uncompressed grid, relative to the diagonal.
 fn round_trip(src: &dyn FrameSource, opts: &EncodeOptions, solver: SolverKind) -> (usize, Vec<(f64, f64)>) {
     let (bytes, _) = encode(src, opts, &mut |_, _, _| {}).unwrap();
-    let file = container::read(&bytes).unwrap();
-    let mut dec = SequenceDecoder::new(file, solver, h264::Decoder::new).unwrap();
+    let file = format::read(&bytes).unwrap();
+    let mut dec = FileDecoder::new(file, solver).unwrap();
     let first = src.read_frame(0).unwrap();
     let map = cgv::codec::prepare(src, opts).unwrap().map;
     let diag = Bounds::of(&first).diagonal() as f64;
@@ -31,10 +33,10 @@ fn round_trip(src: &dyn FrameSource, opts: &EncodeOptions, solver: SolverKind) -
 
 #[test]
 fn gv_round_trip_within_bounds_and_layer_two_refines() {
-    let src = cgv::demo::motion(8);
+    let src = cgv::mesh::builtin::motion(8);
     let base = EncodeOptions { codec: CodecKind::Gv, grid: 64, ..Default::default() };
-    let (bytes1, e1) = round_trip(&src, &base, SolverKind::Cgv);
-    let (bytes2, e2) = round_trip(&src, &EncodeOptions { layers: 2, ..base.clone() }, SolverKind::Cgv);
+    let (bytes1, e1) = round_trip(&src, &base, SolverKind::Predictive);
+    let (bytes2, e2) = round_trip(&src, &EncodeOptions { layers: 2, ..base.clone() }, SolverKind::Predictive);
     let worst = |e: &[(f64, f64)]| e.iter().map(|x| x.0).fold(0.0, f64::max);
     // Measured at QP 20: 0.61 % and 0.068 % RMS of the diagonal.
     assert!(worst(&e1) < 0.008, "one layer: {e1:?}");
@@ -44,42 +46,42 @@ fn gv_round_trip_within_bounds_and_layer_two_refines() {
     let (bytes_coarse, _) = round_trip(
         &src,
         &EncodeOptions { video: cgv::codec::h264::VideoSettings { qp: 40, ..base.video }, ..base },
-        SolverKind::Cgv,
+        SolverKind::Predictive,
     );
     assert!(bytes_coarse < bytes1);
 }
 
 #[test]
 fn decoding_is_deterministic_and_bad_streams_are_errors() {
-    let src = cgv::demo::motion(4);
+    let src = cgv::mesh::builtin::motion(4);
     let opts = EncodeOptions { codec: CodecKind::Cgv, grid: 32, ..Default::default() };
     let (bytes, _) = encode(&src, &opts, &mut |_, _, _| {}).unwrap();
     let decode_all = |bytes: &[u8], solver| -> cgv::Result<Vec<Vec<glam::Vec3>>> {
-        let file = container::read(bytes).map_err(|e| cgv::Error::Container { path: "mem".into(), source: e })?;
-        let mut dec = SequenceDecoder::new(file, solver, h264::Decoder::new)?;
+        let file = format::read(bytes).map_err(|e| cgv::Error::Container { path: "mem".into(), source: e })?;
+        let mut dec = FileDecoder::new(file, solver)?;
         (0..4).map(|_| dec.next_frame().map(|f| f.0)).collect()
     };
-    for solver in [SolverKind::Cgv, SolverKind::Paper] {
+    for solver in [SolverKind::Predictive, SolverKind::Paper] {
         let a = decode_all(&bytes, solver).unwrap();
         let b = decode_all(&bytes, solver).unwrap();
         assert_eq!(a, b, "{solver} is not deterministic");
         assert!(a.iter().flatten().all(|p| p.is_finite()));
     }
     // Replace the first access unit with garbage under a valid CRC.
-    let file = container::read(&bytes).unwrap();
+    let file = format::read(&bytes).unwrap();
     let mut h = file.header.clone();
     h.source.label = "x".into();
-    let mut bad = container::write_header(&h).unwrap();
+    let mut bad = format::write_header(&h).unwrap();
     for f in 0..h.frames {
         let garbage = vec![0, 0, 0, 1, 0x65, 0xff, 0xff, 0xff];
         let units: Vec<&[u8]> = (0..h.streams.len())
             .filter(|&s| h.stream_has_frame(s, f))
             .map(|s| if f == 0 && s == 0 { garbage.as_slice() } else { file.units[s][f as usize].as_slice() })
             .collect();
-        bad.extend(container::write_frame(f, &file.frames[f as usize], &units));
+        bad.extend(format::write_frame(f, &file.frames[f as usize], &units));
     }
-    bad.extend(container::write_chunk(container::TAG_END, 0, h.frames, &[]));
-    let e = decode_all(&bad, SolverKind::Cgv).unwrap_err();
+    bad.extend(format::write_chunk(format::TAG_END, 0, h.frames, &[]));
+    let e = decode_all(&bad, SolverKind::Predictive).unwrap_err();
     assert!(matches!(e, cgv::Error::Video(_)), "{e}");
 }
 
@@ -98,9 +100,9 @@ fn assert_faithful_without_drift(errs: &[(f64, f64)]) {
 fn cgv_round_trip_is_faithful_and_does_not_drift() {
     // 12 frames of the default motion, N = 64, QP 20: the closed loop keeps
     // every frame within the corrections' quantization.
-    let src = cgv::demo::motion(12);
+    let src = cgv::mesh::builtin::motion(12);
     let opts = EncodeOptions { codec: CodecKind::Cgv, grid: 64, ..Default::default() };
-    let (bytes, errs) = round_trip(&src, &opts, SolverKind::Cgv);
+    let (bytes, errs) = round_trip(&src, &opts, SolverKind::Predictive);
     eprintln!("cgv: {bytes} bytes, {errs:?}");
     assert_faithful_without_drift(&errs);
 }
@@ -115,7 +117,7 @@ fn motion_corrections_round_trip_without_drift() {
     // QP 17: since the cones are placed by the grid's resampling error the
     // motion's N = 64 grid differs, and its worst frame was 1.001e-3 RMS at
     // QP 18 (0.89e-3 at 17, flat over the 12 frames: no drift either way).
-    let src = cgv::demo::motion(12);
+    let src = cgv::mesh::builtin::motion(12);
     let mut opts = EncodeOptions {
         codec: CodecKind::Cgv,
         grid: 64,
@@ -123,22 +125,23 @@ fn motion_corrections_round_trip_without_drift() {
         video: VideoSettings { qp: 17, ..Default::default() },
         ..Default::default()
     };
-    let (bytes, errs) = round_trip(&src, &opts, SolverKind::Cgv);
+    let (bytes, errs) = round_trip(&src, &opts, SolverKind::Predictive);
     eprintln!("cgv motion QP 17: {bytes} bytes, {errs:?}");
     assert_faithful_without_drift(&errs);
     let (file_bytes, _) = encode(&src, &opts, &mut |_, _, _| {}).unwrap();
-    let file = container::read(&file_bytes).unwrap();
-    assert_eq!((file.version, file.header.corrections), (container::VERSION, CorrectionMode::Motion));
+    let file = format::read(&file_bytes).unwrap();
+    assert_eq!((file.version, file.header.corrections), (format::VERSION, CorrectionMode::Motion));
     // No H or λ: the motion predictor takes no mean-curvature step.
     let names: Vec<&str> = file.header.streams.iter().map(|s| s.name.as_str()).collect();
     assert_eq!(names, ["seed_x", "seed_y", "seed_z", "dx", "dy", "dz"]);
-    let e = SequenceDecoder::new(file.clone(), SolverKind::Paper, h264::Decoder::new).err().expect("paper refuses");
+    let e = FileDecoder::new(file.clone(), SolverKind::Paper).err().expect("paper refuses");
     assert!(e.to_string().contains("leaves out"), "{e}");
-    assert!(file.frames.iter().all(|f| f.correction_scale == 0.0 && f.predictor & 3 != 0 || f.predictor == 0));
+    assert!(file.frames.iter().all(|f| f.correction_scale == 0.0 && f.predictor.extrapolation != Extrapolation::Rigid
+        || f.predictor.to_byte() == 0));
 
     // At a coarse QP the loop still holds: no frame strays from the mean.
     opts.video.qp = 44;
-    let (coarse_bytes, coarse) = round_trip(&src, &opts, SolverKind::Cgv);
+    let (coarse_bytes, coarse) = round_trip(&src, &opts, SolverKind::Predictive);
     let mean = coarse.iter().map(|e| e.0).sum::<f64>() / coarse.len() as f64;
     eprintln!("cgv motion QP 44: {coarse_bytes} bytes, mean {mean:.2e}, {coarse:?}");
     assert!(mean < 1e-2 && coarse.iter().all(|e| e.0 < 1.5 * mean), "{coarse:?}");
@@ -158,7 +161,7 @@ fn motion_corrections_at_qp_51_hold_with_the_filter() {
     // costs no accuracy (measured: 1.197e-2 mean RMS against 1.199e-2
     // without; on samba at N = 256 with corrections every second frame it
     // took surface RMS from 1.06 % to 0.87 %, docs/RESULTS.md).
-    let src = cgv::demo::motion(24);
+    let src = cgv::mesh::builtin::motion(24);
     let opts = EncodeOptions {
         codec: CodecKind::Cgv,
         grid: 64,
@@ -172,16 +175,16 @@ fn motion_corrections_at_qp_51_hold_with_the_filter() {
     };
     let bytes = at(51);
     assert!(bytes.len() < at(48).len());
-    let file = container::read(&bytes).unwrap();
+    let file = format::read(&bytes).unwrap();
     let filters: Vec<u8> = file.frames.iter().map(|f| f.filter).collect();
     eprintln!("filters at QP 51: {filters:?}");
     assert!(filters.iter().filter(|&&f| f > 0).count() >= 12, "{filters:?}");
     assert!(filters.iter().all(|f| FILTER_CHOICES.contains(f)), "{filters:?}");
     let mean = |e: &[(f64, f64)]| e.iter().map(|e| e.0).sum::<f64>() / e.len() as f64;
-    let (_, with) = round_trip(&src, &opts, SolverKind::Cgv);
+    let (_, with) = round_trip(&src, &opts, SolverKind::Predictive);
     let off = EncodeOptions { correction_filter: false, ..opts.clone() };
-    let (off_bytes, without) = round_trip(&src, &off, SolverKind::Cgv);
-    let off_file = container::read(&encode(&src, &off, &mut |_, _, _| {}).unwrap().0).unwrap();
+    let (off_bytes, without) = round_trip(&src, &off, SolverKind::Predictive);
+    let off_file = format::read(&encode(&src, &off, &mut |_, _, _| {}).unwrap().0).unwrap();
     assert!(off_file.frames.iter().all(|f| f.filter == 0));
     eprintln!(
         "QP 51 mean RMS: {:.3e} with the filter, {:.3e} without ({off_bytes} bytes)",
@@ -198,7 +201,7 @@ fn the_filter_is_chosen_by_what_it_leaves() {
     // with a checkerboard of noise on it is smoothed; and applying it adds
     // the filtered correction to the prediction.
     let grid = Grid::new(32).unwrap();
-    let st = cgv::codec::features::Stencils::new(grid);
+    let st = cgv::grid::stencil::Stencils::new(grid);
     let n = grid.len();
     let x: Vec<Vec3> = (0..n).map(|i| Vec3::new((i % 32) as f32, (i / 32) as f32, 0.0) * 0.03).collect();
     let err: Vec<Vec3> = (0..n).map(|i| Vec3::Z * (0.01 * ((i % 32) as f32 * 0.2).sin())).collect();
@@ -215,7 +218,7 @@ fn the_filter_is_chosen_by_what_it_leaves() {
     let mut corr = corr;
     let mut y = x.clone();
     corr.apply(&mut y, noisy.clone(), f);
-    let left = |y: &[Vec3]| cgv::solve::cgv::squared_distance(y, &truth);
+    let left = |y: &[Vec3]| cgv::solve::predictor::squared_distance(y, &truth);
     let mut raw = x.clone();
     Corrections::new(CorrectionMode::Motion, st).apply(&mut raw, noisy, 0);
     assert!(left(&y) < 0.5 * left(&raw), "{} against {}", left(&y), left(&raw));
@@ -232,7 +235,7 @@ fn cycle_prediction_makes_the_second_gait_cycle_nearly_free() {
     // fewer samples than format v5's 40 area passes, the cycles no longer
     // cut the uncoded loop's corrections by a quarter and no frame takes
     // one; at N = 64 the file is 28 % smaller with them.)
-    let src = cgv::demo::motion(72);
+    let src = cgv::mesh::builtin::motion(72);
     let base = EncodeOptions {
         codec: CodecKind::Cgv,
         grid: 64,
@@ -244,19 +247,19 @@ fn cycle_prediction_makes_the_second_gait_cycle_nearly_free() {
     let with = EncodeOptions { max_lag: 40, ..base.clone() };
     let without = EncodeOptions { max_lag: 0, ..base.clone() };
     let (bytes, report) = encode(&src, &with, &mut |_, _, _| {}).unwrap();
-    let file = container::read(&bytes).unwrap();
-    assert_eq!(file.version, container::VERSION);
+    let file = format::read(&bytes).unwrap();
+    assert_eq!(file.version, format::VERSION);
     assert!((36..=40).contains(&file.header.max_lag), "max_lag {}", file.header.max_lag);
-    let lags: Vec<u8> = file.frames.iter().map(|f| f.lag).collect();
+    let lags: Vec<u8> = file.frames.iter().map(|f| f.predictor.lag).collect();
     // Measured: 35 of frames 37..72 at lag 35 or 36.
     let at_36 = lags[37..].iter().filter(|&&l| (35..=36).contains(&l)).count();
     assert!(at_36 >= 30, "frames 37..72 predicted at lag 35 or 36: {at_36} ({lags:?})");
     let (plain_bytes, plain_report) = encode(&src, &without, &mut |_, _, _| {}).unwrap();
-    let plain = container::read(&plain_bytes).unwrap();
-    assert!(plain.frames.iter().all(|f| f.lag == 0) && plain.header.max_lag == 0);
+    let plain = format::read(&plain_bytes).unwrap();
+    assert!(plain.frames.iter().all(|f| f.predictor.lag == 0) && plain.header.max_lag == 0);
     // Bytes of the correction streams over the second cycle's frames.
-    let second = |f: &container::CgvFile| -> usize {
-        let dx = f.header.stream("dx").unwrap();
+    let second = |f: &format::CgvFile| -> usize {
+        let dx = f.header.stream(StreamName::Dx).unwrap();
         (dx..dx + 3).map(|s| f.units[s][37..].iter().map(Vec::len).sum::<usize>()).sum()
     };
     eprintln!(
@@ -270,18 +273,18 @@ fn cycle_prediction_makes_the_second_gait_cycle_nearly_free() {
     assert!(report.bytes < plain_report.bytes);
     // Decoded: every frame within 1 % of the diagonal and none past the
     // loop's start above 3x the mean.
-    let (_, errs) = round_trip(&src, &with, SolverKind::Cgv);
+    let (_, errs) = round_trip(&src, &with, SolverKind::Predictive);
     let mean = errs.iter().map(|e| e.0).sum::<f64>() / errs.len() as f64;
     for (i, (rms, _)) in errs.iter().enumerate() {
         assert!(*rms < 1e-2 && (i < 2 || *rms < 3.0 * mean), "frame {i}: {rms} (mean {mean})");
     }
     // Less than two cycles (48 frames): the cycles do not cut the
     // corrections by a quarter (CYCLE_GAIN), so the file has none.
-    let short = cgv::demo::motion(48);
+    let short = cgv::mesh::builtin::motion(48);
     let (bytes, _) = encode(&short, &with, &mut |_, _, _| {}).unwrap();
-    let file = container::read(&bytes).unwrap();
+    let file = format::read(&bytes).unwrap();
     assert_eq!(file.header.max_lag, 0);
-    assert!(file.frames.iter().all(|f| f.lag == 0 && f.predictor & 3 != 3));
+    assert!(file.frames.iter().all(|f| f.predictor.lag == 0 && f.predictor.extrapolation != Extrapolation::Cycle));
 }
 
 #[test]
@@ -289,7 +292,7 @@ fn corrections_every_second_frame_hold_the_loop() {
     // Motion corrections on frames 0, 2, 4, ...: the frames between are
     // their prediction alone and carry no picture; the file is smaller at
     // the same QP and the loop still holds (24 frames, N = 32, QP 30).
-    let src = cgv::demo::motion(24);
+    let src = cgv::mesh::builtin::motion(24);
     let every = |k: u32| EncodeOptions {
         codec: CodecKind::Cgv,
         grid: 32,
@@ -299,15 +302,15 @@ fn corrections_every_second_frame_hold_the_loop() {
         ..Default::default()
     };
     let (bytes, _) = encode(&src, &every(2), &mut |_, _, _| {}).unwrap();
-    let file = container::read(&bytes).unwrap();
+    let file = format::read(&bytes).unwrap();
     // Frames 0 and 1 (no velocity yet to predict frame 1 with), then 3, 5, ...
     let odd: Vec<u32> = std::iter::once(0).chain((1..24).step_by(2)).collect();
     assert_eq!(file.header.key_frames, odd);
-    let dx = file.header.stream("dx").unwrap();
-    assert_eq!(file.header.streams[dx].coverage, container::Coverage::Key);
+    let dx = file.header.stream(StreamName::Dx).unwrap();
+    assert_eq!(file.header.streams[dx].coverage, format::Coverage::Key);
     assert!(file.units[dx][2].is_empty() && !file.units[dx][3].is_empty());
-    let (one, errs_one) = round_trip(&src, &every(1), SolverKind::Cgv);
-    let (two, errs_two) = round_trip(&src, &every(2), SolverKind::Cgv);
+    let (one, errs_one) = round_trip(&src, &every(1), SolverKind::Predictive);
+    let (two, errs_two) = round_trip(&src, &every(2), SolverKind::Predictive);
     let mean = |e: &[(f64, f64)]| e.iter().map(|e| e.0).sum::<f64>() / e.len() as f64;
     eprintln!(
         "every frame: {one} bytes, mean {:.2e}; every 2nd: {two} bytes, mean {:.2e}",
@@ -330,10 +333,10 @@ fn corrections_every_second_frame_hold_the_loop() {
 
 #[test]
 fn cgv_round_trip_at_high_quality() {
-    let src = cgv::demo::motion(4);
+    let src = cgv::mesh::builtin::motion(4);
     let mut opts = EncodeOptions { codec: CodecKind::Cgv, grid: 32, layers: 2, ..Default::default() };
     opts.video.qp = 8;
-    let (bytes, errs) = round_trip(&src, &opts, SolverKind::Cgv);
+    let (bytes, errs) = round_trip(&src, &opts, SolverKind::Predictive);
     eprintln!("cgv high: {bytes} bytes, {errs:?}");
     for (i, (rms, max)) in errs.iter().enumerate() {
         assert!(*rms < 1e-4 && *max < 1e-3, "frame {i}: rms {rms} max {max}");

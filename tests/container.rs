@@ -1,18 +1,22 @@
 //! The .cgv reader on good, truncated, corrupted and oversized input.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // tests may stop on any failure
 
-use cgv::codec::quant::Quantizer;
-use cgv::container::{self, CodecKind, ContainerError, CorrectionMode, Coverage, Header, Settings, StreamInfo};
+use cgv::format::quant::Quantizer;
+use cgv::format::{
+    self, CodecKind, ContainerError, CorrectionMode, Coverage, Header, PredictorCode, Settings, SolverKind, StreamInfo,
+    StreamName,
+};
 
 fn header() -> Header {
     Header {
         grid: 16,
-        seam: container::SEAM_RULE.into(),
+        seam: format::SEAM_RULE.into(),
         frames: 3,
         fps: 30.0,
         codec: CodecKind::Cgv,
         streams: vec![
             StreamInfo {
-                name: "H".into(),
+                name: StreamName::H,
                 layer: 1,
                 refines: None,
                 quant: Quantizer::new(-1.0, 1.0),
@@ -20,7 +24,7 @@ fn header() -> Header {
                 scaled: false,
             },
             StreamInfo {
-                name: "lambda".into(),
+                name: StreamName::Lambda,
                 layer: 1,
                 refines: None,
                 quant: Quantizer::new(0.0, 1.0),
@@ -28,7 +32,7 @@ fn header() -> Header {
                 scaled: false,
             },
             StreamInfo {
-                name: "H".into(),
+                name: StreamName::H,
                 layer: 2,
                 refines: Some(0),
                 quant: Quantizer::new(-0.1, 0.1),
@@ -38,7 +42,7 @@ fn header() -> Header {
         ],
         key_frames: vec![0, 2],
         anchors: vec![0, 5, 100, 255],
-        solver: "cgv".into(),
+        solver: SolverKind::Predictive,
         settings: Settings { qp: 20, kbps: None, gop: 30, cabac: true, layers: 2, residual_steps: 8.0 },
         source: Default::default(),
         corrections: CorrectionMode::Scaled,
@@ -46,9 +50,14 @@ fn header() -> Header {
     }
 }
 
-fn frame_info(h: &Header, f: u32) -> container::FrameInfo {
+/// A valid predictor code from its bytes.
+fn code(byte: u8, lag: u8) -> PredictorCode {
+    PredictorCode::from_bytes(byte, lag).unwrap()
+}
+
+fn frame_info(h: &Header, f: u32) -> format::FrameInfo {
     let anchors = (0..h.anchors.len()).map(|i| [0, 1, 2].map(|c| (3 * i + c) as f32 + f as f32)).collect();
-    container::FrameInfo { predictor: 6, lag: 0, filter: 0, correction_scale: 0.5, anchors }
+    format::FrameInfo { predictor: code(6, 0), filter: 0, correction_scale: 0.5, anchors }
 }
 
 /// Not real H.264: the reader does not look inside.
@@ -58,34 +67,34 @@ fn unit(f: u32, s: usize) -> Vec<u8> {
 
 /// A structurally valid file of this writer's version: one chunk per frame.
 fn file(h: &Header) -> Vec<u8> {
-    let mut out = container::write_header(h).unwrap();
+    let mut out = format::write_header(h).unwrap();
     for f in 0..h.frames {
         let units: Vec<Vec<u8>> =
             (0..h.streams.len()).filter(|&s| h.stream_has_frame(s, f)).map(|s| unit(f, s)).collect();
         let refs: Vec<&[u8]> = units.iter().map(Vec::as_slice).collect();
-        out.extend(container::write_frame(f, &frame_info(h, f), &refs));
+        out.extend(format::write_frame(f, &frame_info(h, f), &refs));
     }
-    out.extend(container::write_chunk(container::TAG_END, 0, h.frames, &[]));
+    out.extend(format::write_chunk(format::TAG_END, 0, h.frames, &[]));
     out
 }
 
 /// The prefix of a version-1 file.
 fn header_v1(h: &Header) -> Vec<u8> {
-    with_version(container::write_header(h).unwrap(), 1)
+    with_version(format::write_header(h).unwrap(), 1)
 }
 
 /// A structurally valid version-1 file: a chunk per access unit.
 fn file_v1(h: &Header) -> Vec<u8> {
     let mut out = header_v1(h);
     for f in 0..h.frames {
-        out.extend(container::write_chunk(container::TAG_FRAME, 0, f, &frame_info(h, f).to_bytes()));
+        out.extend(format::write_chunk(format::TAG_FRAME, 0, f, &frame_info(h, f).to_bytes()));
         for s in 0..h.streams.len() {
             if h.stream_has_frame(s, f) {
-                out.extend(container::write_chunk(container::TAG_ACCESS_UNIT, s as u16, f, &unit(f, s)));
+                out.extend(format::write_chunk(format::TAG_ACCESS_UNIT, s as u16, f, &unit(f, s)));
             }
         }
     }
-    out.extend(container::write_chunk(container::TAG_END, 0, h.frames, &[]));
+    out.extend(format::write_chunk(format::TAG_END, 0, h.frames, &[]));
     out
 }
 
@@ -95,11 +104,11 @@ fn reads_what_it_writes_in_both_layouts() {
     let (v1, v2) = (file_v1(&h), file(&h));
     // Versions 2 to 5 save 20 bytes per access unit but the frame's first.
     assert_eq!(v1.len() - v2.len(), (h.expected_chunks() as usize - 3) * 20 - 8);
-    let a = container::read(&v1).unwrap();
-    let f = container::read(&v2).unwrap();
+    let a = format::read(&v1).unwrap();
+    let f = format::read(&v2).unwrap();
     assert_eq!((a.version, f.version), (1, 5));
     for version in 2..=4 {
-        assert_eq!(container::read(&with_version(v2.clone(), version)).unwrap().header, h);
+        assert_eq!(format::read(&with_version(v2.clone(), version)).unwrap().header, h);
     }
     assert_eq!((&a.header, &a.units, &a.frames), (&f.header, &f.units, &f.frames));
     assert_eq!(f.header, h);
@@ -107,7 +116,7 @@ fn reads_what_it_writes_in_both_layouts() {
     assert!(f.units[1][1].is_empty() && !f.units[1][2].is_empty());
     assert_eq!(f.units[2][1], vec![0, 0, 0, 1, 9, 1, 2]);
     assert_eq!(f.frames[2].anchors[1], [5.0, 6.0, 7.0]);
-    assert_eq!((f.frames[1].predictor, f.frames[1].correction_scale), (6, 0.5));
+    assert_eq!((f.frames[1].predictor.to_byte(), f.frames[1].correction_scale), (6, 0.5));
     assert_eq!(h.expected_chunks(), 3 + 2 + 3 + 3);
 }
 
@@ -115,23 +124,23 @@ fn reads_what_it_writes_in_both_layouts() {
 fn bad_magic_and_versions() {
     let mut bytes = file(&header());
     bytes[1] = b'X';
-    assert_eq!(container::read(&bytes).unwrap_err(), ContainerError::BadMagic);
-    assert_eq!(container::read(b"GIF89a").unwrap_err(), ContainerError::BadMagic);
+    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::BadMagic);
+    assert_eq!(format::read(b"GIF89a").unwrap_err(), ContainerError::BadMagic);
     let mut bytes = file(&header());
     bytes[8] = 6;
-    assert_eq!(container::VERSION, 5);
-    assert_eq!(container::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 6 });
+    assert_eq!(format::VERSION, 5);
+    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 6 });
     bytes[8] = 0;
-    assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 0 }));
+    assert!(matches!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 0 }));
 }
 
 /// A CGV header with motion corrections (format version 2).
 fn motion_header() -> Header {
     let mut h = header();
     h.streams.truncate(2);
-    for name in ["dx", "dy", "dz"] {
+    for name in format::stream::CORRECTION {
         h.streams.push(StreamInfo {
-            name: name.into(),
+            name,
             layer: 1,
             refines: None,
             quant: Quantizer::new(-0.1, 0.1),
@@ -156,46 +165,46 @@ fn with_version(mut bytes: Vec<u8>, version: u16) -> Vec<u8> {
 fn motion_corrections_only_in_version_two() {
     // Scaled corrections add no header field.
     let bytes = file(&header());
-    assert_eq!(u16::from_le_bytes([bytes[8], bytes[9]]), container::VERSION);
+    assert_eq!(u16::from_le_bytes([bytes[8], bytes[9]]), format::VERSION);
     assert!(!String::from_utf8_lossy(&bytes).contains("corrections"));
     // Motion corrections: read back whole.
     let h = motion_header();
-    let f = container::read(&file(&h)).unwrap();
-    assert_eq!((f.version, &f.header), (container::VERSION, &h));
-    assert_eq!(container::read(&with_version(file(&h), 2)).unwrap().header, h);
+    let f = format::read(&file(&h)).unwrap();
+    assert_eq!((f.version, &f.header), (format::VERSION, &h));
+    assert_eq!(format::read(&with_version(file(&h), 2)).unwrap().header, h);
     // A version-1 file with the version-2 field is refused by name.
-    let e = container::read(&file_v1(&h)).unwrap_err();
+    let e = format::read(&file_v1(&h)).unwrap_err();
     assert!(matches!(&e, ContainerError::Header(m) if m.contains("version 1") && m.contains("Motion")), "{e}");
     // Motion corrections without all three correction streams, or scaled ones.
     let mut bad = motion_header();
     bad.streams.pop();
-    assert!(matches!(container::write_header(&bad).unwrap_err(), ContainerError::Header(_)));
+    assert!(matches!(format::write_header(&bad).unwrap_err(), ContainerError::Header(_)));
     let mut bad = motion_header();
     bad.streams[2].scaled = true;
-    assert!(matches!(container::write_header(&bad).unwrap_err(), ContainerError::Header(_)));
+    assert!(matches!(format::write_header(&bad).unwrap_err(), ContainerError::Header(_)));
     let mut bad = motion_header();
     bad.codec = CodecKind::Gv;
-    assert!(matches!(container::write_header(&bad).unwrap_err(), ContainerError::Header(_)));
+    assert!(matches!(format::write_header(&bad).unwrap_err(), ContainerError::Header(_)));
 }
 
 #[test]
 fn only_motion_files_leave_out_h_and_lambda_from_version_three() {
     let mut h = motion_header();
-    h.streams.retain(|s| s.name != "H" && s.name != "lambda");
-    let f = container::read(&file(&h)).unwrap();
-    assert_eq!((f.version, &f.header, h.min_version()), (container::VERSION, &h, 3));
-    assert_eq!(container::read(&with_version(file(&h), 3)).unwrap().header, h);
+    h.streams.retain(|s| s.name != StreamName::H && s.name != StreamName::Lambda);
+    let f = format::read(&file(&h)).unwrap();
+    assert_eq!((f.version, &f.header, h.min_version()), (format::VERSION, &h, 3));
+    assert_eq!(format::read(&with_version(file(&h), 3)).unwrap().header, h);
     // The same header in a version-2 file is refused by name.
-    let e = container::read(&with_version(file(&h), 2)).unwrap_err();
+    let e = format::read(&with_version(file(&h), 2)).unwrap_err();
     assert!(matches!(&e, ContainerError::Header(m) if m.contains("version 2") && m.contains("dx dy dz")), "{e}");
     // Scaled corrections still need H and lambda.
     let mut bad = h.clone();
     bad.corrections = CorrectionMode::Scaled;
-    let e = container::write_header(&bad).unwrap_err();
+    let e = format::write_header(&bad).unwrap_err();
     assert!(matches!(&e, ContainerError::Header(m) if m.contains("H and lambda")), "{e}");
     let mut bad = header();
-    bad.streams.retain(|s| s.name != "lambda");
-    assert!(matches!(container::write_header(&bad).unwrap_err(), ContainerError::Header(_)));
+    bad.streams.retain(|s| s.name != StreamName::Lambda);
+    assert!(matches!(format::write_header(&bad).unwrap_err(), ContainerError::Header(_)));
 }
 
 #[test]
@@ -204,42 +213,39 @@ fn cycle_predictions_from_version_four() {
     h.frames = 6;
     h.max_lag = 3;
     // Frame f predicts with lag f - 1 (the longest its past allows) up to 3.
-    let mut bytes = container::write_header(&h).unwrap();
+    let mut bytes = format::write_header(&h).unwrap();
     for f in 0..h.frames {
         let lag = (f as u8).saturating_sub(1).min(3);
-        let info = container::FrameInfo {
-            predictor: if lag >= 2 { 3 } else { 1 },
-            lag: if lag >= 2 { lag } else { 0 },
-            ..frame_info(&h, f)
-        };
+        let info =
+            format::FrameInfo { predictor: if lag >= 2 { code(3, lag) } else { code(1, 0) }, ..frame_info(&h, f) };
         let units: Vec<Vec<u8>> =
             (0..h.streams.len()).filter(|&s| h.stream_has_frame(s, f)).map(|s| unit(f, s)).collect();
-        bytes.extend(container::write_frame(f, &info, &units.iter().map(Vec::as_slice).collect::<Vec<_>>()));
+        bytes.extend(format::write_frame(f, &info, &units.iter().map(Vec::as_slice).collect::<Vec<_>>()));
     }
-    bytes.extend(container::write_chunk(container::TAG_END, 0, h.frames, &[]));
-    let f = container::read(&bytes).unwrap();
-    assert_eq!((f.version, h.min_version()), (container::VERSION, 4));
+    bytes.extend(format::write_chunk(format::TAG_END, 0, h.frames, &[]));
+    let f = format::read(&bytes).unwrap();
+    assert_eq!((f.version, h.min_version()), (format::VERSION, 4));
     assert_eq!(
-        f.frames.iter().map(|i| (i.predictor, i.lag)).collect::<Vec<_>>(),
+        f.frames.iter().map(|i| (i.predictor.to_byte(), i.predictor.lag)).collect::<Vec<_>>(),
         [(1, 0), (1, 0), (1, 0), (3, 2), (3, 3), (3, 3)]
     );
     // The same file as version 3 is refused by name.
-    let e = container::read(&with_version(bytes, 3)).unwrap_err();
+    let e = format::read(&with_version(bytes, 3)).unwrap_err();
     assert!(matches!(&e, ContainerError::Header(m) if m.contains("version 3") && m.contains("max_lag: 3")), "{e}");
     // A lag the header does not allow, one that reaches before frame 0,
     // and a lag below 2 (lag 1 is the velocity predictor).
     for (frame, lag) in [(5, 4), (2, 2), (3, 1)] {
-        let mut bytes = container::write_header(&h).unwrap();
+        let mut bytes = format::write_header(&h).unwrap();
         for f in 0..=frame {
             let info = match f == frame {
-                true => container::FrameInfo { predictor: 3, lag, ..frame_info(&h, f) },
-                false => container::FrameInfo { predictor: 1, ..frame_info(&h, f) },
+                true => format::FrameInfo { predictor: PredictorCode { lag, ..code(3, 2) }, ..frame_info(&h, f) },
+                false => format::FrameInfo { predictor: code(1, 0), ..frame_info(&h, f) },
             };
             let units: Vec<Vec<u8>> =
                 (0..h.streams.len()).filter(|&s| h.stream_has_frame(s, f)).map(|s| unit(f, s)).collect();
-            bytes.extend(container::write_frame(f, &info, &units.iter().map(Vec::as_slice).collect::<Vec<_>>()));
+            bytes.extend(format::write_frame(f, &info, &units.iter().map(Vec::as_slice).collect::<Vec<_>>()));
         }
-        let e = container::read(&bytes).unwrap_err();
+        let e = format::read(&bytes).unwrap_err();
         assert!(
             matches!(&e, ContainerError::Chunk { msg, .. } if msg.contains(&format!("unknown predictor [3, {lag}, 0, 0] at frame {frame}"))),
             "{e}"
@@ -247,43 +253,43 @@ fn cycle_predictions_from_version_four() {
     }
     // Cycle predictions need correction streams.
     let mut bad = header();
-    bad.streams.retain(|s| s.name != "dx" && s.name != "dy" && s.name != "dz");
-    assert!(container::write_header(&bad).is_ok());
+    bad.streams.retain(|s| s.name != StreamName::Dx && s.name != StreamName::Dy && s.name != StreamName::Dz);
+    assert!(format::write_header(&bad).is_ok());
     bad.max_lag = 2;
-    let e = container::write_header(&bad).unwrap_err();
+    let e = format::write_header(&bad).unwrap_err();
     assert!(matches!(&e, ContainerError::Header(m) if m.contains("max_lag")), "{e}");
 }
 
 /// A motion file whose frame `f` asks for `filter(f)` averaging passes.
 fn filtered_file(h: &Header, filter: impl Fn(u32) -> u8) -> Vec<u8> {
-    let mut bytes = container::write_header(h).unwrap();
+    let mut bytes = format::write_header(h).unwrap();
     for f in 0..h.frames {
-        let info = container::FrameInfo { predictor: 1, filter: filter(f), ..frame_info(h, f) };
+        let info = format::FrameInfo { predictor: code(1, 0), filter: filter(f), ..frame_info(h, f) };
         let units: Vec<Vec<u8>> =
             (0..h.streams.len()).filter(|&s| h.stream_has_frame(s, f)).map(|s| unit(f, s)).collect();
-        bytes.extend(container::write_frame(f, &info, &units.iter().map(Vec::as_slice).collect::<Vec<_>>()));
+        bytes.extend(format::write_frame(f, &info, &units.iter().map(Vec::as_slice).collect::<Vec<_>>()));
     }
-    bytes.extend(container::write_chunk(container::TAG_END, 0, h.frames, &[]));
+    bytes.extend(format::write_chunk(format::TAG_END, 0, h.frames, &[]));
     bytes
 }
 
 #[test]
 fn correction_filters_from_version_five() {
     let h = motion_header();
-    let bytes = filtered_file(&h, |f| [0, 1, container::MAX_FILTER][f as usize % 3]);
-    let f = container::read(&bytes).unwrap();
+    let bytes = filtered_file(&h, |f| [0, 1, format::MAX_FILTER][f as usize % 3]);
+    let f = format::read(&bytes).unwrap();
     assert_eq!(f.version, 5);
-    assert_eq!(f.frames.iter().map(|i| i.filter).collect::<Vec<_>>(), [0, 1, container::MAX_FILTER]);
+    assert_eq!(f.frames.iter().map(|i| i.filter).collect::<Vec<_>>(), [0, 1, format::MAX_FILTER]);
     // A version-4 reader's file had the byte reserved: a filter there is
     // refused by name, no filter still reads.
-    let e = container::read(&with_version(bytes, 4)).unwrap_err();
+    let e = format::read(&with_version(bytes, 4)).unwrap_err();
     assert!(
         matches!(&e, ContainerError::Chunk { msg, .. } if msg.contains("[1, 0, 1, 0] at frame 1") && msg.contains("version 4")),
         "{e}"
     );
-    assert!(container::read(&with_version(filtered_file(&h, |_| 0), 4)).is_ok());
+    assert!(format::read(&with_version(filtered_file(&h, |_| 0), 4)).is_ok());
     // More passes than the format allows.
-    let e = container::read(&filtered_file(&h, |f| if f == 2 { container::MAX_FILTER + 1 } else { 0 })).unwrap_err();
+    let e = format::read(&filtered_file(&h, |f| if f == 2 { format::MAX_FILTER + 1 } else { 0 })).unwrap_err();
     assert!(matches!(&e, ContainerError::Chunk { msg, .. } if msg.contains("at frame 2")), "{e}");
 }
 
@@ -291,7 +297,7 @@ fn correction_filters_from_version_five() {
 fn every_truncation_is_an_error() {
     for bytes in [file(&header()), file_v1(&header())] {
         for len in 0..bytes.len() {
-            let e = container::read(&bytes[..len]).unwrap_err();
+            let e = format::read(&bytes[..len]).unwrap_err();
             assert!(matches!(e, ContainerError::Truncated { .. } | ContainerError::BadMagic), "length {len}: {e}");
         }
     }
@@ -304,7 +310,7 @@ fn every_flipped_byte_is_an_error() {
             for bit in [0x01u8, 0x80] {
                 let mut b = bytes.clone();
                 b[i] ^= bit;
-                assert!(container::read(&b).is_err(), "flipping bit {bit:#x} of byte {i} went unnoticed");
+                assert!(format::read(&b).is_err(), "flipping bit {bit:#x} of byte {i} went unnoticed");
             }
         }
     }
@@ -315,14 +321,14 @@ fn absurd_sizes_and_counts_are_refused_without_allocating() {
     // A header length of 4 GiB.
     let mut bytes = file(&header());
     bytes[12..16].copy_from_slice(&u32::MAX.to_le_bytes());
-    assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::TooLarge { what: "header length", .. }));
+    assert!(matches!(format::read(&bytes).unwrap_err(), ContainerError::TooLarge { what: "header length", .. }));
     // A chunk claiming 4 GiB.
     let h = header();
-    let mut bytes = container::write_header(&h).unwrap();
-    let mut chunk = container::write_chunk(container::TAG_ACCESS_UNIT, 0, 0, &[1, 2, 3]);
+    let mut bytes = format::write_header(&h).unwrap();
+    let mut chunk = format::write_chunk(format::TAG_ACCESS_UNIT, 0, 0, &[1, 2, 3]);
     chunk[12..16].copy_from_slice(&u32::MAX.to_le_bytes());
     bytes.extend(chunk);
-    assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::TooLarge { what: "chunk length", .. }));
+    assert!(matches!(format::read(&bytes).unwrap_err(), ContainerError::TooLarge { what: "chunk length", .. }));
     // Headers with impossible values.
     for bad in [
         Header { grid: 1 << 20, ..header() },
@@ -335,21 +341,21 @@ fn absurd_sizes_and_counts_are_refused_without_allocating() {
         Header { streams: vec![], ..header() },
         Header { seam: "torus".into(), ..header() },
     ] {
-        assert!(matches!(container::write_header(&bad).unwrap_err(), ContainerError::Header(_)), "{bad:?}");
+        assert!(matches!(format::write_header(&bad).unwrap_err(), ContainerError::Header(_)), "{bad:?}");
     }
     // A valid header promising ten million frames, followed by one frame: an
     // error, after reading only what is there.
-    let h = Header { frames: container::MAX_FRAMES, ..header() };
-    let mut bytes = container::write_header(&h).unwrap();
-    let info = container::FrameInfo { anchors: vec![[0.0; 3]; 4], ..Default::default() };
-    bytes.extend(container::write_frame(0, &info, &[&[1], &[2], &[3]]));
-    assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::Truncated { .. }));
+    let h = Header { frames: format::MAX_FRAMES, ..header() };
+    let mut bytes = format::write_header(&h).unwrap();
+    let info = format::FrameInfo { anchors: vec![[0.0; 3]; 4], ..Default::default() };
+    bytes.extend(format::write_frame(0, &info, &[&[1], &[2], &[3]]));
+    assert!(matches!(format::read(&bytes).unwrap_err(), ContainerError::Truncated { .. }));
     // An access unit length of 2^28 - 1 inside a small frame chunk.
-    let mut bytes = container::write_header(&header()).unwrap();
+    let mut bytes = format::write_header(&header()).unwrap();
     let mut payload = frame_info(&header(), 0).to_bytes();
     payload.extend([0xff, 0xff, 0xff, 0x7f, 1, 2, 3]);
-    bytes.extend(container::write_chunk(container::TAG_FRAME, 0, 0, &payload));
-    let e = container::read(&bytes).unwrap_err();
+    bytes.extend(format::write_chunk(format::TAG_FRAME, 0, 0, &payload));
+    let e = format::read(&bytes).unwrap_err();
     assert!(matches!(&e, ContainerError::Chunk { msg, .. } if msg.contains("overruns")), "{e}");
 }
 
@@ -357,56 +363,60 @@ fn absurd_sizes_and_counts_are_refused_without_allocating() {
 fn chunks_out_of_order_or_extra_are_errors() {
     let h = header();
     let mut bytes = header_v1(&h);
-    bytes.extend(container::write_chunk(container::TAG_ACCESS_UNIT, 1, 0, &[1]));
-    assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::Chunk { .. }));
+    bytes.extend(format::write_chunk(format::TAG_ACCESS_UNIT, 1, 0, &[1]));
+    assert!(matches!(format::read(&bytes).unwrap_err(), ContainerError::Chunk { .. }));
     for mut bytes in [file(&h), file_v1(&h)] {
-        bytes.extend(container::write_chunk(container::TAG_END, 0, 3, &[]));
-        assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::Chunk { .. }));
+        bytes.extend(format::write_chunk(format::TAG_END, 0, 3, &[]));
+        assert!(matches!(format::read(&bytes).unwrap_err(), ContainerError::Chunk { .. }));
     }
-    let mut bytes = container::write_header(&h).unwrap();
-    bytes.extend(container::write_chunk(*b"JUNK", 0, 0, &[1]));
-    assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::Chunk { .. }));
+    let mut bytes = format::write_header(&h).unwrap();
+    bytes.extend(format::write_chunk(*b"JUNK", 0, 0, &[1]));
+    assert!(matches!(format::read(&bytes).unwrap_err(), ContainerError::Chunk { .. }));
     // Version 2: no access unit chunks, and frames in order.
-    let mut bytes = container::write_header(&h).unwrap();
-    bytes.extend(container::write_chunk(container::TAG_ACCESS_UNIT, 0, 0, &[1]));
-    assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::Chunk { .. }));
-    let mut bytes = container::write_header(&h).unwrap();
-    bytes.extend(container::write_frame(1, &frame_info(&h, 1), &[&[1], &[2]]));
-    assert!(matches!(container::read(&bytes).unwrap_err(), ContainerError::Chunk { .. }));
+    let mut bytes = format::write_header(&h).unwrap();
+    bytes.extend(format::write_chunk(format::TAG_ACCESS_UNIT, 0, 0, &[1]));
+    assert!(matches!(format::read(&bytes).unwrap_err(), ContainerError::Chunk { .. }));
+    let mut bytes = format::write_header(&h).unwrap();
+    bytes.extend(format::write_frame(1, &frame_info(&h, 1), &[&[1], &[2]]));
+    assert!(matches!(format::read(&bytes).unwrap_err(), ContainerError::Chunk { .. }));
 }
 
 #[test]
 fn bad_frame_chunks_are_errors() {
     let h = header();
     let good =
-        container::FrameInfo { predictor: 1, lag: 0, filter: 0, correction_scale: 1.0, anchors: vec![[0.0; 3]; 4] };
+        format::FrameInfo { predictor: code(1, 0), filter: 0, correction_scale: 1.0, anchors: vec![[0.0; 3]; 4] };
     let mut bad_bytes = good.to_bytes();
     bad_bytes.pop();
     // The reserved byte after the filter.
     let mut reserved = good.to_bytes();
     reserved[3] = 1;
     let cases: Vec<Vec<u8>> = vec![
-        container::FrameInfo { predictor: container::MAX_PREDICTOR + 1, ..good.clone() }.to_bytes(),
-        container::FrameInfo { predictor: 3, ..good.clone() }.to_bytes(),
+        {
+            let mut b = good.to_bytes();
+            b[0] = format::MAX_PREDICTOR + 1;
+            b
+        },
+        format::FrameInfo { predictor: PredictorCode { lag: 0, ..code(3, 2) }, ..good.clone() }.to_bytes(),
         // A cycle prediction in a file whose header allows no lag, and a lag
         // on another predictor.
-        container::FrameInfo { predictor: 3, lag: 2, ..good.clone() }.to_bytes(),
-        container::FrameInfo { lag: 2, ..good.clone() }.to_bytes(),
+        format::FrameInfo { predictor: code(3, 2), ..good.clone() }.to_bytes(),
+        format::FrameInfo { predictor: PredictorCode { lag: 2, ..code(1, 0) }, ..good.clone() }.to_bytes(),
         // A filter in a version-1 file, and more passes than any version allows.
-        container::FrameInfo { filter: 1, ..good.clone() }.to_bytes(),
-        container::FrameInfo { filter: container::MAX_FILTER + 1, ..good.clone() }.to_bytes(),
+        format::FrameInfo { filter: 1, ..good.clone() }.to_bytes(),
+        format::FrameInfo { filter: format::MAX_FILTER + 1, ..good.clone() }.to_bytes(),
         reserved,
-        container::FrameInfo { correction_scale: -1.0, ..good.clone() }.to_bytes(),
-        container::FrameInfo { correction_scale: f32::INFINITY, ..good.clone() }.to_bytes(),
-        container::FrameInfo { anchors: vec![[f32::NAN, 0.0, 0.0]; 4], ..good.clone() }.to_bytes(),
-        container::FrameInfo { anchors: vec![[0.0; 3]; 5], ..good.clone() }.to_bytes(),
+        format::FrameInfo { correction_scale: -1.0, ..good.clone() }.to_bytes(),
+        format::FrameInfo { correction_scale: f32::INFINITY, ..good.clone() }.to_bytes(),
+        format::FrameInfo { anchors: vec![[f32::NAN, 0.0, 0.0]; 4], ..good.clone() }.to_bytes(),
+        format::FrameInfo { anchors: vec![[0.0; 3]; 5], ..good.clone() }.to_bytes(),
         bad_bytes,
     ];
     for payload in &cases {
         let mut bytes = header_v1(&h);
-        bytes.extend(container::write_chunk(container::TAG_FRAME, 0, 0, payload));
-        bytes.extend(container::write_chunk(container::TAG_ACCESS_UNIT, 0, 0, &[1]));
-        let e = container::read(&bytes).unwrap_err();
+        bytes.extend(format::write_chunk(format::TAG_FRAME, 0, 0, payload));
+        bytes.extend(format::write_chunk(format::TAG_ACCESS_UNIT, 0, 0, &[1]));
+        let e = format::read(&bytes).unwrap_err();
         assert!(matches!(e, ContainerError::Chunk { .. }), "{payload:?}: {e}");
     }
     // Version 2 and later: the same side data, then the frame's three access units
@@ -421,14 +431,14 @@ fn bad_frame_chunks_are_errors() {
     v2.push(good.to_bytes()[..10].to_vec());
     for payload in v2 {
         // As version 4, whose filter byte was reserved.
-        let mut bytes = with_version(container::write_header(&h).unwrap(), 4);
-        bytes.extend(container::write_chunk(container::TAG_FRAME, 0, 0, &payload));
-        let e = container::read(&bytes).unwrap_err();
+        let mut bytes = with_version(format::write_header(&h).unwrap(), 4);
+        bytes.extend(format::write_chunk(format::TAG_FRAME, 0, 0, &payload));
+        let e = format::read(&bytes).unwrap_err();
         assert!(matches!(e, ContainerError::Chunk { .. }), "{payload:?}: {e}");
     }
-    let mut ok = container::write_header(&h).unwrap();
-    ok.extend(container::write_chunk(container::TAG_FRAME, 0, 0, &units(&good.to_bytes(), good_units)));
-    assert!(matches!(container::read(&ok).unwrap_err(), ContainerError::Truncated { .. }));
+    let mut ok = format::write_header(&h).unwrap();
+    ok.extend(format::write_chunk(format::TAG_FRAME, 0, 0, &units(&good.to_bytes(), good_units)));
+    assert!(matches!(format::read(&ok).unwrap_err(), ContainerError::Truncated { .. }));
 }
 
 #[test]
@@ -440,9 +450,9 @@ fn streaming_reader_sees_frames_as_they_arrive() {
 }
 
 fn streams_byte_by_byte(h: &Header, bytes: &[u8]) {
-    let whole = container::read(bytes).unwrap();
+    let whole = format::read(bytes).unwrap();
     // Byte by byte: the frame count only grows, and the result is the same file.
-    let mut r = container::StreamReader::default();
+    let mut r = format::StreamReader::default();
     let mut seen = vec![];
     for b in bytes {
         r.push(std::slice::from_ref(b)).unwrap();
@@ -453,7 +463,7 @@ fn streams_byte_by_byte(h: &Header, bytes: &[u8]) {
     let f = r.finish().unwrap();
     assert_eq!((f.units, f.frames, f.bytes), (whole.units, whole.frames, whole.bytes));
     // Half a file: not complete, and finishing says truncated.
-    let mut r = container::StreamReader::default();
+    let mut r = format::StreamReader::default();
     r.push(&bytes[..bytes.len() / 2]).unwrap();
     assert!(!r.is_complete() && r.complete_frames() < 3);
     assert!(matches!(r.finish().unwrap_err(), ContainerError::Truncated { .. }));
@@ -461,7 +471,7 @@ fn streams_byte_by_byte(h: &Header, bytes: &[u8]) {
     let mut bad = bytes.to_vec();
     let k = bytes.len() * 3 / 4;
     bad[k] ^= 0x40;
-    let mut r = container::StreamReader::default();
+    let mut r = format::StreamReader::default();
     r.push(&bad[..k - 10]).unwrap();
     assert!(r.push(&bad[k - 10..]).is_err());
 }

@@ -1,10 +1,11 @@
 //! `cgv eval`: its metrics on known cases, the bitrate matcher, and the
 //! report files.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // tests may stop on any failure
 
 mod common;
 
-use cgv::codec::features::Stencils;
 use cgv::eval::{self, EvalCodec, EvalOptions, Rates};
+use cgv::grid::stencil::Stencils;
 use cgv::grid::Grid;
 use cgv::metrics::{self, surface, KgError};
 use glam::Vec3;
@@ -63,7 +64,7 @@ fn metrics_on_known_cases() {
 
 #[test]
 fn bitrate_matcher_lands_within_five_percent_on_the_default_motion() {
-    let src = cgv::demo::motion(8);
+    let src = cgv::mesh::builtin::motion(8);
     let mut opts = EvalOptions {
         codecs: vec![EvalCodec::Gv, EvalCodec::Cgv],
         rates: Rates::Kbps(vec![200.0, 400.0]),

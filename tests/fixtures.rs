@@ -13,9 +13,11 @@
 //! sparse solves whose summation order may differ between platforms (1e-5);
 //! the paper's solver is an iterative L-BFGS whose stopping point can move
 //! with rounding (1e-4).
+#![allow(clippy::unwrap_used, clippy::expect_used)] // tests may stop on any failure
 
-use cgv::codec::{h264, SequenceDecoder};
-use cgv::container::{self, CgvFile, CodecKind, CorrectionMode};
+use cgv::codec::FileDecoder;
+use cgv::format::{self, CgvFile, CodecKind, CorrectionMode};
+use cgv::format::{Extrapolation, StreamName};
 use cgv::solve::SolverKind;
 use std::path::{Path, PathBuf};
 
@@ -28,11 +30,11 @@ fn fixture(name: &str) -> PathBuf {
 fn open(name: &str) -> CgvFile {
     let path = fixture(name);
     let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    container::read(&bytes).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+    format::read(&bytes).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
 fn decode(file: CgvFile, solver: SolverKind) -> Vec<f32> {
-    let mut dec = SequenceDecoder::new(file, solver, h264::Decoder::new).unwrap();
+    let mut dec = FileDecoder::new(file, solver).unwrap();
     let mut out = Vec::new();
     for _ in 0..dec.frame_count() {
         let (x, _) = dec.next_frame().unwrap();
@@ -62,7 +64,7 @@ fn check(name: &str, solver: SolverKind, tolerance: f64) {
 fn v1_gv_fixture_decodes_as_frozen() {
     let f = open("v1/walk-gv.cgv");
     assert_eq!((f.header.codec, f.header.grid, f.header.frames), (CodecKind::Gv, 16, 4));
-    check("v1/walk-gv.cgv", SolverKind::Cgv, 1e-6);
+    check("v1/walk-gv.cgv", SolverKind::Predictive, 1e-6);
 }
 
 #[test]
@@ -70,8 +72,8 @@ fn v1_cgv_fixture_decodes_as_frozen_with_both_solvers() {
     let f = open("v1/walk-cgv.cgv");
     assert_eq!((f.header.codec, f.header.grid, f.header.frames), (CodecKind::Cgv, 16, 4));
     assert_eq!(f.header.key_frames, vec![0, 2]);
-    assert!(f.header.streams.iter().any(|s| s.layer == 2 && s.name == "dx"));
-    check("v1/walk-cgv.cgv", SolverKind::Cgv, 1e-5);
+    assert!(f.header.streams.iter().any(|s| s.layer == 2 && s.name == StreamName::Dx));
+    check("v1/walk-cgv.cgv", SolverKind::Predictive, 1e-5);
     check("v1/walk-cgv.cgv", SolverKind::Paper, 1e-4);
 }
 
@@ -80,18 +82,18 @@ fn v2_motion_fixture_decodes_as_frozen() {
     let f = open("v2/walk-cgv-motion.cgv");
     assert_eq!((f.version, f.header.corrections), (2, CorrectionMode::Motion));
     assert_eq!((f.header.codec, f.header.grid, f.header.frames), (CodecKind::Cgv, 16, 6));
-    assert!(f.header.streams.iter().any(|s| s.layer == 2 && s.name == "dz"));
-    check("v2/walk-cgv-motion.cgv", SolverKind::Cgv, 1e-5);
+    assert!(f.header.streams.iter().any(|s| s.layer == 2 && s.name == StreamName::Dz));
+    check("v2/walk-cgv-motion.cgv", SolverKind::Predictive, 1e-5);
 }
 
 #[test]
 fn v2_gv_and_scaled_cgv_fixtures_decode_as_frozen() {
     let f = open("v2/walk-gv.cgv");
     assert_eq!((f.version, f.header.codec, f.header.frames), (2, CodecKind::Gv, 4));
-    check("v2/walk-gv.cgv", SolverKind::Cgv, 1e-6);
+    check("v2/walk-gv.cgv", SolverKind::Predictive, 1e-6);
     let f = open("v2/walk-cgv.cgv");
     assert_eq!((f.version, f.header.corrections, f.header.anchors.len()), (2, CorrectionMode::Scaled, 16));
-    check("v2/walk-cgv.cgv", SolverKind::Cgv, 1e-5);
+    check("v2/walk-cgv.cgv", SolverKind::Predictive, 1e-5);
     check("v2/walk-cgv.cgv", SolverKind::Paper, 1e-4);
 }
 
@@ -99,9 +101,9 @@ fn v2_gv_and_scaled_cgv_fixtures_decode_as_frozen() {
 fn v3_motion_fixture_without_h_decodes_as_frozen() {
     let f = open("v3/walk-cgv-motion.cgv");
     assert_eq!((f.version, f.header.corrections), (3, CorrectionMode::Motion));
-    assert!(f.header.stream("H").is_none() && f.header.stream("lambda").is_none());
-    assert!(f.header.streams.iter().any(|s| s.layer == 2 && s.name == "dz"));
-    check("v3/walk-cgv-motion.cgv", SolverKind::Cgv, 1e-5);
+    assert!(f.header.stream(StreamName::H).is_none() && f.header.stream(StreamName::Lambda).is_none());
+    assert!(f.header.streams.iter().any(|s| s.layer == 2 && s.name == StreamName::Dz));
+    check("v3/walk-cgv-motion.cgv", SolverKind::Predictive, 1e-5);
 }
 
 #[test]
@@ -110,9 +112,12 @@ fn v4_cycle_fixture_decodes_as_frozen() {
     assert_eq!((f.version, f.header.corrections), (4, CorrectionMode::Motion));
     // Cycle predictions (a lag of 36, the default motion's gait period,
     // among others) and corrections on frames 0, 1, 3, 5, ... only.
-    assert!(f.header.max_lag >= 36 && f.frames.iter().any(|i| i.predictor & 3 == 3 && i.lag == 36));
+    assert!(
+        f.header.max_lag >= 36
+            && f.frames.iter().any(|i| i.predictor.extrapolation == Extrapolation::Cycle && i.predictor.lag == 36)
+    );
     assert_eq!(&f.header.key_frames[..4], [0, 1, 3, 5]);
-    check("v4/walk-cgv-cycle.cgv", SolverKind::Cgv, 1e-5);
+    check("v4/walk-cgv-cycle.cgv", SolverKind::Predictive, 1e-5);
 }
 
 #[test]
@@ -123,5 +128,5 @@ fn v5_filter_fixture_decodes_as_frozen() {
     for passes in [1, 2, 4] {
         assert!(f.frames.iter().any(|i| i.filter == passes), "no frame with {passes} passes");
     }
-    check("v5/walk-cgv-filter.cgv", SolverKind::Cgv, 1e-5);
+    check("v5/walk-cgv-filter.cgv", SolverKind::Predictive, 1e-5);
 }

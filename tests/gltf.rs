@@ -1,5 +1,6 @@
 //! glTF 2.0 input: skinning, morph targets, and the three interpolations,
 //! on small files built here.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // tests may stop on any failure
 
 mod common;
 

@@ -1,5 +1,6 @@
 //! Resampling error on real captured data: the first frames of pcow
 //! (Briceño et al. 2003), unpacked from ../shared/data.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // tests may stop on any failure
 
 mod common;
 
@@ -35,8 +36,8 @@ fn pcow_resamples_within_bounds() {
 /// setting (QP 20, one layer): faithful, and no growth over the frames.
 #[test]
 fn pcow_round_trips() {
-    use cgv::codec::{encode, h264, EncodeOptions, SequenceDecoder};
-    use cgv::container::{self, CodecKind, CorrectionMode};
+    use cgv::codec::{encode, EncodeOptions, FileDecoder};
+    use cgv::format::{self, CodecKind, CorrectionMode};
     use cgv::mesh::InMemory;
     use cgv::solve::SolverKind;
     let dir = common::real_sequence("pcow");
@@ -53,19 +54,19 @@ fn pcow_round_trips() {
     // not trusted.
     let (scaled, motion) = (CorrectionMode::Scaled, CorrectionMode::Motion);
     let cases = [
-        (CodecKind::Gv, SolverKind::Cgv, scaled, 8, 2, 2e-3),
-        (CodecKind::Cgv, SolverKind::Cgv, scaled, 8, 2, 2e-4),
-        (CodecKind::Cgv, SolverKind::Cgv, scaled, 20, 1, 4e-3),
-        (CodecKind::Cgv, SolverKind::Cgv, motion, 20, 1, 4e-3),
-        (CodecKind::Cgv, SolverKind::Cgv, motion, 40, 1, 2.5e-2),
+        (CodecKind::Gv, SolverKind::Predictive, scaled, 8, 2, 2e-3),
+        (CodecKind::Cgv, SolverKind::Predictive, scaled, 8, 2, 2e-4),
+        (CodecKind::Cgv, SolverKind::Predictive, scaled, 20, 1, 4e-3),
+        (CodecKind::Cgv, SolverKind::Predictive, motion, 20, 1, 4e-3),
+        (CodecKind::Cgv, SolverKind::Predictive, motion, 40, 1, 2.5e-2),
         (CodecKind::Cgv, SolverKind::Paper, scaled, 8, 2, 0.2),
     ];
     for (codec, solver, corrections, qp, layers, bound) in cases {
         let mut opts = EncodeOptions { codec, grid: 32, layers, solver, corrections, ..Default::default() };
         opts.video.qp = qp;
         let (bytes, _) = encode(&src, &opts, &mut |_, _, _| {}).unwrap();
-        let file = container::read(&bytes).unwrap();
-        let mut dec = SequenceDecoder::new(file, solver, h264::Decoder::new).unwrap();
+        let file = format::read(&bytes).unwrap();
+        let mut dec = FileDecoder::new(file, solver).unwrap();
         let map = cgv::codec::prepare(&src, &opts).unwrap().map;
         let mut errs = Vec::new();
         for (i, f) in src.frames.iter().enumerate() {
@@ -79,7 +80,7 @@ fn pcow_round_trips() {
             assert!(rel < bound, "{codec:?}/{solver}/{corrections:?} QP {qp} frame {i}: {rel}");
             errs.push(rel);
         }
-        if solver == SolverKind::Cgv {
+        if solver == SolverKind::Predictive {
             let mean = errs.iter().sum::<f64>() / errs.len() as f64;
             assert!(errs.iter().all(|&e| e <= 3.0 * mean), "{codec:?} QP {qp}: drift in {errs:?}");
         }
@@ -93,7 +94,7 @@ fn pcow_round_trips() {
 /// far better than 40 passes (docs/RESULTS.md: 0.119 % against 0.169 %).
 #[test]
 fn pcow_grid_is_chosen_by_its_resampling_error() {
-    use cgv::param::choose::parameterize_for_grid;
+    use cgv::geometry_image::parameterize_for_grid;
     let dir = common::real_sequence("pcow");
     let src = open_sequence(dir.to_str().unwrap(), &OpenOptions::default()).unwrap();
     let first = src.read_frame(0).unwrap();
@@ -125,7 +126,8 @@ fn pcow_grid_is_chosen_by_its_resampling_error() {
 /// it must find that.
 #[test]
 fn horse_cones_are_placed_by_the_grid_score() {
-    use cgv::param::{choose::parameterize_for_grid, cut};
+    use cgv::geometry_image::parameterize_for_grid;
+    use cgv::param::cut;
     let dir = common::real_sequence("horse-gallop");
     let opts = OpenOptions { fill_holes: true, ..OpenOptions::default() };
     let src = open_sequence(dir.to_str().unwrap(), &opts).unwrap();

@@ -8,6 +8,7 @@
 //! (runner, chromedriver and browser flags: .cargo/config.toml and
 //! pkg-scripts/webdriver.json).
 #![cfg(target_arch = "wasm32")]
+#![allow(clippy::unwrap_used, clippy::expect_used)] // tests may stop on any failure
 
 use cgv::web::{Player, View};
 use wasm_bindgen::prelude::*;
@@ -96,7 +97,7 @@ fn floats(b: &[u8]) -> Vec<f32> {
 async fn decode(name: &str, bytes: &[u8]) -> (Vec<f32>, Vec<Vec<Vec<u8>>>) {
     let mut p = Player::new("").unwrap();
     p.push(bytes).unwrap();
-    let h = cgv::container::read(bytes).unwrap().header;
+    let h = cgv::format::read(bytes).unwrap().header;
     let n = h.grid;
     let (mut out, mut lumas) = (Vec::new(), vec![Vec::new(); h.streams.len()]);
     for f in 0..h.frames {
@@ -118,7 +119,7 @@ async fn decode(name: &str, bytes: &[u8]) -> (Vec<f32>, Vec<Vec<Vec<u8>>>) {
 async fn webcodecs_samples_equal_openh264() {
     // The GV fixture's positions are its dequantized samples, so they pin
     // every sample the native decoder produced.
-    let h = cgv::container::read(GV).unwrap().header;
+    let h = cgv::format::read(GV).unwrap().header;
     let want = floats(GV_POS);
     let (_, lumas) = decode("gv", GV).await;
     let n2 = (h.grid * h.grid) as usize;
@@ -143,7 +144,7 @@ async fn wasm_reconstruction_equals_native() {
         ("cycle4", CYCLE4, CYCLE4_POS, 1e-5),
         ("filter5", FILTER5, FILTER5_POS, 1e-5),
     ] {
-        let diag = cgv::container::read(bytes).unwrap().header.source.diagonal;
+        let diag = cgv::format::read(bytes).unwrap().header.source.diagonal;
         let (got, _) = decode(name, bytes).await;
         let want = floats(pos);
         assert_eq!(got.len(), want.len());
@@ -167,4 +168,17 @@ async fn renderer_draws_on_webgpu_and_webgl2() {
         assert!(fig > 800 && fig < 160 * 160 * 9 / 10, "{}: {fig} figure pixels", v.backend());
     }
     assert_eq!(backends, ["WebGPU", "WebGL2"]);
+}
+
+#[wasm_bindgen_test]
+fn a_file_asking_for_more_memory_than_allowed_is_refused() {
+    // The v5 fixture's decoder needs a few hundred KB; allowed 10 KB, the
+    // player refuses it when its header arrives, before allocating.
+    let mut p = Player::new("").unwrap();
+    p.set_memory_limit_mib(0.01);
+    let e = JsValue::from(p.push(FILTER5).err().expect("refused"));
+    let msg = js_sys::Error::from(e).message().as_string().unwrap();
+    assert!(msg.contains("more than the limit of 0.0 MiB"), "{msg}");
+    // The default limit takes it.
+    Player::new("").unwrap().push(FILTER5).unwrap();
 }

@@ -153,6 +153,7 @@ export class CgvPlayer extends HTMLElement {
     const gen = ++this.generation;
     this.pause();
     this.frames = [];
+    this.shown = null;
     this.current = 0;
     this.stats.decoded = 0;
     this.stats.firstFrameMs = null;
@@ -202,6 +203,7 @@ export class CgvPlayer extends HTMLElement {
       if (!this.view || this.viewGrid !== h.grid) {
         this._resize();
         this.view = await View.create(this.canvas, h.grid, this.hasAttribute('webgl'));
+        this.shown = null;
         this.viewGrid = h.grid;
         this.stats.backend = this.view.backend();
       }
@@ -244,6 +246,8 @@ export class CgvPlayer extends HTMLElement {
     }
   }
 
+  /** Shows frame f. The view keeps the frame it was given: only a new
+   * frame, colour mode or reference is handed to wasm again. */
   show(f) {
     if (!this.view || !this.frames.length) return;
     f = Math.max(0, Math.min(f, this.frames.length - 1));
@@ -251,10 +255,14 @@ export class CgvPlayer extends HTMLElement {
     try {
       // The error map measures against the same frame of a reference player
       // (el.reference = otherPlayer), e.g. GV against CGV of one motion.
-      const ref = this.reference?.frames?.[f];
-      this.view.set_reference(this.mode === 'error' && ref ? ref : new Float32Array(0));
-      this.view.set_frame(this.frames[f], this.mode);
-      this.view.draw();
+      const ref = this.mode === 'error' ? this.reference?.frames?.[f] : undefined;
+      const s = this.shown;
+      if (!s || s.frame !== this.frames[f] || s.mode !== this.mode || s.ref !== ref) {
+        this.view.set_reference(ref || new Float32Array(0));
+        this.view.set_frame(this.frames[f], this.mode);
+        this.shown = { frame: this.frames[f], mode: this.mode, ref };
+        this.view.draw();
+      }
     } catch (e) {
       this.message(`Cannot draw: ${e.message || e}`, true);
     }
@@ -323,16 +331,25 @@ export class CgvPlayer extends HTMLElement {
     if (this.canvas.width !== w || this.canvas.height !== h) {
       this.canvas.width = w;
       this.canvas.height = h;
-      if (this.view) { this.view.resize(w, h); this.show(this.current); }
+      if (this.view) { this.view.resize(w, h); this._redraw(); }
     }
   }
 
   /** Camera state [target xyz, distance, yaw, pitch] and its setter, for syncing views. */
   get camera() { return this.view ? Array.from(this.view.camera_state()) : null; }
-  set camera(s) { if (this.view && s) { this.view.set_camera_state(new Float32Array(s)); this.show(this.current); } }
+  set camera(s) { if (this.view && s) { this.view.set_camera_state(new Float32Array(s)); this._redraw(); } }
+
+  /** Draws the frame the view holds again (a camera move or a resize: no new data). */
+  _redraw() {
+    try {
+      if (this.shown) this.view.draw();
+    } catch (e) {
+      this.message(`Cannot draw: ${e.message || e}`, true);
+    }
+  }
 
   _cameraMoved() {
-    this.show(this.current);
+    this._redraw();
     this.dispatchEvent(new CustomEvent('cgv-camera', { detail: this.camera, bubbles: true }));
   }
 

@@ -3,10 +3,10 @@
 #![no_main]
 
 libfuzzer_sys::fuzz_target!(|data: &[u8]| {
-    let _ = cgv::container::read(data);
+    let _ = cgv::format::read(data);
     // The streaming entry points too, at every split of the input.
-    if let Ok(Some((_, mut offset))) = cgv::container::parse_header(data) {
-        while let Ok(Some((_, next))) = cgv::container::parse_chunk(data, offset) {
+    if let Ok(Some((_, mut offset))) = cgv::format::parse_header(data) {
+        while let Ok(Some((_, next))) = cgv::format::parse_chunk(data, offset) {
             offset = next;
         }
     }

@@ -27,6 +27,30 @@ pub struct VideoSettings {
     pub fps: f32,
 }
 
+impl VideoSettings {
+    /// Checks the settings H.264 can take, naming the one that is off.
+    pub fn validate(&self) -> std::result::Result<(), String> {
+        if self.qp > 51 {
+            return Err(format!("QP {} is not in 0..=51", self.qp));
+        }
+        if let Some(k) = self.kbps {
+            if !(k.is_finite() && k > 0.0) {
+                return Err(format!("a bitrate of {k} kbit/s is not above 0"));
+            }
+        }
+        if self.qp_max.is_some_and(|m| m > 51 || m < self.qp) {
+            return Err(format!("the highest QP {:?} is not in {}..=51", self.qp_max, self.qp));
+        }
+        if self.gop == 0 {
+            return Err("the GOP (frames between intra frames) must be at least 1".into());
+        }
+        if !(self.fps.is_finite() && self.fps > 0.0) {
+            return Err(format!("frame rate {} is not above 0", self.fps));
+        }
+        Ok(())
+    }
+}
+
 impl Default for VideoSettings {
     fn default() -> Self {
         VideoSettings { qp: 20, kbps: None, qp_max: None, gop: 30, cabac: true, fps: 30.0 }
@@ -59,9 +83,7 @@ impl Encoder {
                 "H.264 frames must be even, 16x16 to 3840x2160 (got {width}x{height})"
             )));
         }
-        if s.qp > 51 {
-            return Err(Error::Argument(format!("QP {} is not in 0..=51", s.qp)));
-        }
+        s.validate().map_err(Error::Argument)?;
         let mut enc: *mut sys::ISVCEncoder = null_mut();
         // SAFETY: plain FFI calls following OpenH264's documented sequence:
         // create, GetDefaultParams, InitializeExt; the vtable comes from the library.
@@ -213,10 +235,9 @@ impl Decoder {
             inner: openh264::decoder::Decoder::new().map_err(|e| Error::Video(format!("OpenH264 decoder: {e}")))?,
         })
     }
-}
 
-impl super::VideoDecoder for Decoder {
-    fn decode(&mut self, access_unit: &[u8], width: usize, height: usize) -> Result<Vec<u8>> {
+    /// Decodes one access unit into its luma samples (row-major, `width * height`).
+    pub fn decode(&mut self, access_unit: &[u8], width: usize, height: usize) -> Result<Vec<u8>> {
         use openh264::formats::YUVSource;
         let yuv = self
             .inner

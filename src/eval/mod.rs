@@ -18,10 +18,11 @@ pub mod bdrate;
 pub mod plot;
 pub mod report;
 
-use crate::codec::features::Stencils;
-use crate::codec::{encode_prepared, h264, EncodeOptions, Prepared, SequenceDecoder};
-use crate::container::{self, CodecKind, CorrectionMode};
+use crate::codec::{encode_prepared, EncodeOptions, FileDecoder};
 use crate::error::{Error, Result};
+use crate::format::{self, CodecKind, CorrectionMode};
+use crate::geometry_image::GeometryImage;
+use crate::grid::stencil::Stencils;
 use crate::grid::Grid;
 use crate::mesh::{Bounds, FrameSource, InMemory};
 use crate::metrics::{self, surface};
@@ -73,9 +74,9 @@ impl EvalCodec {
 
     fn options(self, base: &EncodeOptions) -> EncodeOptions {
         let (codec, solver) = match self {
-            EvalCodec::Gv => (CodecKind::Gv, SolverKind::Cgv),
+            EvalCodec::Gv => (CodecKind::Gv, SolverKind::Predictive),
             EvalCodec::Paper => (CodecKind::Cgv, SolverKind::Paper),
-            _ => (CodecKind::Cgv, SolverKind::Cgv),
+            _ => (CodecKind::Cgv, SolverKind::Predictive),
         };
         let corrections = match self {
             EvalCodec::CgvMotion => CorrectionMode::Motion,
@@ -87,7 +88,7 @@ impl EvalCodec {
     fn solver(self) -> SolverKind {
         match self {
             EvalCodec::Paper => SolverKind::Paper,
-            _ => SolverKind::Cgv,
+            _ => SolverKind::Predictive,
         }
     }
 }
@@ -307,87 +308,14 @@ pub fn run(src: &dyn FrameSource, opts: &EvalOptions, progress: &(dyn Fn(&str) +
     let prepared = crate::codec::prepare(&mem, &opts.base)?;
     let truth: Vec<Vec<Vec3>> = mem.frames.iter().map(|f| prepared.map.apply(f)).collect();
     let diagonal = Bounds::of(&mem.frames[0]).diagonal() as f64;
-    progress(&format!("parameterized in {:.1} s", prepared.seconds));
+    progress(&format!("parameterized in {:.1} s", prepared.seconds()));
 
     let grid = Grid::new(opts.base.grid)?;
     let ctx = Ctx { mem: &mem, prepared: &prepared, truth: &truth, grid, diagonal, opts };
-    // Targets.
-    let bytes_for_kbps30 = |k: f64| (k * 1000.0 / 8.0 * frames as f64 / 30.0).round() as usize;
-    let targets: Vec<(String, usize)> = match &opts.rates {
-        Rates::Kbps(k) => k.iter().map(|&k| (format!("{k} kbit/s"), bytes_for_kbps30(k))).collect(),
-        Rates::Presets(names) => names
-            .par_iter()
-            .map(|name| {
-                let (qp, layers) = PRESETS.iter().find(|p| p.0 == name).map(|p| (p.1, p.2)).ok_or_else(|| {
-                    Error::Argument(format!("unknown rate '{name}' (expected low, medium, high, max or ultra)"))
-                })?;
-                let size = ctx.encode(EvalCodec::Gv, 1, qp, layers, None)?.bytes.len();
-                let what = if layers == 2 { format!("GV at QP {qp}, 2 layers") } else { format!("GV at QP {qp}") };
-                Ok((format!("{name} ({what})"), size))
-            })
-            .collect::<Result<_>>()?,
-    };
-    if targets.is_empty() {
-        return Err(Error::Argument("no rate points".into()));
-    }
+    let targets = ctx.targets()?;
     progress(&format!("{} rate points, {} codecs", targets.len(), opts.codecs.len()));
-
-    let jobs: Vec<(usize, EvalCodec)> =
-        (0..targets.len()).flat_map(|p| opts.codecs.iter().map(move |&c| (p, c))).collect();
-    let done = std::sync::atomic::AtomicUsize::new(0);
-    let results: Vec<CodecResult> = jobs
-        .par_iter()
-        .map(|&(p, codec)| {
-            let r = ctx.job(codec, targets[p].1);
-            let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
-            progress(&format!("{n}/{} done: {codec} at {}", jobs.len(), targets[p].0));
-            r
-        })
-        .collect::<Result<_>>()?;
-    let mut points: Vec<RatePoint> = targets
-        .iter()
-        .map(|(name, b)| RatePoint {
-            name: name.clone(),
-            target_bytes: *b,
-            target_kbps_30fps: *b as f64 * 8.0 / 1000.0 * 30.0 / frames as f64,
-            results: Vec::new(),
-        })
-        .collect();
-    for ((p, _), r) in jobs.iter().zip(results) {
-        points[*p].results.push(r);
-    }
-    points.sort_by_key(|p| p.target_bytes);
-
-    let curve = |c: EvalCodec, metric: &dyn Fn(&CodecResult) -> Option<f64>| -> Vec<(f64, f64)> {
-        points
-            .iter()
-            .flat_map(|p| p.results.iter().filter(|r| r.codec == c))
-            .filter_map(|r| metric(r).map(|m| (r.kbps_30fps, m)))
-            .collect()
-    };
-    let mut bd_rates = Vec::new();
-    if opts.codecs.contains(&EvalCodec::Gv) {
-        type Metric = (&'static str, fn(&CodecResult) -> Option<f64>);
-        let metrics: [Metric; 3] = [
-            ("surface_rms", |r| r.surface_rms),
-            ("vertex_rms", |r| Some(r.vertex_rms)),
-            ("smoothness", |r| Some(r.smoothness)),
-        ];
-        for &c in opts.codecs.iter().filter(|&&c| c != EvalCodec::Gv) {
-            for (name, m) in metrics {
-                let (reference, test) = (curve(EvalCodec::Gv, &m), curve(c, &m));
-                if reference.is_empty() {
-                    continue;
-                }
-                bd_rates.push(BdRate {
-                    codec: c,
-                    metric: name,
-                    percent: bdrate::bd_rate(&reference, &test),
-                    percent_pchip: bdrate::bd_rate_pchip(&reference, &test),
-                });
-            }
-        }
-    }
+    let points = ctx.rate_points(&targets, progress)?;
+    let bd_rates = bd_rates(&points, &opts.codecs);
     Ok(Report {
         input: src.label().display().to_string(),
         input_vertices: mem.topology.vertex_count,
@@ -403,6 +331,43 @@ pub fn run(src: &dyn FrameSource, opts: &EvalOptions, progress: &(dyn Fn(&str) +
     })
 }
 
+/// BD-rates against GV (when it was evaluated) of every other codec, on
+/// surface RMS, vertex RMS and smoothness.
+fn bd_rates(points: &[RatePoint], codecs: &[EvalCodec]) -> Vec<BdRate> {
+    let curve = |c: EvalCodec, metric: &dyn Fn(&CodecResult) -> Option<f64>| -> Vec<(f64, f64)> {
+        points
+            .iter()
+            .flat_map(|p| p.results.iter().filter(|r| r.codec == c))
+            .filter_map(|r| metric(r).map(|m| (r.kbps_30fps, m)))
+            .collect()
+    };
+    let mut bd_rates = Vec::new();
+    if !codecs.contains(&EvalCodec::Gv) {
+        return bd_rates;
+    }
+    type Metric = (&'static str, fn(&CodecResult) -> Option<f64>);
+    let metrics: [Metric; 3] = [
+        ("surface_rms", |r| r.surface_rms),
+        ("vertex_rms", |r| Some(r.vertex_rms)),
+        ("smoothness", |r| Some(r.smoothness)),
+    ];
+    for &c in codecs.iter().filter(|&&c| c != EvalCodec::Gv) {
+        for (name, m) in metrics {
+            let (reference, test) = (curve(EvalCodec::Gv, &m), curve(c, &m));
+            if reference.is_empty() {
+                continue;
+            }
+            bd_rates.push(BdRate {
+                codec: c,
+                metric: name,
+                percent: bdrate::bd_rate(&reference, &test),
+                percent_pchip: bdrate::bd_rate_pchip(&reference, &test),
+            });
+        }
+    }
+    bd_rates
+}
+
 /// How far a size misses `target`, for ordering: first whether it is above
 /// the window (an encode with more bits than allowed loses to any that is
 /// not), then the distance in log size.
@@ -416,7 +381,7 @@ type Found = (Try, bool, usize);
 
 struct Ctx<'a> {
     mem: &'a InMemory,
-    prepared: &'a Prepared,
+    prepared: &'a GeometryImage,
     truth: &'a [Vec<Vec3>],
     grid: Grid,
     diagonal: f64,
@@ -428,6 +393,62 @@ struct Ctx<'a> {
 const LOG_SIZE_PER_QP: f64 = -0.11;
 
 impl Ctx<'_> {
+    /// The rate points: named presets (the size GV reaches at a QP) or
+    /// bitrates at 30 fps, as (name, file size in bytes).
+    fn targets(&self) -> Result<Vec<(String, usize)>> {
+        let frames = self.mem.frames.len();
+        let bytes_for_kbps30 = |k: f64| (k * 1000.0 / 8.0 * frames as f64 / 30.0).round() as usize;
+        let targets: Vec<(String, usize)> = match &self.opts.rates {
+            Rates::Kbps(k) => k.iter().map(|&k| (format!("{k} kbit/s"), bytes_for_kbps30(k))).collect(),
+            Rates::Presets(names) => names
+                .par_iter()
+                .map(|name| {
+                    let (qp, layers) = PRESETS.iter().find(|p| p.0 == name).map(|p| (p.1, p.2)).ok_or_else(|| {
+                        Error::Argument(format!("unknown rate '{name}' (expected low, medium, high, max or ultra)"))
+                    })?;
+                    let size = self.encode(EvalCodec::Gv, 1, qp, layers, None)?.bytes.len();
+                    let what = if layers == 2 { format!("GV at QP {qp}, 2 layers") } else { format!("GV at QP {qp}") };
+                    Ok((format!("{name} ({what})"), size))
+                })
+                .collect::<Result<_>>()?,
+        };
+        if targets.is_empty() {
+            return Err(Error::Argument("no rate points".into()));
+        }
+        Ok(targets)
+    }
+
+    /// Every codec at every rate point, in parallel; the points sorted by size.
+    fn rate_points(&self, targets: &[(String, usize)], progress: &(dyn Fn(&str) + Sync)) -> Result<Vec<RatePoint>> {
+        let frames = self.mem.frames.len();
+        let jobs: Vec<(usize, EvalCodec)> =
+            (0..targets.len()).flat_map(|p| self.opts.codecs.iter().map(move |&c| (p, c))).collect();
+        let done = std::sync::atomic::AtomicUsize::new(0);
+        let results: Vec<CodecResult> = jobs
+            .par_iter()
+            .map(|&(p, codec)| {
+                let r = self.job(codec, targets[p].1);
+                let n = done.fetch_add(1, std::sync::atomic::Ordering::Relaxed) + 1;
+                progress(&format!("{n}/{} done: {codec} at {}", jobs.len(), targets[p].0));
+                r
+            })
+            .collect::<Result<_>>()?;
+        let mut points: Vec<RatePoint> = targets
+            .iter()
+            .map(|(name, b)| RatePoint {
+                name: name.clone(),
+                target_bytes: *b,
+                target_kbps_30fps: *b as f64 * 8.0 / 1000.0 * 30.0 / frames as f64,
+                results: Vec::new(),
+            })
+            .collect();
+        for ((p, _), r) in jobs.iter().zip(results) {
+            points[*p].results.push(r);
+        }
+        points.sort_by_key(|p| p.target_bytes);
+        Ok(points)
+    }
+
     /// One encode at constant `qp`, or with `rc = (qp_max, kbps)` the rate
     /// control choosing QPs in `qp..=qp_max`.
     /// `interval`: the motion mode's correction interval (1 unless a
@@ -470,7 +491,10 @@ impl Ctx<'_> {
                 let size = t.bytes.len();
                 keep(t, &mut best);
                 if within(size) {
-                    return Ok((best.take().expect("kept"), true, tries));
+                    return best
+                        .take()
+                        .map(|b| (b, true, tries))
+                        .ok_or_else(|| Error::Numerical("no encode kept".into()));
                 }
                 if size > target {
                     lo = Some(lo.map_or((qp, size), |l| if qp > l.0 { (qp, size) } else { l }));
@@ -509,7 +533,10 @@ impl Ctx<'_> {
                     let size = t.bytes.len();
                     keep(t, &mut best);
                     if within(size) {
-                        return Ok((best.take().expect("kept"), true, tries));
+                        return best
+                            .take()
+                            .map(|b| (b, true, tries))
+                            .ok_or_else(|| Error::Numerical("no encode kept".into()));
                     }
                     kbps *= (target as f64 / size as f64) as f32;
                 }
@@ -522,9 +549,9 @@ impl Ctx<'_> {
     }
 
     /// A decoder for an encode's bytes.
-    fn decoder(&self, bytes: &[u8], solver: SolverKind) -> Result<SequenceDecoder<h264::Decoder>> {
-        let file = container::read(bytes).map_err(|e| Error::Container { path: "(eval)".into(), source: e })?;
-        SequenceDecoder::new(file, solver, h264::Decoder::new)
+    fn decoder(&self, bytes: &[u8], solver: SolverKind) -> Result<FileDecoder> {
+        let file = format::read(bytes).map_err(|e| Error::Container { path: "(eval)".into(), source: e })?;
+        FileDecoder::new(file, solver)
     }
 
     fn job(&self, codec: EvalCodec, target: usize) -> Result<CodecResult> {
@@ -575,11 +602,12 @@ impl Ctx<'_> {
         let mut dec = self.decoder(&t.bytes, codec.solver())?;
         let h = &dec.file.header;
         let corrections = (h.codec == CodecKind::Cgv && codec != EvalCodec::Paper).then_some(h.corrections);
-        let correction_interval = corrections.map(|_| match h.stream("dx").map(|s| h.streams[s].coverage) {
-            // Frames 0 and 1, then every k-th.
-            Some(container::Coverage::Key) => h.key_frames.get(2).map_or(h.frames, |k| k - 1),
-            _ => 1,
-        });
+        let correction_interval =
+            corrections.map(|_| match h.stream(format::StreamName::Dx).map(|s| h.streams[s].coverage) {
+                // Frames 0 and 1, then every k-th.
+                Some(format::Coverage::Key) => h.key_frames.get(2).map_or(h.frames, |k| k - 1),
+                _ => 1,
+            });
         let st = Stencils::new(self.grid);
         let grid_faces = self.grid.topology().faces;
         let n = self.mem.frames.len();

@@ -2,7 +2,7 @@
 //! serialization).
 
 use super::{EvalCodec, Report};
-use crate::container::CorrectionMode;
+use crate::format::CorrectionMode;
 use std::fmt::Write;
 
 fn pct(x: f64) -> String {
@@ -37,6 +37,15 @@ pub fn markdown(r: &Report) -> String {
         r.frames, r.fps, r.input_vertices, r.grid, r.diagonal, r.surface_every, r.seconds
     );
     let _ = writeln!(s, "Normalization: {}.\n", r.normalization);
+    bitrates(&mut s, r);
+    quality(&mut s, r);
+    variants(&mut s, r);
+    bd_rates(&mut s, r);
+    s
+}
+
+/// The bitrates table (like the paper's Table 1).
+fn bitrates(s: &mut String, r: &Report) {
     let _ = writeln!(s, "## Bitrates (like the paper's Table 1)\n");
     let _ = writeln!(s, "| rate point | target kbit/s @30 fps | codec | kbit/s @30 fps | kbit/s @{} fps | matched | QP / layers | bytes | bits per input vertex per frame | bits per grid sample per frame |", r.fps);
     let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|");
@@ -65,6 +74,10 @@ pub fn markdown(r: &Report) -> String {
             );
         }
     }
+}
+
+/// The quality table (like the paper's Table 2, and beyond).
+fn quality(s: &mut String, r: &Report) {
     let _ = writeln!(s, "\n## Quality (like the paper's Table 2, and beyond)\n");
     let _ = writeln!(s, "| rate point | codec | smoothness (1e-4 of diag.) | vertex RMS | vertex max | surface RMS | surface max | worst frame / mean | KG error (%) | encode ms/frame | H.264 decode ms/frame | reconstruction ms/frame |");
     let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|");
@@ -88,6 +101,10 @@ pub fn markdown(r: &Report) -> String {
             );
         }
     }
+}
+
+/// The `cgv` entry's variants that were measured and not kept.
+fn variants(s: &mut String, r: &Report) {
     if r.points.iter().any(|p| p.results.iter().any(|c| !c.passed_over.is_empty())) {
         let _ = writeln!(s, "\n## The `cgv` entry's variants not kept\n");
         let _ = writeln!(
@@ -117,6 +134,10 @@ pub fn markdown(r: &Report) -> String {
             }
         }
     }
+}
+
+/// BD-rates against GV.
+fn bd_rates(s: &mut String, r: &Report) {
     if !r.bd_rates.is_empty() {
         let _ = writeln!(s, "\n## BD-rate against GV (negative: fewer bits for the same quality)\n");
         let _ = writeln!(
@@ -141,5 +162,4 @@ pub fn markdown(r: &Report) -> String {
             let _ = writeln!(s, "| {c} | {} | {} | {} |", get("surface_rms"), get("vertex_rms"), get("smoothness"));
         }
     }
-    s
 }

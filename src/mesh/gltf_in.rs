@@ -148,174 +148,204 @@ impl Channel {
     }
 }
 
+/// Each node's parent, rest transform and default morph weights (its own, else its mesh's).
+fn read_nodes(doc: &gltf::Document) -> (Vec<Option<usize>>, Vec<Trs>, Vec<Vec<f32>>) {
+    let n_nodes = doc.nodes().count();
+    let mut parents = vec![None; n_nodes];
+    let mut rest = Vec::with_capacity(n_nodes);
+    let mut node_weights = Vec::with_capacity(n_nodes);
+    for node in doc.nodes() {
+        for child in node.children() {
+            parents[child.index()] = Some(node.index());
+        }
+        let (t, r, s) = node.transform().decomposed();
+        rest.push(Trs { t: Vec3::from(t), r: Quat::from_array(r), s: Vec3::from(s) });
+        let w =
+            node.weights().or_else(|| node.mesh().and_then(|m| m.weights())).map(|w| w.to_vec()).unwrap_or_default();
+        node_weights.push(w);
+    }
+    (parents, rest, node_weights)
+}
+
+/// The triangle primitives of the default scene (or the first) and their faces, indexed across all primitives.
+fn read_meshes(path: &Path, doc: &gltf::Document, buffers: &[Vec<u8>]) -> Result<(Vec<Primitive>, Vec<[u32; 3]>)> {
+    let scene = doc.default_scene().or_else(|| doc.scenes().next()).ok_or_else(|| err(path, "no scene"))?;
+    let mut stack: Vec<gltf::Node> = scene.nodes().collect();
+    let mut prims = Vec::new();
+    let mut raw_faces: Vec<[u32; 3]> = Vec::new();
+    let mut visited = vec![false; doc.nodes().count()];
+    while let Some(node) = stack.pop() {
+        if std::mem::replace(&mut visited[node.index()], true) {
+            return Err(err(path, "the node hierarchy has a cycle"));
+        }
+        stack.extend(node.children());
+        let Some(mesh) = node.mesh() else { continue };
+        let skin = match node.skin() {
+            Some(skin) => Some(read_skin(path, buffers, &skin)?),
+            None => None,
+        };
+        for prim in mesh.primitives() {
+            if prim.mode() != gltf::mesh::Mode::Triangles {
+                continue;
+            }
+            let (primitive, indices) = read_primitive(path, buffers, &prim, mesh.index(), node.index(), &skin)?;
+            let base = prims.iter().map(|p: &Primitive| p.positions.len()).sum::<usize>() as u32;
+            prims.push(primitive);
+            raw_faces.extend(indices.chunks(3).map(|c| [c[0] + base, c[1] + base, c[2] + base]));
+        }
+    }
+    if prims.is_empty() {
+        return Err(err(path, "the scene has no triangle mesh"));
+    }
+    Ok((prims, raw_faces))
+}
+
+/// A skin's joint nodes and inverse bind matrices (identities when it has none).
+fn read_skin(path: &Path, buffers: &[Vec<u8>], skin: &gltf::Skin) -> Result<(Vec<usize>, Vec<Mat4>)> {
+    let get = |b: gltf::Buffer| buffers.get(b.index()).map(|v| v.as_slice());
+    let joints: Vec<usize> = skin.joints().map(|j| j.index()).collect();
+    let ibm: Vec<Mat4> = match skin.reader(get).read_inverse_bind_matrices() {
+        Some(m) => m.map(|m| Mat4::from_cols_array_2d(&m)).collect(),
+        None => vec![Mat4::IDENTITY; joints.len()],
+    };
+    if ibm.len() != joints.len() {
+        return Err(err(path, "skin has fewer inverse bind matrices than joints"));
+    }
+    Ok((joints, ibm))
+}
+
+/// One triangle primitive of mesh `mesh` on node `node`, and its triangle indices (local to it).
+fn read_primitive(
+    path: &Path,
+    buffers: &[Vec<u8>],
+    prim: &gltf::Primitive,
+    mesh: usize,
+    node: usize,
+    skin: &Option<(Vec<usize>, Vec<Mat4>)>,
+) -> Result<(Primitive, Vec<u32>)> {
+    let get = |b: gltf::Buffer| buffers.get(b.index()).map(|v| v.as_slice());
+    let reader = prim.reader(get);
+    let positions: Vec<Vec3> = reader
+        .read_positions()
+        .ok_or_else(|| err(path, format!("mesh {mesh} has a primitive without positions")))?
+        .map(Vec3::from)
+        .collect();
+    let targets: Vec<Vec<Vec3>> = reader
+        .read_morph_targets()
+        .map(|(p, _, _)| match p {
+            Some(p) => p.map(Vec3::from).collect(),
+            None => vec![Vec3::ZERO; positions.len()],
+        })
+        .collect();
+    if targets.iter().any(|t| t.len() != positions.len()) {
+        return Err(err(path, "a morph target's length differs from its primitive's"));
+    }
+    let (joints, weights) = if skin.is_some() {
+        let j: Vec<[u16; 4]> =
+            reader.read_joints(0).ok_or_else(|| err(path, "skinned primitive without JOINTS_0"))?.into_u16().collect();
+        let w: Vec<[f32; 4]> = reader
+            .read_weights(0)
+            .ok_or_else(|| err(path, "skinned primitive without WEIGHTS_0"))?
+            .into_f32()
+            .collect();
+        let nj = skin.as_ref().map_or(0, |s| s.0.len());
+        if j.len() != positions.len() || w.len() != positions.len() || j.iter().flatten().any(|&x| x as usize >= nj) {
+            return Err(err(path, "bad JOINTS_0/WEIGHTS_0 (length or joint index)"));
+        }
+        (j, w)
+    } else {
+        (Vec::new(), Vec::new())
+    };
+    let indices: Vec<u32> = match reader.read_indices() {
+        Some(i) => i.into_u32().collect(),
+        None => (0..positions.len() as u32).collect(),
+    };
+    if indices.len() % 3 != 0 || indices.iter().any(|&i| i as usize >= positions.len()) {
+        return Err(err(path, format!("mesh {mesh} has bad triangle indices")));
+    }
+    Ok((Primitive { node, positions, targets, skin: skin.clone(), joints, weights }, indices))
+}
+
+/// The channels of the animation to bake: the one named or numbered `animation`, else the first (if any).
+fn read_animation(
+    path: &Path,
+    doc: &gltf::Document,
+    buffers: &[Vec<u8>],
+    animation: Option<&str>,
+) -> Result<Vec<Channel>> {
+    let anim = match animation {
+        None => doc.animations().next(),
+        Some(sel) => Some(
+            doc.animations()
+                .find(|a| a.name() == Some(sel) || sel.parse::<usize>().ok() == Some(a.index()))
+                .ok_or_else(|| err(path, format!("no animation named or numbered '{sel}'")))?,
+        ),
+    };
+    let mut channels = Vec::new();
+    if let Some(anim) = anim {
+        for ch in anim.channels() {
+            channels.push(read_channel(path, buffers, &ch)?);
+        }
+    }
+    Ok(channels)
+}
+
+/// One animation channel, with its key times and output width checked.
+fn read_channel(path: &Path, buffers: &[Vec<u8>], ch: &gltf::animation::Channel) -> Result<Channel> {
+    let get = |b: gltf::Buffer| buffers.get(b.index()).map(|v| v.as_slice());
+    let r = ch.reader(get);
+    let inputs: Vec<f32> = r.read_inputs().ok_or_else(|| err(path, "channel without inputs"))?.collect();
+    let outputs: Vec<f32> = match r.read_outputs().ok_or_else(|| err(path, "channel without outputs"))? {
+        gltf::animation::util::ReadOutputs::Translations(i) => i.flatten().collect(),
+        gltf::animation::util::ReadOutputs::Scales(i) => i.flatten().collect(),
+        gltf::animation::util::ReadOutputs::Rotations(i) => i.into_f32().flatten().collect(),
+        gltf::animation::util::ReadOutputs::MorphTargetWeights(i) => i.into_f32().collect(),
+    };
+    let interpolation = ch.sampler().interpolation();
+    let per_key = if interpolation == Interpolation::CubicSpline { 3 } else { 1 };
+    if inputs.is_empty() || outputs.len() % (inputs.len() * per_key) != 0 {
+        return Err(err(path, "animation sampler outputs do not match its inputs"));
+    }
+    if inputs.windows(2).any(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater))
+        || inputs.iter().any(|t| !t.is_finite())
+    {
+        return Err(err(path, "animation sampler times are not strictly increasing"));
+    }
+    let width = outputs.len() / (inputs.len() * per_key);
+    let property = ch.target().property();
+    let expected = match property {
+        Property::Translation | Property::Scale => Some(3),
+        Property::Rotation => Some(4),
+        Property::MorphTargetWeights => None,
+    };
+    if expected.is_some_and(|e| e != width) {
+        return Err(err(path, "animation output has the wrong number of components"));
+    }
+    Ok(Channel { node: ch.target().node().index(), property, interpolation, inputs, outputs, width })
+}
+
+/// The first key time and the number of frames the channels bake to at `fps` (one still frame without any).
+fn frame_span(path: &Path, channels: &[Channel], fps: f32) -> Result<(f32, usize)> {
+    let start = channels.iter().map(|c| c.inputs[0]).fold(f32::INFINITY, f32::min);
+    let end = channels.iter().map(|c| *c.inputs.last().unwrap_or(&0.0)).fold(f32::NEG_INFINITY, f32::max);
+    let (start, frames) =
+        if channels.is_empty() { (0.0, 1) } else { (start, ((end - start) * fps + 1e-3).floor() as usize + 1) };
+    if frames > 1_000_000 {
+        return Err(err(path, format!("the animation would bake to {frames} frames")));
+    }
+    Ok((start, frames))
+}
+
 impl GltfSource {
     pub fn open(path: &Path, fps: f32, animation: Option<&str>) -> Result<GltfSource> {
         let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
         let gltf = gltf::Gltf::from_slice(&bytes).map_err(|e| err(path, e.to_string()))?;
         let doc = gltf.document;
         let buffers = load_buffers(path, &doc, gltf.blob)?;
-        let get = |b: gltf::Buffer| buffers.get(b.index()).map(|v| v.as_slice());
-
-        let n_nodes = doc.nodes().count();
-        let mut parents = vec![None; n_nodes];
-        let mut rest = Vec::with_capacity(n_nodes);
-        let mut node_weights = Vec::with_capacity(n_nodes);
-        for node in doc.nodes() {
-            for child in node.children() {
-                parents[child.index()] = Some(node.index());
-            }
-            let (t, r, s) = node.transform().decomposed();
-            rest.push(Trs { t: Vec3::from(t), r: Quat::from_array(r), s: Vec3::from(s) });
-            let w = node
-                .weights()
-                .or_else(|| node.mesh().and_then(|m| m.weights()))
-                .map(|w| w.to_vec())
-                .unwrap_or_default();
-            node_weights.push(w);
-        }
-
-        // Meshes of the default scene (or the first), with their nodes.
-        let scene = doc.default_scene().or_else(|| doc.scenes().next()).ok_or_else(|| err(path, "no scene"))?;
-        let mut stack: Vec<gltf::Node> = scene.nodes().collect();
-        let mut prims = Vec::new();
-        let mut raw_faces: Vec<[u32; 3]> = Vec::new();
-        let mut visited = vec![false; n_nodes];
-        while let Some(node) = stack.pop() {
-            if std::mem::replace(&mut visited[node.index()], true) {
-                return Err(err(path, "the node hierarchy has a cycle"));
-            }
-            stack.extend(node.children());
-            let Some(mesh) = node.mesh() else { continue };
-            let skin = match node.skin() {
-                Some(skin) => {
-                    let joints: Vec<usize> = skin.joints().map(|j| j.index()).collect();
-                    let ibm: Vec<Mat4> = match skin.reader(get).read_inverse_bind_matrices() {
-                        Some(m) => m.map(|m| Mat4::from_cols_array_2d(&m)).collect(),
-                        None => vec![Mat4::IDENTITY; joints.len()],
-                    };
-                    if ibm.len() != joints.len() {
-                        return Err(err(path, "skin has fewer inverse bind matrices than joints"));
-                    }
-                    Some((joints, ibm))
-                }
-                None => None,
-            };
-            for prim in mesh.primitives() {
-                if prim.mode() != gltf::mesh::Mode::Triangles {
-                    continue;
-                }
-                let reader = prim.reader(get);
-                let positions: Vec<Vec3> = reader
-                    .read_positions()
-                    .ok_or_else(|| err(path, format!("mesh {} has a primitive without positions", mesh.index())))?
-                    .map(Vec3::from)
-                    .collect();
-                let targets: Vec<Vec<Vec3>> = reader
-                    .read_morph_targets()
-                    .map(|(p, _, _)| match p {
-                        Some(p) => p.map(Vec3::from).collect(),
-                        None => vec![Vec3::ZERO; positions.len()],
-                    })
-                    .collect();
-                if targets.iter().any(|t| t.len() != positions.len()) {
-                    return Err(err(path, "a morph target's length differs from its primitive's"));
-                }
-                let (joints, weights) = if skin.is_some() {
-                    let j: Vec<[u16; 4]> = reader
-                        .read_joints(0)
-                        .ok_or_else(|| err(path, "skinned primitive without JOINTS_0"))?
-                        .into_u16()
-                        .collect();
-                    let w: Vec<[f32; 4]> = reader
-                        .read_weights(0)
-                        .ok_or_else(|| err(path, "skinned primitive without WEIGHTS_0"))?
-                        .into_f32()
-                        .collect();
-                    let nj = skin.as_ref().map_or(0, |s| s.0.len());
-                    if j.len() != positions.len()
-                        || w.len() != positions.len()
-                        || j.iter().flatten().any(|&x| x as usize >= nj)
-                    {
-                        return Err(err(path, "bad JOINTS_0/WEIGHTS_0 (length or joint index)"));
-                    }
-                    (j, w)
-                } else {
-                    (Vec::new(), Vec::new())
-                };
-                let base = prims.iter().map(|p: &Primitive| p.positions.len()).sum::<usize>() as u32;
-                let indices: Vec<u32> = match reader.read_indices() {
-                    Some(i) => i.into_u32().collect(),
-                    None => (0..positions.len() as u32).collect(),
-                };
-                if indices.len() % 3 != 0 || indices.iter().any(|&i| i as usize >= positions.len()) {
-                    return Err(err(path, format!("mesh {} has bad triangle indices", mesh.index())));
-                }
-                prims.push(Primitive { node: node.index(), positions, targets, skin: skin.clone(), joints, weights });
-                raw_faces.extend(indices.chunks(3).map(|c| [c[0] + base, c[1] + base, c[2] + base]));
-            }
-        }
-        if prims.is_empty() {
-            return Err(err(path, "the scene has no triangle mesh"));
-        }
-
-        // The animation to bake.
-        let anim = match animation {
-            None => doc.animations().next(),
-            Some(sel) => Some(
-                doc.animations()
-                    .find(|a| a.name() == Some(sel) || sel.parse::<usize>().ok() == Some(a.index()))
-                    .ok_or_else(|| err(path, format!("no animation named or numbered '{sel}'")))?,
-            ),
-        };
-        let mut channels = Vec::new();
-        if let Some(anim) = anim {
-            for ch in anim.channels() {
-                let r = ch.reader(get);
-                let inputs: Vec<f32> = r.read_inputs().ok_or_else(|| err(path, "channel without inputs"))?.collect();
-                let outputs: Vec<f32> = match r.read_outputs().ok_or_else(|| err(path, "channel without outputs"))? {
-                    gltf::animation::util::ReadOutputs::Translations(i) => i.flatten().collect(),
-                    gltf::animation::util::ReadOutputs::Scales(i) => i.flatten().collect(),
-                    gltf::animation::util::ReadOutputs::Rotations(i) => i.into_f32().flatten().collect(),
-                    gltf::animation::util::ReadOutputs::MorphTargetWeights(i) => i.into_f32().collect(),
-                };
-                let interpolation = ch.sampler().interpolation();
-                let per_key = if interpolation == Interpolation::CubicSpline { 3 } else { 1 };
-                if inputs.is_empty() || outputs.len() % (inputs.len() * per_key) != 0 {
-                    return Err(err(path, "animation sampler outputs do not match its inputs"));
-                }
-                if inputs.windows(2).any(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater))
-                    || inputs.iter().any(|t| !t.is_finite())
-                {
-                    return Err(err(path, "animation sampler times are not strictly increasing"));
-                }
-                let width = outputs.len() / (inputs.len() * per_key);
-                let property = ch.target().property();
-                let expected = match property {
-                    Property::Translation | Property::Scale => Some(3),
-                    Property::Rotation => Some(4),
-                    Property::MorphTargetWeights => None,
-                };
-                if expected.is_some_and(|e| e != width) {
-                    return Err(err(path, "animation output has the wrong number of components"));
-                }
-                channels.push(Channel {
-                    node: ch.target().node().index(),
-                    property,
-                    interpolation,
-                    inputs,
-                    outputs,
-                    width,
-                });
-            }
-        }
-        let start = channels.iter().map(|c| c.inputs[0]).fold(f32::INFINITY, f32::min);
-        let end = channels.iter().map(|c| *c.inputs.last().unwrap_or(&0.0)).fold(f32::NEG_INFINITY, f32::max);
-        let (start, frames) =
-            if channels.is_empty() { (0.0, 1) } else { (start, ((end - start) * fps + 1e-3).floor() as usize + 1) };
-        if frames > 1_000_000 {
-            return Err(err(path, format!("the animation would bake to {frames} frames")));
-        }
-
+        let (parents, rest, node_weights) = read_nodes(&doc);
+        let (prims, raw_faces) = read_meshes(path, &doc, &buffers)?;
+        let channels = read_animation(path, &doc, &buffers, animation)?;
+        let (start, frames) = frame_span(path, &channels, fps)?;
         let mut src = GltfSource {
             label: path.to_path_buf(),
             fps,
@@ -329,24 +359,28 @@ impl GltfSource {
             frames,
             weld: Vec::new(),
         };
-        // Weld vertices that coincide in the first frame.
-        let first = src.bake_raw(src.start);
+        src.weld_first_frame(&raw_faces);
+        Ok(src)
+    }
+
+    /// Welds the raw vertices that coincide in the first frame, setting `weld` and the welded `topology`.
+    fn weld_first_frame(&mut self, raw_faces: &[[u32; 3]]) {
+        let first = self.bake_raw(self.start);
         let mut map = std::collections::HashMap::new();
         let mut remap = Vec::with_capacity(first.len());
         for (i, p) in first.iter().enumerate() {
             let key = p.to_array().map(f32::to_bits);
             let next = map.len() as u32;
             let id = *map.entry(key).or_insert_with(|| {
-                src.weld.push(i as u32);
+                self.weld.push(i as u32);
                 next
             });
             remap.push(id);
         }
-        src.topology = Topology {
-            vertex_count: src.weld.len(),
+        self.topology = Topology {
+            vertex_count: self.weld.len(),
             faces: raw_faces.iter().map(|f| f.map(|i| remap[i as usize])).collect(),
         };
-        Ok(src)
     }
 
     fn globals(&self, t: f32) -> (Vec<Mat4>, Vec<Vec<f32>>) {

@@ -25,33 +25,47 @@ impl Drop for Scratch {
     }
 }
 
-/// Writes `frame_count` frames, produced one at a time by `frame(i)`, as a
-/// morph-target animated GLB at `path`.
-pub fn write_glb(
-    path: &Path,
+/// What the binary chunk holds, in order: the indices, every frame's
+/// positions (frame 0 as is, later frames as displacements from it), and
+/// with more than one frame the animation's times and weights.
+struct BinLayout {
+    faces: usize,
+    vertices: usize,
+    frames: usize,
+    /// Per frame, the bounds of what its accessor holds.
+    bounds: Vec<(Vec3, Vec3)>,
+    fps: f32,
+}
+
+impl BinLayout {
+    fn index_bytes(&self) -> usize {
+        self.faces * 12
+    }
+    fn positions_bytes(&self) -> usize {
+        self.frames * self.vertices * 12
+    }
+    fn targets(&self) -> usize {
+        self.frames - 1
+    }
+    fn len(&self) -> usize {
+        let animation = if self.targets() > 0 { self.frames * 4 + self.frames * self.targets() * 4 } else { 0 };
+        self.index_bytes() + self.positions_bytes() + animation
+    }
+}
+
+/// Writes the binary chunk to `bin`, reading the frames one at a time.
+fn write_bin(
+    bin: &mut impl Write,
+    werr: &dyn Fn(std::io::Error) -> Error,
     topology: &Topology,
     frame_count: usize,
     fps: f32,
-    name: &str,
-    mut frame: impl FnMut(usize) -> Result<Frame>,
-) -> Result<()> {
-    if frame_count == 0 {
-        return Err(Error::Argument("cannot write a sequence of zero frames".into()));
-    }
+    frame: &mut dyn FnMut(usize) -> Result<Frame>,
+) -> Result<BinLayout> {
     let nv = topology.vertex_count;
-    let mut scratch_name = std::ffi::OsString::from(".");
-    scratch_name.push(path.file_name().unwrap_or_default());
-    scratch_name.push(format!(".{}.bin.partial", std::process::id()));
-    let scratch = Scratch(path.with_file_name(scratch_name));
-    let mut bin = std::io::BufWriter::new(std::fs::File::create(&scratch.0).map_err(|e| Error::io(&scratch.0, e))?);
-    let werr = |e: std::io::Error| Error::io(&scratch.0, e);
-
-    for f in &topology.faces {
-        for i in f {
-            bin.write_all(&i.to_le_bytes()).map_err(werr)?;
-        }
+    for i in topology.faces.iter().flatten() {
+        bin.write_all(&i.to_le_bytes()).map_err(werr)?;
     }
-    let index_bytes = topology.faces.len() * 12;
     let mut bounds: Vec<(Vec3, Vec3)> = Vec::with_capacity(frame_count);
     let mut base: Vec<Vec3> = Vec::new();
     for k in 0..frame_count {
@@ -73,12 +87,11 @@ pub fn write_glb(
             base = positions;
         }
     }
-    let positions_bytes = frame_count * nv * 12;
-    let times: Vec<f32> = (0..frame_count).map(|k| k as f32 / fps).collect();
-    let targets = frame_count - 1;
+    let layout = BinLayout { faces: topology.faces.len(), vertices: nv, frames: frame_count, bounds, fps };
+    let targets = layout.targets();
     if targets > 0 {
-        for t in &times {
-            bin.write_all(&t.to_le_bytes()).map_err(werr)?;
+        for k in 0..frame_count {
+            bin.write_all(&(k as f32 / fps).to_le_bytes()).map_err(werr)?;
         }
         for k in 0..frame_count {
             for j in 0..targets {
@@ -88,14 +101,18 @@ pub fn write_glb(
         }
     }
     bin.flush().map_err(werr)?;
-    drop(bin);
-    let bin_len =
-        index_bytes + positions_bytes + if targets > 0 { frame_count * 4 + frame_count * targets * 4 } else { 0 };
+    Ok(layout)
+}
 
+/// The glTF document for a binary chunk laid out as `l`. The frames'
+/// accessors share one buffer view, which therefore states its stride (as
+/// glTF requires of a view that several vertex accessors read).
+fn gltf_json(l: &BinLayout, name: &str) -> serde_json::Value {
+    let (index_bytes, positions_bytes, targets, nv) = (l.index_bytes(), l.positions_bytes(), l.targets(), l.vertices);
     let mut accessors = vec![json!({
-        "bufferView": 0, "componentType": UNSIGNED_INT, "count": topology.faces.len() * 3, "type": "SCALAR"
+        "bufferView": 0, "componentType": UNSIGNED_INT, "count": l.faces * 3, "type": "SCALAR"
     })];
-    for (k, (lo, hi)) in bounds.iter().enumerate() {
+    for (k, (lo, hi)) in l.bounds.iter().enumerate() {
         accessors.push(json!({
             "bufferView": 1, "byteOffset": k * nv * 12, "componentType": FLOAT, "count": nv, "type": "VEC3",
             "min": lo.to_array(), "max": hi.to_array()
@@ -103,7 +120,8 @@ pub fn write_glb(
     }
     let mut buffer_views = vec![
         json!({"buffer": 0, "byteOffset": 0, "byteLength": index_bytes, "target": ELEMENT_ARRAY_BUFFER}),
-        json!({"buffer": 0, "byteOffset": index_bytes, "byteLength": positions_bytes, "target": ARRAY_BUFFER}),
+        json!({"buffer": 0, "byteOffset": index_bytes, "byteLength": positions_bytes, "byteStride": 12,
+            "target": ARRAY_BUFFER}),
     ];
     let mut primitive = json!({"attributes": {"POSITION": 1}, "indices": 0, "mode": 4});
     let mut mesh = json!({"name": name});
@@ -112,21 +130,20 @@ pub fn write_glb(
         "scene": 0,
         "scenes": [{"nodes": [0]}],
         "nodes": [{"mesh": 0, "name": name}],
-        "buffers": [{"byteLength": bin_len}],
+        "buffers": [{"byteLength": l.len()}],
     });
     if targets > 0 {
         primitive["targets"] = (0..targets).map(|j| json!({"POSITION": j + 2})).collect();
         mesh["weights"] = vec![0.0; targets].into();
-        mesh["extras"] = json!({"targetNames": (1..frame_count).map(|k| format!("frame {k}")).collect::<Vec<_>>()});
+        mesh["extras"] = json!({"targetNames": (1..l.frames).map(|k| format!("frame {k}")).collect::<Vec<_>>()});
         let t_off = index_bytes + positions_bytes;
-        buffer_views.push(json!({"buffer": 0, "byteOffset": t_off, "byteLength": frame_count * 4}));
+        buffer_views.push(json!({"buffer": 0, "byteOffset": t_off, "byteLength": l.frames * 4}));
         buffer_views
-            .push(json!({"buffer": 0, "byteOffset": t_off + frame_count * 4, "byteLength": frame_count * targets * 4}));
+            .push(json!({"buffer": 0, "byteOffset": t_off + l.frames * 4, "byteLength": l.frames * targets * 4}));
         let input = accessors.len();
-        accessors.push(json!({"bufferView": 2, "componentType": FLOAT, "count": frame_count, "type": "SCALAR",
-            "min": [times[0]], "max": [times[frame_count - 1]]}));
-        accessors
-            .push(json!({"bufferView": 3, "componentType": FLOAT, "count": frame_count * targets, "type": "SCALAR"}));
+        accessors.push(json!({"bufferView": 2, "componentType": FLOAT, "count": l.frames, "type": "SCALAR",
+            "min": [0.0], "max": [(l.frames - 1) as f32 / l.fps]}));
+        accessors.push(json!({"bufferView": 3, "componentType": FLOAT, "count": l.frames * targets, "type": "SCALAR"}));
         doc["animations"] = json!([{
             "name": "motion",
             "channels": [{"sampler": 0, "target": {"node": 0, "path": "weights"}}],
@@ -137,8 +154,13 @@ pub fn write_glb(
     doc["meshes"] = json!([mesh]);
     doc["accessors"] = accessors.into();
     doc["bufferViews"] = buffer_views.into();
+    doc
+}
 
-    let mut json_bytes = serde_json::to_vec(&doc).map_err(|e| Error::Numerical(e.to_string()))?;
+/// Writes the GLB container: header, JSON chunk, and the binary chunk
+/// copied from `bin_path` (`bin_len` bytes), padded to 4 bytes.
+fn write_container(path: &Path, doc: &serde_json::Value, bin_path: &Path, bin_len: usize) -> Result<()> {
+    let mut json_bytes = serde_json::to_vec(doc).map_err(|e| Error::Numerical(e.to_string()))?;
     while json_bytes.len() % 4 != 0 {
         json_bytes.push(b' ');
     }
@@ -158,10 +180,10 @@ pub fn write_glb(
     out.write_all(&json_bytes)?;
     out.write_all(&(bin_padded as u32).to_le_bytes())?;
     out.write_all(b"BIN\0")?;
-    let mut f = std::fs::File::open(&scratch.0).map_err(|e| Error::io(&scratch.0, e))?;
+    let mut f = std::fs::File::open(bin_path).map_err(|e| Error::io(bin_path, e))?;
     let mut buf = vec![0u8; 1 << 20];
     loop {
-        let n = f.read(&mut buf).map_err(|e| Error::io(&scratch.0, e))?;
+        let n = f.read(&mut buf).map_err(|e| Error::io(bin_path, e))?;
         if n == 0 {
             break;
         }
@@ -169,6 +191,31 @@ pub fn write_glb(
     }
     out.write_all(&vec![0u8; bin_padded - bin_len])?;
     out.commit()
+}
+
+/// Writes `frame_count` frames, produced one at a time by `frame(i)`, as a
+/// morph-target animated GLB at `path`. The binary chunk goes to a scratch
+/// file first: its size is known only after the last frame.
+pub fn write_glb(
+    path: &Path,
+    topology: &Topology,
+    frame_count: usize,
+    fps: f32,
+    name: &str,
+    mut frame: impl FnMut(usize) -> Result<Frame>,
+) -> Result<()> {
+    if frame_count == 0 {
+        return Err(Error::Argument("cannot write a sequence of zero frames".into()));
+    }
+    crate::fsutil::check_output_folder(path)?;
+    let mut scratch_name = std::ffi::OsString::from(".");
+    scratch_name.push(path.file_name().unwrap_or_default());
+    scratch_name.push(format!(".{}.bin.partial", std::process::id()));
+    let scratch = Scratch(path.with_file_name(scratch_name));
+    let werr = |e: std::io::Error| Error::io(path, e);
+    let file = std::fs::File::create(&scratch.0).map_err(werr)?;
+    let layout = write_bin(&mut std::io::BufWriter::new(file), &werr, topology, frame_count, fps, &mut frame)?;
+    write_container(path, &gltf_json(&layout, name), &scratch.0, layout.len())
 }
 
 /// Writes frames as `DIR/frame_0000.obj`, ... The folder must not exist or

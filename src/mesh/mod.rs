@@ -2,16 +2,19 @@
 //! every frame, one array of positions per frame.
 
 pub mod adjacency;
+pub mod builtin;
 pub mod gltf_in;
 pub mod gltf_out;
 pub mod obj;
+pub mod open;
 pub mod source;
 pub mod topology;
 
 use glam::Vec3;
 
 pub use adjacency::Adjacency;
-pub use source::{open_sequence, FrameSource, InMemory, OpenOptions};
+pub use open::{open_sequence, FrameSelection, OpenOptions};
+pub use source::{FrameSource, InMemory};
 pub use topology::{analyze, TopologyReport};
 
 /// Positions of one frame, indexed like the sequence's vertices.

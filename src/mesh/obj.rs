@@ -1,11 +1,12 @@
 //! Wavefront OBJ: positions and faces only (normals, texture coordinates,
 //! groups and materials are ignored). Polygons are split into fans.
 
+use super::source::{check_frame, FrameSource};
 use super::{Frame, Topology};
 use crate::error::{Error, MeshProblem, Result};
 use crate::fsutil::AtomicFile;
 use glam::Vec3;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Parses OBJ text. `path` only labels errors.
 pub fn parse_obj(text: &str, path: &Path) -> Result<(Frame, Vec<[u32; 3]>)> {
@@ -93,6 +94,83 @@ pub fn frame_number(path: &Path) -> Option<u64> {
     let end = bytes.iter().rposition(|b| b.is_ascii_digit())? + 1;
     let start = bytes[..end].iter().rposition(|b| !b.is_ascii_digit()).map_or(0, |p| p + 1);
     stem[start..end].parse().ok()
+}
+
+/// A folder of OBJ files, one per frame, in the order of the number in their
+/// names; or a single OBJ file as a one-frame sequence.
+pub struct ObjFolder {
+    label: PathBuf,
+    files: Vec<PathBuf>,
+    fps: f32,
+    topology: Topology,
+}
+
+impl ObjFolder {
+    pub fn open(dir: &Path, fps: f32) -> Result<ObjFolder> {
+        let entries = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?;
+        let mut files = Vec::new();
+        for entry in entries {
+            let entry = entry.map_err(|e| Error::io(dir, e))?;
+            let p = entry.path();
+            if p.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("obj")) {
+                files.push(p);
+            }
+        }
+        if files.is_empty() {
+            return Err(Error::Argument(format!("{}: no .obj files in this folder", dir.display())));
+        }
+        // Numeric order first (2 before 10), then by name for files without a number.
+        files.sort_by(|a, b| {
+            (frame_number(a).is_none(), frame_number(a), a.file_name()).cmp(&(
+                frame_number(b).is_none(),
+                frame_number(b),
+                b.file_name(),
+            ))
+        });
+        Self::from_files(dir, files, fps)
+    }
+
+    pub fn single(path: &Path, fps: f32) -> Result<ObjFolder> {
+        Self::from_files(path, vec![path.to_path_buf()], fps)
+    }
+
+    fn from_files(label: &Path, files: Vec<PathBuf>, fps: f32) -> Result<ObjFolder> {
+        let (positions, faces) = read_obj(&files[0])?;
+        let topology = Topology { vertex_count: positions.len(), faces };
+        check_frame(&files[0], &topology, &positions, None)?;
+        Ok(ObjFolder { label: label.to_path_buf(), files, fps, topology })
+    }
+}
+
+impl FrameSource for ObjFolder {
+    fn label(&self) -> &Path {
+        &self.label
+    }
+    fn frame_count(&self) -> usize {
+        self.files.len()
+    }
+    fn fps(&self) -> f32 {
+        self.fps
+    }
+    fn topology(&self) -> &Topology {
+        &self.topology
+    }
+    fn kind(&self) -> &'static str {
+        if self.files.len() == 1 && self.files[0] == self.label {
+            "OBJ file"
+        } else {
+            "folder of OBJ files"
+        }
+    }
+    fn read_frame(&self, i: usize) -> Result<Frame> {
+        let path = self
+            .files
+            .get(i)
+            .ok_or_else(|| Error::Argument(format!("frame {i} is past the last frame {}", self.files.len() - 1)))?;
+        let (positions, faces) = read_obj(path)?;
+        check_frame(path, &self.topology, &positions, Some(&faces))?;
+        Ok(positions)
+    }
 }
 
 #[cfg(test)]

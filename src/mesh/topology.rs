@@ -115,16 +115,9 @@ pub fn boundary_loops(faces: &[[u32; 3]], adj: &Adjacency) -> Vec<Vec<u32>> {
     loops
 }
 
-/// Measures the topology of `topology` with the positions of its first frame.
-pub fn analyze(topology: &Topology, first: &[Vec3]) -> TopologyReport {
-    let faces = &topology.faces;
-    let nv = topology.vertex_count;
-    let mut problems = Vec::new();
-    if faces.is_empty() {
-        problems.push(MeshProblem::NoFaces);
-    }
+/// Counts degenerate (repeated-vertex) and zero-area faces, reporting the first of each.
+fn count_bad_faces(faces: &[[u32; 3]], first: &[Vec3], problems: &mut Vec<MeshProblem>) -> (usize, usize) {
     let diag2 = Bounds::of(first).diagonal().powi(2);
-
     let mut degenerate_faces = 0;
     let mut zero_area_faces = 0;
     for (fi, f) in faces.iter().enumerate() {
@@ -150,7 +143,11 @@ pub fn analyze(topology: &Topology, first: &[Vec3]) -> TopologyReport {
             }
         }
     }
+    (degenerate_faces, zero_area_faces)
+}
 
+/// Counts faces on the same vertex set as another, reporting the first pair.
+fn count_duplicate_faces(faces: &[[u32; 3]], problems: &mut Vec<MeshProblem>) -> usize {
     let mut sorted: Vec<([u32; 3], usize)> = faces
         .iter()
         .enumerate()
@@ -170,15 +167,11 @@ pub fn analyze(topology: &Topology, first: &[Vec3]) -> TopologyReport {
             duplicate_faces += 1;
         }
     }
+    duplicate_faces
+}
 
-    let adj = Adjacency::build(faces);
-    if let Some(&(a, b, count)) = adj.non_manifold_edges.first() {
-        problems.push(MeshProblem::NonManifoldEdge { a, b, count });
-    }
-    if let Some(&(a, b)) = adj.inconsistent_edges.first() {
-        problems.push(MeshProblem::InconsistentOrientation { a, b });
-    }
-
+/// The number of fans around each vertex (0 where unused): more than one makes it non-manifold.
+fn count_fans(faces: &[[u32; 3]], adj: &Adjacency, nv: usize) -> Vec<usize> {
     // Fans: corners (outgoing half-edges) around a vertex joined across its edges.
     let mut corners = Dsu::new(faces.len() * 3);
     for (h, &o) in adj.opposite.iter().enumerate() {
@@ -200,6 +193,11 @@ pub fn analyze(topology: &Topology, first: &[Vec3]) -> TopologyReport {
             fans[v] += 1;
         }
     }
+    fans
+}
+
+/// Counts non-manifold and unused vertices from their fan counts, reporting the first of each.
+fn count_bad_vertices(fans: &[usize], problems: &mut Vec<MeshProblem>) -> (usize, usize) {
     let mut non_manifold_vertices = 0;
     let mut unused_vertices = 0;
     for (v, &fan_count) in fans.iter().enumerate() {
@@ -215,7 +213,11 @@ pub fn analyze(topology: &Topology, first: &[Vec3]) -> TopologyReport {
             unused_vertices += 1;
         }
     }
+    (non_manifold_vertices, unused_vertices)
+}
 
+/// The number of connected components among the faces' vertices.
+fn count_components(faces: &[[u32; 3]], nv: usize) -> usize {
     let mut comps = Dsu::new(nv);
     for f in faces {
         comps.union(f[0], f[1]);
@@ -225,7 +227,30 @@ pub fn analyze(topology: &Topology, first: &[Vec3]) -> TopologyReport {
     for f in faces {
         roots.insert(comps.find(f[0]));
     }
-    let components = roots.len();
+    roots.len()
+}
+
+/// Measures the topology of `topology` with the positions of its first frame.
+pub fn analyze(topology: &Topology, first: &[Vec3]) -> TopologyReport {
+    let faces = &topology.faces;
+    let nv = topology.vertex_count;
+    let mut problems = Vec::new();
+    if faces.is_empty() {
+        problems.push(MeshProblem::NoFaces);
+    }
+    let (degenerate_faces, zero_area_faces) = count_bad_faces(faces, first, &mut problems);
+    let duplicate_faces = count_duplicate_faces(faces, &mut problems);
+
+    let adj = Adjacency::build(faces);
+    if let Some(&(a, b, count)) = adj.non_manifold_edges.first() {
+        problems.push(MeshProblem::NonManifoldEdge { a, b, count });
+    }
+    if let Some(&(a, b)) = adj.inconsistent_edges.first() {
+        problems.push(MeshProblem::InconsistentOrientation { a, b });
+    }
+    let fans = count_fans(faces, &adj, nv);
+    let (non_manifold_vertices, unused_vertices) = count_bad_vertices(&fans, &mut problems);
+    let components = count_components(faces, nv);
     if components > 1 {
         problems.push(MeshProblem::Components { count: components });
     }

@@ -23,7 +23,7 @@ pub fn vertex_error(a: &[Vec3], b: &[Vec3]) -> (f64, f64) {
 /// Laplacian, v the uncompressed grid and v' the decoded one. A rigid
 /// translation of the whole grid gives 0; the paper's Table 2 divides it by
 /// the bounding-box diagonal and reports units of 1e-4.
-pub fn smoothness(st: &crate::codec::features::Stencils, v: &[Vec3], decoded: &[Vec3]) -> f64 {
+pub fn smoothness(st: &crate::grid::stencil::Stencils, v: &[Vec3], decoded: &[Vec3]) -> f64 {
     assert_eq!(v.len(), decoded.len(), "smoothness needs two grids of one size");
     let n = v.len().max(1);
     let sum: f64 = (0..v.len()).map(|i| (st.laplacian(v, i) - st.laplacian(decoded, i)).length_squared() as f64).sum();

@@ -181,50 +181,72 @@ pub fn choose_cones(graph: &Graph, nv: usize) -> ([u32; 4], u32) {
     (cones, corner_for(graph, nv, &cones))
 }
 
-impl Cut {
-    /// Builds the cut for the given cones and corner vertex. `mirror` assigns
-    /// the cones to the square's sides in the opposite rotational order (for
-    /// meshes whose faces turn clockwise seen from outside).
-    pub fn new(
-        faces: &[[u32; 3]],
-        adj: &Adjacency,
-        graph: &Graph,
-        nv: usize,
-        cones: [u32; 4],
-        corner: u32,
-        mirror: bool,
-    ) -> Result<Cut> {
-        let mut distinct = cones.to_vec();
-        distinct.push(corner);
-        distinct.sort_unstable();
-        distinct.dedup();
-        if distinct.len() != 5 || distinct.iter().any(|&v| v as usize >= nv) {
-            return Err(Error::Argument(format!("cones {cones:?} and corner {corner} must be five distinct vertices")));
+/// Checks that the cones and the corner are five distinct vertices of the mesh.
+fn check_cone_vertices(nv: usize, cones: [u32; 4], corner: u32) -> Result<()> {
+    let mut distinct = cones.to_vec();
+    distinct.push(corner);
+    distinct.sort_unstable();
+    distinct.dedup();
+    if distinct.len() != 5 || distinct.iter().any(|&v| v as usize >= nv) {
+        return Err(Error::Argument(format!("cones {cones:?} and corner {corner} must be five distinct vertices")));
+    }
+    Ok(())
+}
+
+/// Shortest paths from `corner` to each cone, both ends included, in the order of `cones`.
+fn cut_paths(graph: &Graph, nv: usize, cones: [u32; 4], corner: u32) -> Result<Vec<Vec<u32>>> {
+    // Four disjoint paths from the corner, each avoiding the others and the other cones.
+    let mut blocked = vec![false; nv];
+    for &c in &cones {
+        blocked[c as usize] = true;
+    }
+    let mut paths: Vec<Vec<u32>> = Vec::new();
+    for &cone in &cones {
+        blocked[cone as usize] = false;
+        let (dist, pred) = graph.dijkstra(corner, &blocked);
+        if !dist[cone as usize].is_finite() {
+            return Err(Error::Numerical(format!(
+                "cannot cut the surface: no path from vertex {corner} to cone {cone} avoids the other cuts"
+            )));
         }
-        // Four disjoint paths from the corner, each avoiding the others and the other cones.
-        let mut blocked = vec![false; nv];
-        for &c in &cones {
-            blocked[c as usize] = true;
+        let mut path = vec![cone];
+        while *path.last().unwrap_or(&corner) != corner {
+            path.push(pred[*path.last().unwrap_or(&corner) as usize]);
         }
-        let mut paths: Vec<Vec<u32>> = Vec::new();
-        for &cone in &cones {
-            blocked[cone as usize] = false;
-            let (dist, pred) = graph.dijkstra(corner, &blocked);
-            if !dist[cone as usize].is_finite() {
-                return Err(Error::Numerical(format!(
-                    "cannot cut the surface: no path from vertex {corner} to cone {cone} avoids the other cuts"
-                )));
-            }
-            let mut path = vec![cone];
-            while *path.last().unwrap_or(&corner) != corner {
-                path.push(pred[*path.last().unwrap_or(&corner) as usize]);
-            }
-            path.reverse();
-            for &v in &path[1..] {
-                blocked[v as usize] = true;
-            }
-            paths.push(path);
+        path.reverse();
+        for &v in &path[1..] {
+            blocked[v as usize] = true;
         }
+        paths.push(path);
+    }
+    Ok(paths)
+}
+
+/// Reorders the cones and their paths so that `cones[i]` sits at `CONE_UV[i]`.
+fn order_by_side(cones: [u32; 4], paths: &[Vec<u32>], cone_uv: &[DVec2; 4]) -> ([u32; 4], [Vec<u32>; 4]) {
+    let mut ordered = [0u32; 4];
+    let mut ordered_paths: [Vec<u32>; 4] = Default::default();
+    for k in 0..4 {
+        let side = CONE_UV.iter().position(|&m| m == cone_uv[k]).unwrap_or(k);
+        ordered[side] = cones[k];
+        ordered_paths[side] = paths[k].clone();
+    }
+    (ordered, ordered_paths)
+}
+
+/// The fans of a mesh's vertices, walked with respect to the cut paths.
+struct CutFans<'a> {
+    faces: &'a [[u32; 3]],
+    adj: &'a Adjacency,
+    /// Cut edges (as sorted vertex pairs), labelled by their path.
+    cut_edge: HashMap<(u32, u32), usize>,
+    /// A half-edge leaving each vertex.
+    out_he: Vec<u32>,
+}
+
+impl<'a> CutFans<'a> {
+    /// Labels the edges of `paths` and finds a half-edge leaving each vertex.
+    fn new(faces: &'a [[u32; 3]], adj: &'a Adjacency, nv: usize, paths: &[Vec<u32>]) -> CutFans<'a> {
         // Cut edges, labelled by their path.
         let mut cut_edge: HashMap<(u32, u32), usize> = HashMap::new();
         for (k, p) in paths.iter().enumerate() {
@@ -232,37 +254,45 @@ impl Cut {
                 cut_edge.insert((w[0].min(w[1]), w[0].max(w[1])), k);
             }
         }
-        let is_cut = |a: u32, b: u32| cut_edge.get(&(a.min(b), a.max(b))).copied();
-
         let mut out_he = vec![u32::MAX; nv];
         for h in 0..(faces.len() * 3) as u32 {
             out_he[origin(faces, h) as usize] = h;
         }
-        // Walks the fan of `v` counter-clockwise from just after a cut edge and
-        // returns (corner half-edge, number of cut edges crossed before it), and
-        // the paths crossed in order (the first is the one the walk starts after).
-        let walk = |v: u32| -> (Vec<(u32, usize)>, Vec<usize>) {
-            let any = out_he[v as usize];
-            let start = adj.fan(any).find(|&h| is_cut(v, target(faces, h)).is_some()).unwrap_or(any);
-            let mut crossed = vec![is_cut(v, target(faces, start)).unwrap_or(0)];
-            let mut comp = 0;
-            let mut corners = Vec::new();
-            for h in adj.fan(start) {
-                corners.push((h, comp));
-                let b = origin(faces, prev(h));
-                if let Some(k) = is_cut(v, b) {
-                    comp += 1;
-                    crossed.push(k);
-                }
-            }
-            (corners, crossed)
-        };
+        CutFans { faces, adj, cut_edge, out_he }
+    }
 
-        let mut corner_iso = vec![[Iso::IDENTITY; 3]; faces.len()];
+    /// The path edge `a`-`b` lies on, if it is a cut edge.
+    fn is_cut(&self, a: u32, b: u32) -> Option<usize> {
+        self.cut_edge.get(&(a.min(b), a.max(b))).copied()
+    }
+
+    /// Walks the fan of `v` counter-clockwise from just after a cut edge and
+    /// returns (corner half-edge, number of cut edges crossed before it), and
+    /// the paths crossed in order (the first is the one the walk starts after).
+    fn walk(&self, v: u32) -> (Vec<(u32, usize)>, Vec<usize>) {
+        let (faces, adj) = (self.faces, self.adj);
+        let any = self.out_he[v as usize];
+        let start = adj.fan(any).find(|&h| self.is_cut(v, target(faces, h)).is_some()).unwrap_or(any);
+        let mut crossed = vec![self.is_cut(v, target(faces, start)).unwrap_or(0)];
+        let mut comp = 0;
+        let mut corners = Vec::new();
+        for h in adj.fan(start) {
+            corners.push((h, comp));
+            let b = origin(faces, prev(h));
+            if let Some(k) = self.is_cut(v, b) {
+                comp += 1;
+                crossed.push(k);
+            }
+        }
+        (corners, crossed)
+    }
+
+    /// Sets the isometries of the corners around the corner vertex and returns each path's cone position.
+    fn around_corner(&self, corner: u32, mirror: bool, corner_iso: &mut [[Iso; 3]]) -> Result<[DVec2; 4]> {
         let mut cone_uv = [DVec2::ZERO; 4];
         // Around the corner vertex: the paths in rotational order get the
         // square's sides top, right, bottom, left (or the mirror order).
-        let (corners, crossed) = walk(corner);
+        let (corners, crossed) = self.walk(corner);
         if crossed.len() != 5 {
             return Err(Error::Numerical(format!(
                 "cut around vertex {corner} crosses {} paths, expected 4",
@@ -280,11 +310,16 @@ impl Cut {
         for (h, comp) in corners {
             corner_iso[(h / 3) as usize][(h % 3) as usize] = comp_iso[comp.min(3)];
         }
+        Ok(cone_uv)
+    }
+
+    /// Sets the isometries of the corners on one side of each path's inner vertices.
+    fn along_paths(&self, paths: &[Vec<u32>], cone_uv: &[DVec2; 4], corner_iso: &mut [[Iso; 3]]) -> Result<()> {
         // Along each path: the two sides differ by the half-turn about its cone.
         for (k, p) in paths.iter().enumerate() {
             let ht = Iso::half_turn(cone_uv[k]);
             for &v in &p[1..p.len() - 1] {
-                let (corners, crossed) = walk(v);
+                let (corners, crossed) = self.walk(v);
                 if crossed.len() != 3 {
                     return Err(Error::Numerical(format!("cut path meets itself at vertex {v}")));
                 }
@@ -295,14 +330,30 @@ impl Cut {
                 }
             }
         }
-        // Reorder so cones[i] sits at CONE_UV[i].
-        let mut ordered = [0u32; 4];
-        let mut ordered_paths: [Vec<u32>; 4] = Default::default();
-        for k in 0..4 {
-            let side = CONE_UV.iter().position(|&m| m == cone_uv[k]).unwrap_or(k);
-            ordered[side] = cones[k];
-            ordered_paths[side] = paths[k].clone();
-        }
+        Ok(())
+    }
+}
+
+impl Cut {
+    /// Builds the cut for the given cones and corner vertex. `mirror` assigns
+    /// the cones to the square's sides in the opposite rotational order (for
+    /// meshes whose faces turn clockwise seen from outside).
+    pub fn new(
+        faces: &[[u32; 3]],
+        adj: &Adjacency,
+        graph: &Graph,
+        nv: usize,
+        cones: [u32; 4],
+        corner: u32,
+        mirror: bool,
+    ) -> Result<Cut> {
+        check_cone_vertices(nv, cones, corner)?;
+        let paths = cut_paths(graph, nv, cones, corner)?;
+        let fans = CutFans::new(faces, adj, nv, &paths);
+        let mut corner_iso = vec![[Iso::IDENTITY; 3]; faces.len()];
+        let cone_uv = fans.around_corner(corner, mirror, &mut corner_iso)?;
+        fans.along_paths(&paths, &cone_uv, &mut corner_iso)?;
+        let (ordered, ordered_paths) = order_by_side(cones, &paths, &cone_uv);
         Ok(Cut { cones: ordered, corner, paths: ordered_paths, corner_iso })
     }
 }

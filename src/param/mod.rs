@@ -25,14 +25,12 @@
 //! 3. **Chosen by the grid.** Mean area stretch is not what the codecs pay
 //!    for; the grid's resampling error is. The encoder scores the maps the
 //!    passes go through by that error and keeps the best, and places the
-//!    cones by the same error ([`choose`]). The passes themselves run in
+//!    cones by the same error (`crate::geometry_image`). The passes themselves run in
 //!    [`area`], resumable so that cone placements can race.
 //!
 //! Both the conformal and the final map's distortion are reported.
 
 pub mod area;
-#[cfg(not(target_arch = "wasm32"))]
-pub mod choose;
 pub mod cut;
 pub mod distortion;
 pub mod orbifold;

@@ -11,8 +11,8 @@ pub mod camera;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod offscreen;
 
-use crate::codec::features::Stencils;
 use crate::error::{Error, Result};
+use crate::grid::stencil::Stencils;
 use crate::grid::Grid;
 use camera::OrbitCamera;
 use glam::Vec3;
@@ -228,19 +228,22 @@ impl Renderer {
         size: (u32, u32),
         camera: &OrbitCamera,
     ) {
-        if self.depth.as_ref().is_none_or(|d| d.1 != size) {
-            let tex = device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("cgv depth"),
-                size: wgpu::Extent3d { width: size.0.max(1), height: size.1.max(1), depth_or_array_layers: 1 },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format: DEPTH,
-                usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
-                view_formats: &[],
-            });
-            self.depth = Some((tex.create_view(&Default::default()), size));
-        }
+        let depth = match self.depth.take() {
+            Some(d) if d.1 == size => d,
+            _ => {
+                let tex = device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some("cgv depth"),
+                    size: wgpu::Extent3d { width: size.0.max(1), height: size.1.max(1), depth_or_array_layers: 1 },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: DEPTH,
+                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+                    view_formats: &[],
+                });
+                (tex.create_view(&Default::default()), size)
+            }
+        };
         let u = Uniforms {
             view_proj: camera.view_proj(size.0 as f32 / size.1.max(1) as f32).to_cols_array_2d(),
             eye: camera.eye().extend(1.0).to_array(),
@@ -249,7 +252,7 @@ impl Renderer {
         queue.write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&u));
         let mut enc = device.create_command_encoder(&Default::default());
         {
-            let depth = &self.depth.as_ref().expect("made above").0;
+            let depth = &depth.0;
             let mut pass = enc.begin_render_pass(&wgpu::RenderPassDescriptor {
                 label: Some("cgv surface"),
                 color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -277,6 +280,7 @@ impl Renderer {
             pass.draw_indexed(0..self.index_count, 0, 0..1);
         }
         queue.submit([enc.finish()]);
+        self.depth = Some(depth);
     }
 }
 

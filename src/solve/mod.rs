@@ -2,19 +2,19 @@
 //!
 //! - [`paper`]: the paper's Eq. 1 as written (squared magnitudes), solved by
 //!   L-BFGS from the previous frame moved rigidly onto the new anchors.
-//! - [`cgv`]: the project's decoder: each frame predicted from the decoded
+//! - [`predictor`]: the project's predictive decoder: each frame predicted from the decoded
 //!   past (rigid or velocity extrapolation, then mean-curvature steps with a
 //!   matrix factored once per sequence), plus the encoder's closed-loop
 //!   corrections.
 //! - [`rigid`]: the rigid motion between anchor sets (Horn 1987).
 
-pub mod cgv;
 pub mod paper;
+pub mod predictor;
 pub mod rigid;
 
 use crate::error::{Error, Result};
 use glam::Vec3;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 /// The first guess for a frame: `init` when given (frame 0's seed), else the
 /// previous decoded frame moved by the rigid motion that best maps its
@@ -34,36 +34,7 @@ pub(crate) fn warm_start(
     }
 }
 
-/// Which decoder to run on a CGV file.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
-#[serde(rename_all = "lowercase")]
-pub enum SolverKind {
-    /// The project's solver (see [`cgv`]).
-    #[default]
-    Cgv,
-    /// The paper's Eq. 1 as written (see [`paper`]).
-    Paper,
-}
-
-impl std::str::FromStr for SolverKind {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "cgv" => Ok(SolverKind::Cgv),
-            "paper" => Ok(SolverKind::Paper),
-            _ => Err(format!("unknown solver '{s}' (expected cgv or paper)")),
-        }
-    }
-}
-
-impl std::fmt::Display for SolverKind {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            SolverKind::Cgv => "cgv",
-            SolverKind::Paper => "paper",
-        })
-    }
-}
+pub use crate::format::SolverKind;
 
 /// What a solve of one frame did.
 #[derive(Debug, Clone, Copy, Default, Serialize)]

@@ -11,8 +11,8 @@
 //! so that the difference can be measured.
 
 use super::SolveStats;
-use crate::codec::features::Stencils;
 use crate::error::{Error, Result};
+use crate::grid::stencil::Stencils;
 use glam::Vec3;
 
 /// L-BFGS memory.

@@ -1,7 +1,7 @@
 //! `cgv decode`: a `.cgv` file back into a mesh sequence (GLB or OBJ folder).
 
 use anyhow::Result;
-use cgv::codec::{h264, SequenceDecoder};
+use cgv::codec::FileDecoder;
 use cgv::solve::SolverKind;
 use std::path::PathBuf;
 
@@ -16,27 +16,45 @@ pub struct Args {
     /// Default: the one recorded in the file.
     #[arg(long)]
     solver: Option<SolverKind>,
+    #[command(flatten)]
+    memory: MemoryArgs,
     /// Print statistics as JSON.
     #[arg(long)]
     json: bool,
 }
 
-pub fn read_cgv(path: &std::path::Path) -> Result<cgv::container::CgvFile> {
+/// The decoder's memory limit, for files from elsewhere.
+#[derive(clap::Args, Debug, Clone, Copy)]
+pub struct MemoryArgs {
+    /// Refuse a file whose decoding would need more than this many MiB
+    /// (what its header asks for: grid size, frames held, streams).
+    #[arg(long, value_name = "MIB", default_value_t = 1024, value_parser = clap::value_parser!(u64).range(1..))]
+    pub memory_limit: u64,
+}
+
+pub fn read_cgv(path: &std::path::Path) -> Result<cgv::format::CgvFile> {
     let bytes = std::fs::read(path).map_err(|e| cgv::Error::io(path, e))?;
-    Ok(cgv::container::read(&bytes).map_err(|e| cgv::Error::Container { path: path.into(), source: e })?)
+    Ok(cgv::format::read(&bytes).map_err(|e| cgv::Error::Container { path: path.into(), source: e })?)
+}
+
+/// Reads `path` and starts decoding it with `solver` (default: the file's).
+pub fn open_decoder(
+    path: &std::path::Path,
+    solver: Option<SolverKind>,
+    memory: MemoryArgs,
+) -> Result<(FileDecoder, SolverKind)> {
+    let file = read_cgv(path)?;
+    let solver = solver.unwrap_or(file.header.solver);
+    let dec = FileDecoder::with_memory_limit(file, solver, memory.memory_limit << 20)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+    Ok((dec, solver))
 }
 
 pub fn run(args: Args) -> Result<()> {
-    let file = read_cgv(&args.input)?;
-    let solver = match args.solver {
-        Some(s) => s,
-        None => file.header.solver.parse().unwrap_or_default(),
-    };
-    let grid = cgv::grid::Grid::new(file.header.grid as usize)?;
-    let topo = grid.topology();
-    let frames = file.header.frames as usize;
-    let fps = file.header.fps;
-    let mut dec = SequenceDecoder::new(file, solver, h264::Decoder::new)?;
+    let (mut dec, solver) = open_decoder(&args.input, args.solver, args.memory)?;
+    let topo = dec.grid.topology();
+    let frames = dec.frame_count();
+    let fps = dec.file.header.fps;
     let pb = super::progress(frames, "decoding", args.json);
     let mut stats = Vec::with_capacity(frames);
     let mut next = |_i: usize| -> cgv::Result<Vec<glam::Vec3>> {

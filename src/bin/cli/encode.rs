@@ -3,14 +3,18 @@
 use super::InputArgs;
 use anyhow::{bail, Context, Result};
 use cgv::codec::{encode, h264::VideoSettings, EncodeOptions};
-use cgv::container::{CodecKind, CorrectionMode};
+use cgv::format::{CodecKind, CorrectionMode};
 use cgv::param::ParamOptions;
 use cgv::solve::SolverKind;
 use std::path::PathBuf;
 
 #[derive(Clone, Copy, clap::ValueEnum)]
 enum Codec {
-    /// Conformal geometry video: mean curvature every frame, λ at key frames, anchors, closed-loop corrections.
+    /// The project's codec: a seed at frame 0, then closed-loop corrections
+    /// (dx, dy, dz) to a prediction from the decoded past. Motion-corrected
+    /// files (the default at low rates) carry no H or λ; scaled ones, and
+    /// files for `--solver paper`, also carry H every frame and λ at key
+    /// frames.
     Cgv,
     /// Geometry video: x, y, z every frame (the baseline).
     Gv,
@@ -83,9 +87,9 @@ pub struct Args {
     /// only if it cuts the corrections by a quarter; 0 turns it off. The
     /// file records the longest lag it uses, and a decoder keeps that many
     /// past velocities.
-    #[arg(long, default_value_t = cgv::solve::cgv::DEFAULT_MAX_LAG)]
+    #[arg(long, default_value_t = cgv::solve::predictor::DEFAULT_MAX_LAG)]
     max_lag: u8,
-    /// Grid size N (even, at least 16).
+    /// Grid size N: each frame is N x N samples (even, 16..=2160).
     #[arg(long, default_value_t = 128)]
     grid: usize,
     /// Frames between H.264 intra frames.
@@ -113,20 +117,11 @@ pub struct Args {
     json: bool,
 }
 
-pub fn run(args: Args) -> Result<()> {
-    if args.output.extension().is_none_or(|e| e != "cgv") {
-        bail!("{}: the output should end in .cgv", args.output.display());
-    }
-    let src = args.input.open()?;
-    let video = VideoSettings {
-        qp: args.qp,
-        kbps: args.kbps,
-        gop: args.gop,
-        cabac: !args.cavlc,
-        fps: src.fps(),
-        ..Default::default()
-    };
-    let opts = EncodeOptions {
+/// The encoder's options for `args`, for a motion at `fps` frames/s.
+fn options(args: &Args, fps: f32) -> EncodeOptions {
+    let video =
+        VideoSettings { qp: args.qp, kbps: args.kbps, gop: args.gop, cabac: !args.cavlc, fps, ..Default::default() };
+    EncodeOptions {
         codec: match args.codec {
             Codec::Cgv => CodecKind::Cgv,
             Codec::Gv => CodecKind::Gv,
@@ -137,7 +132,7 @@ pub fn run(args: Args) -> Result<()> {
         correction: !args.no_correction,
         correction_filter: !args.no_correction_filter,
         corrections: match args.corrections {
-            Corrections::Auto => cgv::codec::auto_corrections(&video, args.grid, src.fps()),
+            Corrections::Auto => cgv::codec::auto_corrections(&video, args.grid, fps),
             Corrections::Scaled => CorrectionMode::Scaled,
             Corrections::Motion => CorrectionMode::Motion,
         },
@@ -150,7 +145,19 @@ pub fn run(args: Args) -> Result<()> {
         solver: args.solver,
         param: ParamOptions { area_correction: args.area_correction, area_passes: args.area_passes, cones: None },
         reference: 0,
-    };
+    }
+}
+
+pub fn run(args: Args) -> Result<()> {
+    if args.output.extension().is_none_or(|e| e != "cgv") {
+        bail!("{}: the output should end in .cgv", args.output.display());
+    }
+    cgv::fsutil::check_output_folder(&args.output)?;
+    // Every option is checked before the motion is read.
+    options(&args, args.input.fps).validate()?;
+    let src = args.input.open()?;
+    let opts = options(&args, src.fps());
+    opts.validate()?;
     if opts.correction_interval > 1 && opts.corrections != CorrectionMode::Motion {
         bail!("--correction-interval applies to motion corrections, and these are scaled (add --corrections motion)");
     }

@@ -51,7 +51,7 @@ pub struct Args {
     #[arg(long, default_value_t = 1, value_name = "K", value_parser = clap::value_parser!(u32).range(1..))]
     correction_interval: u32,
     /// cgv: the longest lag of a cycle prediction (0: off), as in `cgv encode`.
-    #[arg(long, default_value_t = cgv::solve::cgv::DEFAULT_MAX_LAG)]
+    #[arg(long, default_value_t = cgv::solve::predictor::DEFAULT_MAX_LAG)]
     max_lag: u8,
     /// cgv: never filter a frame's correction, as in `cgv encode` (for measurement).
     #[arg(long)]

@@ -2,6 +2,7 @@
 
 use super::InputArgs;
 use anyhow::Result;
+use cgv::format::StreamName;
 use cgv::mesh::{analyze, Bounds};
 use rayon::prelude::*;
 
@@ -122,8 +123,8 @@ fn cgv_info(args: &Args) -> Result<()> {
             serde_json::to_string_pretty(&serde_json::json!({
                 "file": path, "version": file.version, "bytes": file.bytes, "kbps": file.bytes as f64 * 8.0 / 1000.0 / seconds,
                 "header": h, "stream_bytes": stream_bytes,
-                "predictors": file.frames.iter().map(|f| f.predictor).collect::<Vec<_>>(),
-                "lags": file.frames.iter().map(|f| f.lag).collect::<Vec<_>>(),
+                "predictors": file.frames.iter().map(|f| f.predictor.to_byte()).collect::<Vec<_>>(),
+                "lags": file.frames.iter().map(|f| f.predictor.lag).collect::<Vec<_>>(),
                 "filters": file.frames.iter().map(|f| f.filter).collect::<Vec<_>>(),
                 "correction_scales": file.frames.iter().map(|f| f.correction_scale).collect::<Vec<_>>(),
             }))?
@@ -137,13 +138,12 @@ fn cgv_info(args: &Args) -> Result<()> {
     println!("  size          {} bytes, {:.1} kbit/s", file.bytes, file.bytes as f64 * 8.0 / 1000.0 / seconds);
     println!("  key frames    {} ({:?}...)", h.key_frames.len(), &h.key_frames[..h.key_frames.len().min(5)]);
     println!("  anchors       {:?}", h.anchors);
-    if h.streams.iter().any(|s| s.name == "dx") {
+    if h.stream(StreamName::Dx).is_some() {
         println!(
             "  corrections   {}",
             match h.corrections {
-                cgv::container::CorrectionMode::Scaled => "scaled (each frame's error, times the frame's scale)",
-                cgv::container::CorrectionMode::Motion =>
-                    "motion (running sum: the change since the last frame applies)",
+                cgv::format::CorrectionMode::Scaled => "scaled (each frame's error, times the frame's scale)",
+                cgv::format::CorrectionMode::Motion => "motion (running sum: the change since the last frame applies)",
             }
         );
     }
@@ -168,16 +168,16 @@ fn cgv_info(args: &Args) -> Result<()> {
             b
         );
     }
-    if h.streams.iter().any(|s| s.name == "dx") {
-        // How the encoder chose to predict each frame (see src/solve/cgv.rs).
+    if h.stream(StreamName::Dx).is_some() {
+        // How the encoder chose to predict each frame (see src/solve/predictor.rs).
         let mut counts = [0usize; 4];
         let mut with_h = 0;
         let mut lags = std::collections::BTreeMap::<u8, usize>::new();
         for f in &file.frames {
-            counts[(f.predictor & 3) as usize] += 1;
-            with_h += usize::from(f.predictor >> 2 > 0);
-            if f.lag > 0 {
-                *lags.entry(f.lag).or_default() += 1;
+            counts[f.predictor.extrapolation as usize] += 1;
+            with_h += usize::from(f.predictor.steps > 0);
+            if f.predictor.lag > 0 {
+                *lags.entry(f.predictor.lag).or_default() += 1;
             }
         }
         let lags: Vec<String> = lags.iter().map(|(l, n)| format!("{n} at lag {l}")).collect();

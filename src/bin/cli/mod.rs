@@ -6,6 +6,7 @@ mod encode;
 mod eval;
 mod info;
 mod remesh;
+#[cfg(feature = "render")]
 mod render;
 mod serve;
 
@@ -44,6 +45,7 @@ enum Command {
     /// Compare GV, the paper's CGV and the project's CGV at matched bitrates (tables, JSON, plots).
     Eval(eval::Args),
     /// Draw one decoded frame to a PNG with the viewer's renderer (no GPU needed: lavapipe works).
+    #[cfg(feature = "render")]
     Render(render::Args),
     /// Serve a folder (the web viewer in www/) on 127.0.0.1.
     Serve(serve::Args),
@@ -65,7 +67,7 @@ pub struct InputArgs {
     pub animation: Option<String>,
     /// Use only these frames: A..B (B excluded), A.., ..B or A..=B, counted from 0.
     #[arg(long, value_name = "A..B")]
-    pub frames: Option<cgv::mesh::source::FrameSelection>,
+    pub frames: Option<cgv::mesh::FrameSelection>,
 }
 
 impl InputArgs {
@@ -130,14 +132,29 @@ pub fn main() -> ExitCode {
         Command::Encode(a) => encode::run(a),
         Command::Decode(a) => decode::run(a),
         Command::Eval(a) => eval::run(a),
+        #[cfg(feature = "render")]
         Command::Render(a) => render::run(a),
         Command::Serve(a) => serve::run(a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", error_text(&e));
             ExitCode::FAILURE
         }
     }
+}
+
+/// The error and its causes, each said once: the library's errors already
+/// end in their source's text (`file: problem`), so a cause whose text is
+/// already there is not repeated.
+fn error_text(e: &anyhow::Error) -> String {
+    let mut text = e.to_string();
+    for cause in e.chain().skip(1) {
+        let c = cause.to_string();
+        if !text.contains(&c) {
+            text = format!("{text}: {c}");
+        }
+    }
+    text
 }

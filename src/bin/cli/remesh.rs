@@ -5,13 +5,15 @@
 
 use super::InputArgs;
 use anyhow::{bail, Context, Result};
+use cgv::geometry_image::GeometryImage;
 use cgv::grid::Grid;
-use cgv::mesh::{analyze, Bounds};
+use cgv::mesh::Bounds;
+use cgv::mesh::FrameSource;
 use cgv::metrics::surface;
-use cgv::param::{choose::parameterize_for_grid, ParamOptions};
+use cgv::param::ParamOptions;
 use cgv::resample::SampleMap;
 use rayon::prelude::*;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 #[derive(clap::Args)]
@@ -55,52 +57,46 @@ struct FrameError {
     max: f64,
 }
 
-pub fn run(args: Args) -> Result<()> {
-    let grid = Grid::new(args.grid)?;
-    let src = args.input.open()?;
-    let n_frames = src.frame_count();
-    if args.reference >= n_frames {
-        bail!("--reference {} is past the last frame {}", args.reference, n_frames - 1);
+/// The resampling error of every `stride`-th frame, in parallel.
+fn measure(
+    src: &dyn FrameSource,
+    map: &SampleMap,
+    grid_faces: &[[u32; 3]],
+    stride: usize,
+    quiet: bool,
+) -> Result<Vec<FrameError>> {
+    if stride == 0 {
+        return Ok(Vec::new());
     }
-    let topology = src.topology().clone();
-    let reference = src.read_frame(args.reference)?;
-    let topo = analyze(&topology, &reference);
-    if let Err(problem) = topo.require_sphere() {
-        bail!("{}: {problem}", src.label().display());
-    }
+    let topology = src.topology();
+    let frames: Vec<usize> = (0..src.frame_count()).step_by(stride).collect();
+    let pb = super::progress(frames.len(), "measuring", quiet);
+    let results: Vec<cgv::Result<FrameError>> = frames
+        .par_iter()
+        .map(|&i| {
+            let f = src.read_frame(i)?;
+            let g = map.apply(&f);
+            let d = surface::symmetric(&f, &topology.faces, &g, grid_faces)?;
+            let diagonal = Bounds::of(&f).diagonal();
+            pb.inc(1);
+            Ok(FrameError { frame: i, diagonal, rms: d.rms / diagonal as f64, max: d.max / diagonal as f64 })
+        })
+        .collect();
+    pb.finish_and_clear();
+    Ok(results.into_iter().collect::<cgv::Result<_>>()?)
+}
 
-    let t = Instant::now();
-    let opts = ParamOptions { area_correction: args.area_correction, area_passes: args.area_passes, cones: None };
-    let param =
-        parameterize_for_grid(&topology, &reference, grid, &opts).context("parameterizing the reference frame")?;
-    let param_s = t.elapsed().as_secs_f64();
-    let t = Instant::now();
-    let map = SampleMap::build(grid, &topology.faces, &param)?;
-    let locate_s = t.elapsed().as_secs_f64();
-    let grid_topo = grid.topology();
-
-    // Resampling error, in parallel over frames.
-    let mut errors: Vec<FrameError> = Vec::new();
-    if args.error_stride > 0 {
-        let frames: Vec<usize> = (0..n_frames).step_by(args.error_stride).collect();
-        let pb = super::progress(frames.len(), "measuring", args.json);
-        let results: Vec<cgv::Result<FrameError>> = frames
-            .par_iter()
-            .map(|&i| {
-                let f = src.read_frame(i)?;
-                let g = map.apply(&f);
-                let d = surface::symmetric(&f, &topology.faces, &g, &grid_topo.faces)?;
-                let diagonal = Bounds::of(&f).diagonal();
-                pb.inc(1);
-                Ok(FrameError { frame: i, diagonal, rms: d.rms / diagonal as f64, max: d.max / diagonal as f64 })
-            })
-            .collect();
-        pb.finish_and_clear();
-        errors = results.into_iter().collect::<cgv::Result<_>>()?;
-    }
-
-    // Output, frame by frame.
-    let pb = super::progress(n_frames, "writing", args.json);
+/// Writes the grid sequence to `out` and the first geometry image to
+/// `png`, frame by frame; returns the seconds spent resampling.
+fn write_output(
+    src: &dyn FrameSource,
+    map: &SampleMap,
+    grid: Grid,
+    out: &Path,
+    png: &Path,
+    quiet: bool,
+) -> Result<f64> {
+    let pb = super::progress(src.frame_count(), "writing", quiet);
     let mut resample_s = 0.0;
     let mut first_grid = None;
     let mut next = |i: usize| -> cgv::Result<Vec<glam::Vec3>> {
@@ -114,11 +110,20 @@ pub fn run(args: Args) -> Result<()> {
         pb.inc(1);
         Ok(g)
     };
-    let out = &args.output;
     let name = src.label().file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "motion".into());
-    super::write_sequence(out, &grid_topo, n_frames, src.fps(), &name, &mut next)?;
+    super::write_sequence(out, &grid.topology(), src.frame_count(), src.fps(), &name, &mut next)?;
     pb.finish_and_clear();
-    let png = args.png.clone().unwrap_or_else(|| {
+    if let Some(g) = &first_grid {
+        cgv::fsutil::write_atomic(png, &cgv::image::geometry_image_png(&grid, g)?)?;
+    }
+    Ok(resample_s)
+}
+
+/// Where the first geometry image goes: `--png`, else beside the output
+/// (`walk.glb` -> `walk.png`, folder `frames` -> `frames.png`).
+fn png_path(args: &Args) -> PathBuf {
+    let out = &args.output;
+    args.png.clone().unwrap_or_else(|| {
         if super::is_glb(out) {
             out.with_extension("png")
         } else {
@@ -126,44 +131,96 @@ pub fn run(args: Args) -> Result<()> {
             s.push(".png");
             PathBuf::from(s)
         }
-    });
-    if let Some(g) = &first_grid {
-        cgv::fsutil::write_atomic(&png, &cgv::image::geometry_image_png(&grid, g)?)?;
+    })
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let grid = Grid::new(args.grid)?;
+    let src = args.input.open()?;
+    let n_frames = src.frame_count();
+    if args.reference >= n_frames {
+        bail!("--reference {} is past the last frame {}", args.reference, n_frames - 1);
+    }
+    let topology = src.topology().clone();
+    let reference = src.read_frame(args.reference)?;
+    let opts = ParamOptions { area_correction: args.area_correction, area_passes: args.area_passes, cones: None };
+    let image = GeometryImage::build(src.label(), &topology, &reference, grid, &opts)
+        .context("parameterizing the reference frame")?;
+    let grid_topo = grid.topology();
+    let errors = measure(src.as_ref(), &image.map, &grid_topo.faces, args.error_stride, args.json)?;
+    let png = png_path(&args);
+    let resample_s = write_output(src.as_ref(), &image.map, grid, &args.output, &png, args.json)?;
+    let report = Report { args: &args, src: src.as_ref(), grid, image: &image, errors, resample_s, png };
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report.json())?);
+    } else {
+        report.print();
+    }
+    Ok(())
+}
+
+/// What `cgv remesh` found.
+struct Report<'a> {
+    args: &'a Args,
+    src: &'a dyn FrameSource,
+    grid: Grid,
+    image: &'a GeometryImage,
+    errors: Vec<FrameError>,
+    resample_s: f64,
+    png: PathBuf,
+}
+
+impl Report<'_> {
+    fn mean(&self, f: &dyn Fn(&FrameError) -> f64) -> f64 {
+        self.errors.iter().map(f).sum::<f64>() / self.errors.len().max(1) as f64
     }
 
-    let mean = |f: &dyn Fn(&FrameError) -> f64| errors.iter().map(f).sum::<f64>() / errors.len().max(1) as f64;
-    let rms_mean = mean(&|e| e.rms);
-    let max_mean = mean(&|e| e.max);
-    let max_max = errors.iter().map(|e| e.max).fold(0.0, f64::max);
-    let fps_resample = n_frames as f64 / resample_s.max(1e-9);
-    if args.json {
-        let report = serde_json::json!({
+    fn max_max(&self) -> f64 {
+        self.errors.iter().map(|e| e.max).fold(0.0, f64::max)
+    }
+
+    fn fps_resample(&self) -> f64 {
+        self.src.frame_count() as f64 / self.resample_s.max(1e-9)
+    }
+
+    fn json(&self) -> serde_json::Value {
+        let (src, grid, image) = (self.src, self.grid, self.image);
+        serde_json::json!({
             "input": src.label(),
-            "frames": n_frames,
-            "input_vertices": topology.vertex_count,
+            "frames": src.frame_count(),
+            "input_vertices": src.topology().vertex_count,
             "grid": grid.n,
             "grid_vertices": grid.len(),
-            "grid_faces": grid_topo.faces.len(),
-            "reference_frame": args.reference,
-            "parameterization": param,
-            "seconds": {"parameterize": param_s, "locate_samples": locate_s, "resample_total": resample_s},
-            "resample_frames_per_second": fps_resample,
+            "grid_faces": grid.topology().faces.len(),
+            "reference_frame": self.args.reference,
+            "parameterization": image.param,
+            "seconds": {"parameterize": image.seconds_parameterize, "locate_samples": image.seconds_locate,
+                "resample_total": self.resample_s},
+            "resample_frames_per_second": self.fps_resample(),
             "error": {
                 "relative_to": "bounding-box diagonal of each original frame",
-                "frames_measured": errors.len(),
-                "rms_mean": rms_mean, "max_mean": max_mean, "max_max": max_max,
-                "per_frame": errors,
+                "frames_measured": self.errors.len(),
+                "rms_mean": self.mean(&|e| e.rms), "max_mean": self.mean(&|e| e.max), "max_max": self.max_max(),
+                "per_frame": self.errors,
             },
-            "output": out, "png": png,
-        });
-        println!("{}", serde_json::to_string_pretty(&report)?);
-    } else {
-        let c = &param.conformal;
-        let d = &param.distortion;
-        println!("{} -> {} ({} frames, grid {}x{})", src.label().display(), out.display(), n_frames, grid.n, grid.n);
+            "output": self.args.output, "png": self.png,
+        })
+    }
+
+    fn print(&self) {
+        let (src, grid, param) = (self.src, self.grid, &self.image.param);
+        let (c, d, out) = (&param.conformal, &param.distortion, &self.args.output);
+        println!(
+            "{} -> {} ({} frames, grid {}x{})",
+            src.label().display(),
+            out.display(),
+            src.frame_count(),
+            grid.n,
+            grid.n
+        );
         println!(
             "  parameterization  {:.2} s (cones at vertices {:?}, corner {}; {} area-correction passes kept)",
-            param_s, param.cones, param.corner, param.area_passes
+            self.image.seconds_parameterize, param.cones, param.corner, param.area_passes
         );
         println!(
             "  angle distortion  sigma1/sigma2 mean {:.3}, p95 {:.3} (conformal map: mean {:.3}, p95 {:.3})",
@@ -175,18 +232,18 @@ pub fn run(args: Args) -> Result<()> {
         );
         println!(
             "  locate samples    {:.3} s; resample {:.0} frames/s (excluding file reading)",
-            locate_s, fps_resample
+            self.image.seconds_locate,
+            self.fps_resample()
         );
-        if !errors.is_empty() {
+        if !self.errors.is_empty() {
             println!(
                 "  resampling error  RMS {:.4} %, max {:.4} % of the bounding-box diagonal (mean over {} frames; worst max {:.4} %)",
-                100.0 * rms_mean,
-                100.0 * max_mean,
-                errors.len(),
-                100.0 * max_max
+                100.0 * self.mean(&|e| e.rms),
+                100.0 * self.mean(&|e| e.max),
+                self.errors.len(),
+                100.0 * self.max_max()
             );
         }
-        println!("  wrote {} and {}", out.display(), png.display());
+        println!("  wrote {} and {}", out.display(), self.png.display());
     }
-    Ok(())
 }

@@ -2,7 +2,6 @@
 //! the web viewer, saved as PNG. Works without a GPU on lavapipe.
 
 use anyhow::{bail, Context, Result};
-use cgv::codec::{h264, SequenceDecoder};
 use cgv::render::{camera::OrbitCamera, offscreen::Offscreen, ColorMode, Renderer};
 use cgv::solve::SolverKind;
 use std::path::{Path, PathBuf};
@@ -37,18 +36,23 @@ pub struct Args {
     /// Decoder for CGV files (default: the one recorded in the file).
     #[arg(long)]
     solver: Option<SolverKind>,
+    #[command(flatten)]
+    memory: super::decode::MemoryArgs,
 }
 
 /// Decodes frames 0..=`frame` of `path` and returns the last.
-fn decode_frame(path: &Path, frame: usize, solver: Option<SolverKind>) -> Result<(usize, Vec<glam::Vec3>)> {
-    let file = super::decode::read_cgv(path)?;
-    let frames = file.header.frames as usize;
+fn decode_frame(
+    path: &Path,
+    frame: usize,
+    solver: Option<SolverKind>,
+    memory: super::decode::MemoryArgs,
+) -> Result<(usize, Vec<glam::Vec3>)> {
+    let (mut dec, _) = super::decode::open_decoder(path, solver, memory)?;
+    let frames = dec.frame_count();
     if frame >= frames {
         bail!("{}: frame {frame} asked for, but the file has {frames} (0..={})", path.display(), frames - 1);
     }
-    let grid = file.header.grid as usize;
-    let solver = solver.unwrap_or_else(|| file.header.solver.parse().unwrap_or_default());
-    let mut dec = SequenceDecoder::new(file, solver, h264::Decoder::new)?;
+    let grid = dec.grid.n;
     let pb = super::progress(frame + 1, "decoding", frame < 10);
     let mut x = Vec::new();
     for _ in 0..=frame {
@@ -72,10 +76,10 @@ pub fn run(args: Args) -> Result<()> {
     if args.mode == ColorMode::Error && args.reference.is_none() {
         bail!("--mode error needs --reference OTHER.cgv (the same motion and grid)");
     }
-    let (n, x) = decode_frame(&args.input, args.frame, args.solver)?;
+    let (n, x) = decode_frame(&args.input, args.frame, args.solver, args.memory)?;
     let reference = match &args.reference {
         Some(r) => {
-            let (rn, rx) = decode_frame(r, args.frame, None)?;
+            let (rn, rx) = decode_frame(r, args.frame, None, args.memory)?;
             if rn != n {
                 bail!("{}: grid {rn} differs from {}'s grid {n}", r.display(), args.input.display());
             }

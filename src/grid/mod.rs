@@ -20,12 +20,17 @@
 //! right side), so those samples have three distinct neighbours. N must be
 //! even, so no sample lies on the border or on a cone.
 
+pub mod stencil;
+
 use crate::error::{Error, Result};
 use crate::mesh::Topology;
 use glam::DVec2;
+pub use stencil::{Features, Stencils};
 
-/// Largest grid size accepted (a 4096² grid is 16.7 M samples a frame).
-pub const MAX_N: usize = 4096;
+/// Largest grid size accepted: the largest a `.cgv` file may have
+/// ([`crate::format::MAX_GRID`]). Smaller sizes than a file's 16 are
+/// allowed here, where the grid's own rules are tested.
+pub const MAX_N: usize = crate::format::MAX_GRID as usize;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
 pub struct Grid {

@@ -12,7 +12,7 @@
 //!   they carry the metric's Christoffel terms, which depend on the metric
 //!   only and so, like λ, change little over a near-isometric motion.
 
-use crate::grid::Grid;
+use super::Grid;
 use glam::Vec3;
 
 /// Differential quantities of one grid frame.
@@ -77,5 +77,24 @@ impl Stencils {
             f.b.push(b);
         }
         f
+    }
+
+    /// A field after `passes` averaging passes, each of which halves a
+    /// sample's own weight against its four neighbours' mean.
+    pub fn smooth(&self, mut v: Vec<Vec3>, passes: usize) -> Vec<Vec3> {
+        if passes == 0 {
+            // Most frames' corrections (filter 0): no scratch copy of the field.
+            return v;
+        }
+        let mut next = v.clone();
+        for _ in 0..passes {
+            for (i, o) in next.iter_mut().enumerate() {
+                let s = self.nbr[i];
+                let mean = (v[s[0] as usize] + v[s[1] as usize] + v[s[2] as usize] + v[s[3] as usize]) * 0.25;
+                *o = (v[i] + mean) * 0.5;
+            }
+            std::mem::swap(&mut v, &mut next);
+        }
+        v
     }
 }

@@ -7,9 +7,12 @@
 //! six thousand vertices, then animated by linear blend skinning with a small
 //! skeleton of ten bones.
 
-use crate::mesh::{InMemory, Topology};
+use super::{InMemory, Topology};
 use glam::{Mat4, Vec3};
 use std::collections::HashMap;
+
+/// The name under which the built-in motion is opened.
+pub const NAME: &str = "builtin:walk";
 
 /// Frames in the default motion (2.4 s at 30 fps: two gait cycles).
 pub const FRAMES: usize = 72;
@@ -246,12 +249,7 @@ pub fn motion(frames: usize) -> InMemory {
                 .collect()
         })
         .collect();
-    InMemory {
-        label: crate::mesh::source::BUILTIN_DEFAULT.into(),
-        fps: FPS,
-        topology: Topology { vertex_count: rest.len(), faces },
-        frames,
-    }
+    InMemory { label: NAME.into(), fps: FPS, topology: Topology { vertex_count: rest.len(), faces }, frames }
 }
 
 /// The default motion: [`FRAMES`] frames at [`FPS`].

@@ -1,5 +1,7 @@
-//! Choosing the parameterization by what the grid makes of the surface: of
-//! the maps the area-correction passes go through
+//! A motion's geometry image: the reference frame parameterized onto the
+//! seamless grid ([`crate::param`]) and every grid sample located on the
+//! surface ([`crate::resample`]), the map chosen by what its grid makes of
+//! the surface. Of the maps the area-correction passes go through
 //! ([`parameterize_scored`]), keep the one whose grid mesh lies closest to
 //! the reference frame's surface (the symmetric RMS distance of
 //! [`metrics::surface`](crate::metrics::surface)).
@@ -20,16 +22,56 @@
 //! early ([`RACE_MARGIN`], [`RACE_DECIDE`]): about twice the time of one
 //! placement's passes instead of five times.
 
-use super::area::AreaPasses;
-use super::{parameterize_scored, ParamOptions, Parameterization, SCORED_PASSES};
 use crate::error::{Error, Result};
 use crate::grid::Grid;
-use crate::mesh::Topology;
+use crate::mesh::{analyze, Topology};
 use crate::metrics::surface;
+use crate::param::area::AreaPasses;
+use crate::param::{cut, parameterize_scored, ParamOptions, Parameterization, SCORED_PASSES};
 use crate::resample::SampleMap;
 use glam::Vec3;
+use std::path::Path;
 
-/// [`super::parameterize`] of `reference`, keeping of the area-correction
+/// The reference frame's parameterization and the grid's sample map: what
+/// every encode of one motion at one grid size shares.
+#[derive(Debug, Clone)]
+pub struct GeometryImage {
+    pub param: Parameterization,
+    pub map: SampleMap,
+    /// Time spent parameterizing (the cone race and the area passes).
+    pub seconds_parameterize: f64,
+    /// Time spent locating the samples.
+    pub seconds_locate: f64,
+}
+
+impl GeometryImage {
+    /// The geometry image of the mesh `topology` whose reference frame is
+    /// `reference` (from the file `label`, named in errors) on `grid`.
+    pub fn build(
+        label: &Path,
+        topology: &Topology,
+        reference: &[Vec3],
+        grid: Grid,
+        opts: &ParamOptions,
+    ) -> Result<GeometryImage> {
+        if let Err(problem) = analyze(topology, reference).require_sphere() {
+            return Err(Error::mesh(label, problem));
+        }
+        let t = std::time::Instant::now();
+        let param = parameterize_for_grid(topology, reference, grid, opts)?;
+        let seconds_parameterize = t.elapsed().as_secs_f64();
+        let t = std::time::Instant::now();
+        let map = SampleMap::build(grid, &topology.faces, &param)?;
+        Ok(GeometryImage { param, map, seconds_parameterize, seconds_locate: t.elapsed().as_secs_f64() })
+    }
+
+    /// Both times together.
+    pub fn seconds(&self) -> f64 {
+        self.seconds_parameterize + self.seconds_locate
+    }
+}
+
+/// [`crate::param::parameterize`] of `reference`, keeping of the area-correction
 /// passes the map whose `grid` resamples `reference` with the lowest
 /// symmetric RMS surface distance (reported in
 /// [`Parameterization::score`], in the mesh's units).
@@ -60,14 +102,14 @@ pub fn parameterize_for_grid(
     // they win ties), the corner farthest from them. Some cannot be cut
     // apart (two cones whose paths must cross); they drop out.
     let pos: Vec<glam::DVec3> = reference.iter().map(|p| p.as_dvec3()).collect();
-    let graph = super::cut::Graph::new(nv, &topology.faces, &pos);
-    let e = super::cut::extremities(&graph, nv, CONE_CANDIDATES);
+    let graph = cut::Graph::new(nv, &topology.faces, &pos);
+    let e = cut::extremities(&graph, nv, CONE_CANDIDATES);
     let mut racers = Vec::new();
     let mut first_error = None;
     for skip in (0..e.len()).rev() {
         let c: Vec<u32> = e.iter().enumerate().filter(|&(i, _)| i != skip).map(|(_, &v)| v).collect();
         let cones = [c[0], c[1], c[2], c[3]];
-        let corner = super::cut::corner_for(&graph, nv, &cones);
+        let corner = cut::corner_for(&graph, nv, &cones);
         let o = ParamOptions { cones: Some((cones, corner)), ..opts.clone() };
         match AreaPasses::start(topology, reference, &o) {
             Ok(r) => racers.push(r),

@@ -28,8 +28,14 @@
 //! ordered by frame, so a reader can start on frame 0 before the rest of the
 //! file has arrived.
 
-use crate::codec::quant::Quantizer;
+pub mod predictor;
+pub mod quant;
+pub mod stream;
+
+pub use predictor::{Extrapolation, PredictorCode, SolverKind, MAX_PREDICTOR, MAX_STEPS};
+pub use quant::Quantizer;
 use serde::{Deserialize, Serialize};
+pub use stream::StreamName;
 
 pub const MAGIC: [u8; 8] = [0x89, b'C', b'G', b'V', b'\r', b'\n', 0x1A, b'\n'];
 /// The newest version this reader reads and this writer writes.
@@ -42,6 +48,21 @@ pub const MAX_CHUNK: usize = 64 << 20;
 pub const MAX_FRAMES: u32 = 10_000_000;
 pub const MAX_STREAMS: usize = 32;
 pub const MAX_ANCHORS: usize = 4096;
+/// The grid sizes a file may have: even, and from H.264's 16 x 16 minimum
+/// to the largest square frame the encoder's H.264 level takes (2160 rows).
+/// The encoder checks its options and the reader checks headers against
+/// this one range.
+pub const MIN_GRID: u32 = 16;
+pub const MAX_GRID: u32 = 2160;
+
+/// Whether `n` is a grid size a file may have (see [`MIN_GRID`]).
+pub fn check_grid_size(n: u64) -> Result<(), String> {
+    if (MIN_GRID as u64..=MAX_GRID as u64).contains(&n) && n % 2 == 0 {
+        Ok(())
+    } else {
+        Err(format!("grid size {n} must be even and in {MIN_GRID}..={MAX_GRID}"))
+    }
+}
 
 pub const TAG_ACCESS_UNIT: [u8; 4] = *b"AUNT";
 pub const TAG_FRAME: [u8; 4] = *b"FRAM";
@@ -67,7 +88,7 @@ pub enum ContainerError {
 }
 
 /// How a CGV file's correction streams `dx`, `dy`, `dz` correct the cgv
-/// decoder's prediction (see [`crate::solve::cgv`]).
+/// decoder's prediction (see `crate::codec::reconstruct`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum CorrectionMode {
@@ -95,8 +116,8 @@ pub enum CodecKind {
 /// One coded scalar stream.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct StreamInfo {
-    /// `H`, `lambda`, `a`, `b`, `seed_x`, `seed_y`, `seed_z` (CGV) or `x`, `y`, `z` (GV).
-    pub name: String,
+    /// What the stream carries.
+    pub name: StreamName,
     /// 1 for the base layer, 2 for the residual layer refining stream `refines`.
     pub layer: u8,
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -116,19 +137,13 @@ pub struct StreamInfo {
 /// the filter byte before version 5.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct FrameInfo {
-    /// How the `cgv` decoder predicts this frame before its correction is
-    /// added (see `crate::solve::cgv::PredictorCode`): bits 0..=1 choose the
-    /// extrapolation (0: the previous frame moved rigidly onto the anchors,
-    /// 1: constant velocity, 2: smoothed velocity, 3: the velocity of
-    /// [`lag`](Self::lag) frames ago, version 4), bits 2..=3 the number of
-    /// mean-curvature steps.
-    pub predictor: u8,
-    /// Version 4: the lag of a cycle prediction (2..=the header's
-    /// `max_lag`, and less than the frame's index), else 0.
-    pub lag: u8,
-    /// Version 5: averaging passes the `cgv` decoder applies to this
+    /// How the predictive decoder predicts this frame before its
+    /// correction is added: the predictor and lag bytes (a cycle's lag is
+    /// 2..=the header's `max_lag`, and less than the frame's index).
+    pub predictor: PredictorCode,
+    /// Version 5: averaging passes the predictive decoder applies to this
     /// frame's correction before adding it (0..=[`MAX_FILTER`]; see
-    /// `crate::codec::Corrections`).
+    /// `crate::codec::reconstruct`).
     pub filter: u8,
     /// Scale of the correction streams at this frame (0 without corrections).
     pub correction_scale: f32,
@@ -137,7 +152,7 @@ pub struct FrameInfo {
 
 impl FrameInfo {
     pub fn to_bytes(&self) -> Vec<u8> {
-        let mut out = vec![self.predictor, self.lag, self.filter, 0];
+        let mut out = vec![self.predictor.to_byte(), self.predictor.lag, self.filter, 0];
         out.extend_from_slice(&self.correction_scale.to_le_bytes());
         out.extend(self.anchors.iter().flatten().flat_map(|v| v.to_le_bytes()));
         out
@@ -157,16 +172,13 @@ impl FrameInfo {
         if payload.len() != 8 + anchors * 12 {
             return Err(bad(format!("frame chunk has {} bytes, expected {}", payload.len(), 8 + anchors * 12)));
         }
-        // A cycle prediction (code 3) names a lag the header allows and
-        // the frames before it can serve; nothing else has a lag.
-        let lag = payload[1];
-        let lag_ok = match payload[0] & 3 {
-            3 => (2..=header.max_lag).contains(&lag) && u32::from(lag) < frame,
-            _ => lag == 0,
-        };
+        // A cycle prediction names a lag the header allows and the frames
+        // before it can serve.
+        let predictor = PredictorCode::from_bytes(payload[0], payload[1])
+            .filter(|c| c.lag == 0 || (c.lag <= header.max_lag && u32::from(c.lag) < frame));
         let filter = payload[2];
         let filter_ok = filter == 0 || (version >= 5 && filter <= MAX_FILTER);
-        if payload[0] > MAX_PREDICTOR || !lag_ok || !filter_ok || payload[3] != 0 {
+        let (Some(predictor), true, 0) = (predictor, filter_ok, payload[3]) else {
             return Err(bad(format!(
                 "unknown predictor {:?} at frame {frame} (lags up to {} allowed; filters up to {} from version 5, \
                  this file is version {version})",
@@ -174,7 +186,7 @@ impl FrameInfo {
                 header.max_lag,
                 MAX_FILTER
             )));
-        }
+        };
         let f32_at = |o: usize| f32::from_le_bytes([payload[o], payload[o + 1], payload[o + 2], payload[o + 3]]);
         let correction_scale = f32_at(4);
         if !(correction_scale.is_finite() && correction_scale >= 0.0) {
@@ -184,15 +196,12 @@ impl FrameInfo {
         if anchors.iter().flatten().any(|v| !v.is_finite()) {
             return Err(bad("non-finite anchor position".into()));
         }
-        Ok(FrameInfo { predictor: payload[0], lag, filter, correction_scale, anchors })
+        Ok(FrameInfo { predictor, filter, correction_scale, anchors })
     }
 }
 
 /// Most averaging passes a frame's correction filter may ask for.
 pub const MAX_FILTER: u8 = 8;
-
-/// Largest predictor code (bits 0..=1: extrapolation 0..=3, bits 2..=3: steps 0..=3).
-pub const MAX_PREDICTOR: u8 = 0b1111;
 
 /// The frames a stream is coded at.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -204,6 +213,18 @@ pub enum Coverage {
     Key,
     /// Frame 0 only.
     First,
+}
+
+impl Coverage {
+    /// Whether a stream of this coverage has frame `f` (`key`: whether `f`
+    /// is a key frame). The one rule the encoder and the reader share.
+    pub fn has(self, f: u32, key: bool) -> bool {
+        match self {
+            Coverage::All => true,
+            Coverage::Key => key,
+            Coverage::First => f == 0,
+        }
+    }
 }
 
 /// Encoder settings, recorded for information.
@@ -246,7 +267,7 @@ pub struct Header {
     /// Grid samples whose positions are stored (float32) in every frame.
     pub anchors: Vec<u32>,
     /// The decoder the encoder intended (`cgv` or `paper`).
-    pub solver: String,
+    pub solver: SolverKind,
     pub settings: Settings,
     #[serde(default)]
     pub source: SourceInfo,
@@ -274,9 +295,7 @@ impl Header {
     /// Checks the header's own consistency and limits.
     pub fn validate(&self) -> Result<(), ContainerError> {
         let bad = |m: String| Err(ContainerError::Header(m));
-        if self.grid < 16 || self.grid > crate::grid::MAX_N as u32 || self.grid % 2 != 0 {
-            return bad(format!("grid size {} must be even and in 16..={}", self.grid, crate::grid::MAX_N));
-        }
+        check_grid_size(self.grid.into()).map_err(ContainerError::Header)?;
         if self.seam != SEAM_RULE {
             return bad(format!("unknown seam rule '{}'", self.seam));
         }
@@ -313,16 +332,15 @@ impl Header {
         // streams) does not.
         let closed_loop = self.streams.iter().any(|s| s.scaled) || self.corrections == CorrectionMode::Motion;
         if self.corrections == CorrectionMode::Motion {
-            let names = crate::codec::CORRECTION;
             let ok = self.codec == CodecKind::Cgv
-                && names.iter().all(|n| self.stream(n).is_some())
+                && stream::CORRECTION.iter().all(|&n| self.stream(n).is_some())
                 && self.streams.iter().all(|s| !s.scaled);
             if !ok {
                 return bad("motion corrections need a CGV file with unscaled dx, dy, dz streams".into());
             }
         }
         if self.codec == CodecKind::Cgv
-            && (self.stream("H").is_none() || self.stream("lambda").is_none())
+            && (self.stream(StreamName::H).is_none() || self.stream(StreamName::Lambda).is_none())
             && self.corrections != CorrectionMode::Motion
         {
             return bad("only a motion-corrected CGV file may leave out the H and lambda streams".into());
@@ -342,7 +360,7 @@ impl Header {
     pub fn min_version(&self) -> u16 {
         if self.max_lag > 0 {
             4
-        } else if self.codec == CodecKind::Cgv && self.stream("H").is_none() {
+        } else if self.codec == CodecKind::Cgv && self.stream(StreamName::H).is_none() {
             3
         } else if self.corrections == CorrectionMode::Motion {
             2
@@ -357,15 +375,11 @@ impl Header {
 
     /// Whether stream `s` has an access unit at frame `f`.
     pub fn stream_has_frame(&self, s: usize, f: u32) -> bool {
-        match self.streams[s].coverage {
-            Coverage::All => true,
-            Coverage::Key => self.is_key_frame(f),
-            Coverage::First => f == 0,
-        }
+        self.streams[s].coverage.has(f, self.is_key_frame(f))
     }
 
     /// The stream named `name` in layer 1, if present.
-    pub fn stream(&self, name: &str) -> Option<usize> {
+    pub fn stream(&self, name: StreamName) -> Option<usize> {
         self.streams.iter().position(|s| s.layer == 1 && s.name == name)
     }
 
@@ -624,31 +638,42 @@ impl StreamReader {
                 }
             }
         }
-        loop {
-            let offset = self.consumed + at;
-            let Some((chunk, next)) = parse_chunk(&self.pending, at).map_err(|e| shift(e, self.consumed))? else {
-                break;
-            };
-            let payload = chunk.payload.to_vec();
-            self.accept(Chunk { payload: &payload, ..chunk }, offset)?;
-            at = next;
-            if self.ended {
-                if at != self.pending.len() {
-                    return Err(ContainerError::Chunk {
-                        offset: self.consumed + at,
-                        msg: "bytes after the end chunk".into(),
-                    });
-                }
-                break;
-            }
-        }
+        // The chunks borrow the pending bytes while `accept` files them.
+        let pending = std::mem::take(&mut self.pending);
+        let end = self.accept_all(&pending, at);
+        self.pending = pending;
+        let at = end?;
         self.pending.drain(..at);
         self.consumed += at;
         Ok(())
     }
 
+    /// Accepts every whole chunk of `pending` from `at` on; returns where
+    /// the first incomplete one starts.
+    fn accept_all(&mut self, pending: &[u8], mut at: usize) -> Result<usize, ContainerError> {
+        loop {
+            let offset = self.consumed + at;
+            let Some((chunk, next)) = parse_chunk(pending, at).map_err(|e| shift(e, self.consumed))? else {
+                return Ok(at);
+            };
+            self.accept(chunk, offset)?;
+            at = next;
+            if self.ended {
+                if at != pending.len() {
+                    return Err(ContainerError::Chunk {
+                        offset: self.consumed + at,
+                        msg: "bytes after the end chunk".into(),
+                    });
+                }
+                return Ok(at);
+            }
+        }
+    }
+
     fn accept(&mut self, chunk: Chunk<'_>, offset: usize) -> Result<(), ContainerError> {
-        let file = self.file.as_mut().expect("header parsed before chunks");
+        let Some(file) = self.file.as_mut() else {
+            return Err(ContainerError::Chunk { offset, msg: "a chunk before the header".into() });
+        };
         let header = &file.header;
         let nstreams = header.streams.len();
         if self.frame >= header.frames {
@@ -659,62 +684,12 @@ impl StreamReader {
             return Ok(());
         }
         let frame = self.frame;
-        let expect = |what: &str| ContainerError::Chunk {
-            offset,
-            msg: format!(
-                "expected {what} of frame {frame}, found a {:?} chunk for frame {}",
-                String::from_utf8_lossy(&chunk.tag),
-                chunk.frame
-            ),
-        };
+        let expect = |what: &str| unexpected(&chunk, offset, what, frame);
         if chunk.frame != frame {
             return Err(expect(if self.slot > 0 { "stream data" } else { "the frame chunk" }));
         }
         if file.version >= 2 {
-            // One chunk: side data, then each access unit after its length.
-            if chunk.tag != TAG_FRAME {
-                return Err(expect("the frame chunk"));
-            }
-            let side = 8 + 12 * header.anchors.len();
-            let p = chunk.payload;
-            if p.len() < side {
-                return Err(ContainerError::Chunk {
-                    offset,
-                    msg: format!("frame chunk has {} bytes, fewer than its {side} bytes of side data", p.len()),
-                });
-            }
-            let info = FrameInfo::parse(&p[..side], header, file.version, frame, offset)?;
-            let mut at = side;
-            let mut units = Vec::new();
-            for s in (0..nstreams).filter(|&s| header.stream_has_frame(s, frame)) {
-                let bad = |msg: String| ContainerError::Chunk { offset, msg };
-                let len = read_len(p, &mut at).ok_or_else(|| bad(format!("stream {s}: bad access unit length")))?;
-                if len > p.len() - at {
-                    return Err(bad(format!("stream {s}: access unit of {len} bytes overruns its frame chunk")));
-                }
-                units.push((s, p[at..at + len].to_vec()));
-                at += len;
-            }
-            if at != p.len() {
-                return Err(ContainerError::Chunk {
-                    offset,
-                    msg: format!("frame chunk has {} bytes after its last access unit", p.len() - at),
-                });
-            }
-            let total = header.frames as usize;
-            file.frames.push(info);
-            for (s, au) in units {
-                let u = &mut file.units[s];
-                u.resize(frame as usize + 1, Vec::new());
-                u[frame as usize] = au;
-            }
-            self.frame += 1;
-            if self.frame as usize >= total {
-                for u in &mut file.units {
-                    u.resize(total, Vec::new());
-                }
-            }
-            return Ok(());
+            return Self::accept_frame(file, &mut self.frame, chunk, offset);
         }
         if self.slot > 0 {
             let s = self.slot - 1;
@@ -750,6 +725,57 @@ impl StreamReader {
         Ok(())
     }
 
+    /// Version 2 on: one chunk per frame, its side data, then each access
+    /// unit after its length.
+    fn accept_frame(file: &mut CgvFile, next: &mut u32, chunk: Chunk<'_>, offset: usize) -> Result<(), ContainerError> {
+        let (header, frame) = (&file.header, *next);
+        let nstreams = header.streams.len();
+        // One chunk: side data, then each access unit after its length.
+        if chunk.tag != TAG_FRAME {
+            return Err(unexpected(&chunk, offset, "the frame chunk", frame));
+        }
+        let side = 8 + 12 * header.anchors.len();
+        let p = chunk.payload;
+        if p.len() < side {
+            return Err(ContainerError::Chunk {
+                offset,
+                msg: format!("frame chunk has {} bytes, fewer than its {side} bytes of side data", p.len()),
+            });
+        }
+        let info = FrameInfo::parse(&p[..side], header, file.version, frame, offset)?;
+        let mut at = side;
+        let mut units = Vec::new();
+        for s in (0..nstreams).filter(|&s| header.stream_has_frame(s, frame)) {
+            let bad = |msg: String| ContainerError::Chunk { offset, msg };
+            let len = read_len(p, &mut at).ok_or_else(|| bad(format!("stream {s}: bad access unit length")))?;
+            if len > p.len() - at {
+                return Err(bad(format!("stream {s}: access unit of {len} bytes overruns its frame chunk")));
+            }
+            units.push((s, p[at..at + len].to_vec()));
+            at += len;
+        }
+        if at != p.len() {
+            return Err(ContainerError::Chunk {
+                offset,
+                msg: format!("frame chunk has {} bytes after its last access unit", p.len() - at),
+            });
+        }
+        let total = header.frames as usize;
+        file.frames.push(info);
+        for (s, au) in units {
+            let u = &mut file.units[s];
+            u.resize(frame as usize + 1, Vec::new());
+            u[frame as usize] = au;
+        }
+        *next += 1;
+        if *next as usize >= total {
+            for u in &mut file.units {
+                u.resize(total, Vec::new());
+            }
+        }
+        Ok(())
+    }
+
     /// The whole file; an error if it has not all arrived.
     pub fn finish(self) -> Result<CgvFile, ContainerError> {
         let what = if self.file.is_none() { "the header" } else { "a chunk" };
@@ -761,6 +787,13 @@ impl StreamReader {
             _ => Err(ContainerError::Truncated { offset: self.consumed + self.pending.len(), what, needed: 1 }),
         }
     }
+}
+
+/// A chunk that is not the one expected next.
+fn unexpected(chunk: &Chunk<'_>, offset: usize, what: &str, frame: u32) -> ContainerError {
+    let tag = String::from_utf8_lossy(&chunk.tag);
+    let msg = format!("expected {what} of frame {frame}, found a {tag:?} chunk for frame {}", chunk.frame);
+    ContainerError::Chunk { offset, msg }
 }
 
 /// Moves an error's byte offset from the pending buffer to the file.

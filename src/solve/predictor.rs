@@ -1,4 +1,4 @@
-//! The project's CGV decoder: closed-loop prediction from the decoded past,
+//! The predictive decoder: each frame predicted from the decoded past,
 //! refined by the mean curvature H, then corrected.
 //!
 //! Why not a per-frame nonlinear solve (measured, docs/RESULTS.md):
@@ -35,7 +35,7 @@
 //! correction streams (closed-loop, like a video codec's motion-compensated
 //! prediction). The decoder adds the decoded correction, so the error is
 //! what the correction streams fail to code. Two ways to code them
-//! ([`crate::container::CorrectionMode`]): *scaled*, each frame's error over
+//! ([`crate::format::CorrectionMode`]): *scaled*, each frame's error over
 //! its largest value, flat at usual QPs, but when H.264 discards most of a
 //! correction (pcow at QP 49) the error left over is extrapolated too, and
 //! grows; or *motion*, the running sum of the errors at a fixed scale, so
@@ -43,9 +43,9 @@
 //! and H.264 skips the block almost for free, as it does for a geometry
 //! video's still parts (docs/RESULTS.md compares the two).
 
-use crate::codec::features::Stencils;
-use crate::container::MAX_PREDICTOR;
 use crate::error::{Error, Result};
+pub use crate::format::{Extrapolation, PredictorCode, MAX_STEPS};
+use crate::grid::stencil::Stencils;
 use crate::solve::rigid;
 use crate::sparse::Cholesky;
 use glam::Vec3;
@@ -59,38 +59,12 @@ pub const ANCHOR_WEIGHT: f64 = 1e4;
 /// against the Laplacian rows, so it only removes the null space).
 pub const MIN_ANCHORS: usize = 4;
 pub const GUESS_WEIGHT: f64 = 1e-4;
-/// Most mean-curvature steps a predictor code can ask for.
-pub const MAX_STEPS: u8 = MAX_PREDICTOR >> 2;
-
-/// How a frame is extrapolated from the decoded past.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Extrapolation {
-    /// The previous frame moved by the rigid motion of its anchors (the
-    /// previous frame itself when there are fewer than 3 anchors).
-    Rigid,
-    /// Constant velocity: 2 x₋₁ − x₋₂.
-    Velocity,
-    /// x₋₁ plus the velocity x₋₁ − x₋₂ smoothed over the grid
-    /// ([`SMOOTHING_PASSES`] averaging passes): the coding noise of the two
-    /// past frames is not doubled, while the smooth motion of a body is kept.
-    SmoothVelocity,
-    /// x₋₁ plus the velocity of [`PredictorCode::lag`] frames ago,
-    /// x₋ₗ − x₋ₗ₋₁, smoothed like [`SmoothVelocity`](Self::SmoothVelocity)
-    /// (format version 4): exact but for the smoothing for a motion that
-    /// repeats every `lag` frames while the body travels at constant
-    /// velocity (horse-gallop is a 24-frame cycle played twice). Unsmoothed,
-    /// it carried the coding noise of two more decoded frames into every
-    /// prediction (horse-gallop, N = 128: surface RMS 0.83 / 0.42 % against
-    /// 0.77 / 0.38 % smoothed at GV's `low` and `medium` sizes, and a
-    /// smoothness metric above GV's instead of 20-25 % below).
-    Cycle,
-}
 
 /// Every extrapolation, for [`Predictor::closest`].
 pub const ALL_EXTRAPOLATIONS: [Extrapolation; 4] =
     [Extrapolation::Rigid, Extrapolation::Velocity, Extrapolation::SmoothVelocity, Extrapolation::Cycle];
 /// The extrapolations that keep motion-mode correction streams (see
-/// [`crate::container::CorrectionMode::Motion`]) within a range: those
+/// [`crate::format::CorrectionMode::Motion`]) within a range: those
 /// streams carry the running sum of the corrections, which telescopes to a
 /// change of velocity after velocity predictions but adds up whole
 /// displacements after rigid ones (no anchors: the previous frame); the
@@ -111,49 +85,6 @@ pub const DEFAULT_MAX_LAG: u8 = 60;
 /// own weight against its four neighbours' mean). Chosen by measurement on
 /// the default motion; the encoder picks rigid, velocity or smoothed per frame.
 pub const SMOOTHING_PASSES: usize = 8;
-
-/// A predictor code: the extrapolation (bits 0..=1) and the number of H
-/// steps (bits 2..=3) of the FRAM chunk's predictor byte, and the lag of a
-/// cycle prediction (the byte after it; 0 for the other extrapolations).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct PredictorCode {
-    pub extrapolation: Extrapolation,
-    pub steps: u8,
-    pub lag: u8,
-}
-
-impl PredictorCode {
-    /// A code without mean-curvature steps.
-    pub fn plain(extrapolation: Extrapolation) -> PredictorCode {
-        PredictorCode { extrapolation, steps: 0, lag: 0 }
-    }
-
-    /// From the FRAM chunk's predictor and lag bytes (the container has
-    /// checked them against the format version and the header's `max_lag`).
-    pub fn from_bytes(b: u8, lag: u8) -> Result<PredictorCode> {
-        let extrapolation = match b & 3 {
-            0 => Extrapolation::Rigid,
-            1 => Extrapolation::Velocity,
-            2 => Extrapolation::SmoothVelocity,
-            _ => Extrapolation::Cycle,
-        };
-        if b > MAX_PREDICTOR || (extrapolation == Extrapolation::Cycle) != (lag >= 2) {
-            return Err(Error::Argument(format!("unknown predictor code {b} with lag {lag}")));
-        }
-        Ok(PredictorCode { extrapolation, steps: b >> 2, lag })
-    }
-
-    /// The predictor byte (see [`lag`](Self::lag) for the other).
-    pub fn to_byte(self) -> u8 {
-        let e = match self.extrapolation {
-            Extrapolation::Rigid => 0,
-            Extrapolation::Velocity => 1,
-            Extrapolation::SmoothVelocity => 2,
-            Extrapolation::Cycle => 3,
-        };
-        e | (self.steps.min(MAX_STEPS) << 2)
-    }
-}
 
 /// The decoder state shared by the encoder's closed loop and the decoder.
 pub struct Predictor {
@@ -265,7 +196,7 @@ impl Predictor {
 
     /// A velocity field after [`SMOOTHING_PASSES`] averaging passes.
     fn smooth(&self, v: Vec<Vec3>) -> Vec<Vec3> {
-        smooth(&self.st, v, SMOOTHING_PASSES)
+        self.st.smooth(v, SMOOTHING_PASSES)
     }
 
     /// Step 2: one mean-curvature step from `x`.
@@ -424,25 +355,6 @@ impl Predictor {
         self.past.truncate(2);
         self.prev_anchors = anchors.to_vec();
     }
-}
-
-/// A field on the grid after `passes` averaging passes, each of which
-/// halves a sample's own weight against its four neighbours' mean.
-pub fn smooth(st: &Stencils, mut v: Vec<Vec3>, passes: usize) -> Vec<Vec3> {
-    if passes == 0 {
-        // Most frames' corrections (filter 0): no scratch copy of the field.
-        return v;
-    }
-    let mut next = v.clone();
-    for _ in 0..passes {
-        for (i, o) in next.iter_mut().enumerate() {
-            let s = st.nbr[i];
-            let mean = (v[s[0] as usize] + v[s[1] as usize] + v[s[2] as usize] + v[s[3] as usize]) * 0.25;
-            *o = (v[i] + mean) * 0.5;
-        }
-        std::mem::swap(&mut v, &mut next);
-    }
-    v
 }
 
 /// Sum of squared distances between corresponding points.

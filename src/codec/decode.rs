@@ -1,0 +1,92 @@
+//! Native decoding: OpenH264 turns each stream's access units into luma
+//! planes for the [`SequenceDecoder`]. [`UnitDecoder`] is push-style (a
+//! frame's side data and access units in, as they arrive); [`FileDecoder`]
+//! feeds it from a whole file in memory.
+
+use super::h264::Decoder as H264Decoder;
+use super::reconstruct::{FrameStats, SequenceDecoder, DEFAULT_MEMORY_LIMIT};
+use crate::error::{Error, Result};
+use crate::format::{CgvFile, FrameInfo, Header, SolverKind};
+use crate::grid::Grid;
+use glam::Vec3;
+
+/// Decodes frames in order from their side data and access units.
+pub struct UnitDecoder {
+    sequence: SequenceDecoder,
+    videos: Vec<H264Decoder>,
+}
+
+impl UnitDecoder {
+    /// Refuses a header whose decoding needs more than `memory_limit` bytes.
+    pub fn new(header: Header, solver: SolverKind, memory_limit: u64) -> Result<UnitDecoder> {
+        let videos = header.streams.iter().map(|_| H264Decoder::new()).collect::<Result<Vec<_>>>()?;
+        Ok(UnitDecoder { sequence: SequenceDecoder::new(header, solver, memory_limit)?, videos })
+    }
+
+    pub fn header(&self) -> &Header {
+        self.sequence.header()
+    }
+
+    /// The frame [`push_frame`](Self::push_frame) decodes next.
+    pub fn next_index(&self) -> u32 {
+        self.sequence.next_index()
+    }
+
+    /// Decodes the next frame from its side data and each stream's access
+    /// unit (`None` where the stream has no picture at this frame).
+    pub fn push_frame(&mut self, info: &FrameInfo, units: &[Option<&[u8]>]) -> Result<(Vec<Vec3>, FrameStats)> {
+        let n = self.sequence.grid().n;
+        if units.len() != self.videos.len() {
+            return Err(Error::Video(format!("{} access units for {} streams", units.len(), self.videos.len())));
+        }
+        let t0 = std::time::Instant::now();
+        let mut lumas = Vec::with_capacity(units.len());
+        for (video, au) in self.videos.iter_mut().zip(units) {
+            lumas.push(au.map(|au| video.decode(au, n, n)).transpose()?);
+        }
+        let t1 = std::time::Instant::now();
+        let (x, solve) = self.sequence.push_frame(info, &lumas)?;
+        Ok((x, FrameStats { solve, video_seconds: (t1 - t0).as_secs_f64(), solve_seconds: t1.elapsed().as_secs_f64() }))
+    }
+}
+
+/// A file in memory, decoded frame by frame, in order.
+pub struct FileDecoder {
+    pub file: CgvFile,
+    pub grid: Grid,
+    units: UnitDecoder,
+}
+
+impl FileDecoder {
+    /// With the default memory limit ([`DEFAULT_MEMORY_LIMIT`]).
+    pub fn new(file: CgvFile, solver: SolverKind) -> Result<FileDecoder> {
+        FileDecoder::with_memory_limit(file, solver, DEFAULT_MEMORY_LIMIT)
+    }
+
+    pub fn with_memory_limit(file: CgvFile, solver: SolverKind, memory_limit: u64) -> Result<FileDecoder> {
+        let units = UnitDecoder::new(file.header.clone(), solver, memory_limit)?;
+        Ok(FileDecoder { grid: Grid::new(file.header.grid as usize)?, file, units })
+    }
+
+    pub fn frame_count(&self) -> usize {
+        self.file.header.frames as usize
+    }
+
+    /// The frame [`next_frame`](Self::next_frame) decodes next.
+    pub fn next_index(&self) -> u32 {
+        self.units.next_index()
+    }
+
+    /// Decodes the next frame: grid positions and what it took.
+    pub fn next_frame(&mut self) -> Result<(Vec<Vec3>, FrameStats)> {
+        let f = self.units.next_index();
+        let (h, fi) = (&self.file.header, f as usize);
+        let info = self.file.frames.get(fi).ok_or_else(|| Error::Argument("no frames left".into()))?;
+        let units: Vec<Option<&[u8]>> = (0..h.streams.len())
+            .map(|s| {
+                self.file.units.get(s).and_then(|u| u.get(fi)).filter(|_| h.stream_has_frame(s, f)).map(Vec::as_slice)
+            })
+            .collect();
+        self.units.push_frame(info, &units)
+    }
+}

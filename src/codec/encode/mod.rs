@@ -1,0 +1,252 @@
+//! The encoder (native: it drives OpenH264), in four steps over the input,
+//! each reading the frames one at a time, so no more than one is held:
+//!
+//! 1. [`plan`]: the options checked, the streams and key frames laid out;
+//! 2. [`analyse`]: every frame resampled for the streams' ranges;
+//! 3. [`simulate`]: the closed loop run on the true frames without coding,
+//!    for the cycle lags and the motion corrections' ranges;
+//! 4. [`code`]: every frame quantized and coded; for the predictive decoder
+//!    the decoder's own per-frame step ([`super::reconstruct`]) runs on what
+//!    was coded (closed loop), so what it corrects is what the decoder has.
+
+mod analyse;
+mod code;
+mod plan;
+mod simulate;
+
+pub use simulate::MOTION_MARGIN;
+
+use super::h264::VideoSettings;
+use crate::error::{Error, Result};
+use crate::format::{self, CodecKind, CorrectionMode};
+use crate::geometry_image::GeometryImage;
+use crate::grid::{Grid, Stencils};
+use crate::mesh::{Bounds, FrameSource};
+use crate::param::{ParamOptions, Parameterization};
+use crate::solve::predictor::{DEFAULT_MAX_LAG, MAX_STEPS};
+use crate::solve::SolverKind;
+
+/// How much finer (in QP) the frame-0 seed is coded than the other streams,
+/// and the finest QP it gets. Measured on the default motion at N = 64: at
+/// QP 40 frame 0 was 3.5x the sequence's mean error with the seed at QP 40,
+/// 1.2x at QP 16; but a seed at QP 0 leaves white 8-bit rounding noise that
+/// the correction streams cannot code (frame 0 at 0.078 % of the diagonal
+/// at QP 20, against 0.028 % with the seed at QP 8).
+pub const SEED_QP_OFFSET: u8 = 24;
+pub const SEED_MIN_QP: u8 = 8;
+
+/// Anchors per frame for the paper's solver, by default.
+pub const PAPER_ANCHORS: usize = 16;
+
+/// How to encode.
+#[derive(Debug, Clone)]
+pub struct EncodeOptions {
+    pub codec: CodecKind,
+    pub grid: usize,
+    pub video: VideoSettings,
+    /// A key frame (λ) every this many frames; 0 for the first frame only.
+    pub key_interval: u32,
+    /// Anchor samples stored per frame (float32). `None`: the codec's
+    /// default, [`PAPER_ANCHORS`] for CGV without corrections (the paper's
+    /// solver needs them) and none with corrections (measured: on the
+    /// default motion at N = 64, 16 anchors cost 10–60 % more bytes than
+    /// none for the same or higher error; 192 bytes a frame is 46 kbit/s).
+    pub anchors: Option<usize>,
+    /// CGV for the `cgv` decoder: code the closed-loop corrections (else the
+    /// decoder runs open loop on H and the anchors alone, and drifts).
+    pub correction: bool,
+    /// CGV for the `cgv` decoder: how the corrections apply (see
+    /// [`CorrectionMode`]; motion needs format version 2, and
+    /// leaves out H and λ, version 3).
+    pub corrections: CorrectionMode,
+    /// CGV: most mean-curvature steps a frame's predictor may take.
+    pub max_steps: u8,
+    /// CGV with motion corrections: code the corrections on frames 0, 1
+    /// and every this many frames after (the file's key frames); the frames
+    /// between are the prediction alone, and cost no picture at all (an
+    /// all-skip picture still costs about 10 bytes a stream).
+    pub correction_interval: u32,
+    /// CGV with corrections: the longest lag a cycle prediction may use
+    /// (0: none). The file uses cycles only where they pay ([`CYCLE_GAIN`]),
+    /// and its `max_lag` is the longest lag the uncoded loop chose, so that
+    /// a decoder keeps no more past velocities than the motion needs.
+    pub max_lag: u8,
+    /// CGV with corrections: let the encoder choose a filter for each
+    /// frame's correction (format version 5, see
+    /// [`Corrections`](super::Corrections)); off, every frame's is 0 (for
+    /// measuring what the filter does).
+    pub correction_filter: bool,
+    /// 1, or 2 for a residual layer on every stream but the seeds.
+    pub layers: u8,
+    /// Layer-2 range, in layer-1 quantization steps.
+    pub residual_steps: f32,
+    /// The decoder recorded in the file as intended.
+    pub solver: SolverKind,
+    pub param: ParamOptions,
+    /// The frame whose surface is parameterized.
+    pub reference: usize,
+}
+
+impl Default for EncodeOptions {
+    fn default() -> Self {
+        EncodeOptions {
+            codec: CodecKind::Cgv,
+            grid: 128,
+            video: VideoSettings::default(),
+            key_interval: 10,
+            anchors: None,
+            correction: true,
+            corrections: CorrectionMode::Scaled,
+            max_steps: 1,
+            correction_interval: 1,
+            max_lag: DEFAULT_MAX_LAG,
+            correction_filter: true,
+            layers: 1,
+            residual_steps: 8.0,
+            solver: SolverKind::Predictive,
+            param: ParamOptions::default(),
+            reference: 0,
+        }
+    }
+}
+
+impl EncodeOptions {
+    /// Checks every option against what the codec can do, before any work:
+    /// each problem gets one error that names the option.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |m: String| Err(Error::Argument(m));
+        format::check_grid_size(self.grid as u64).map_err(Error::Argument)?;
+        self.video.validate().map_err(Error::Argument)?;
+        if !(1..=2).contains(&self.layers) {
+            return bad(format!("layers must be 1 or 2, not {}", self.layers));
+        }
+        if self.layers == 2 && !(self.residual_steps.is_finite() && self.residual_steps > 0.0) {
+            return bad(format!("the residual layer's range ({} steps) must be above 0", self.residual_steps));
+        }
+        if self.max_steps > MAX_STEPS {
+            return bad(format!("max_steps {} is above {MAX_STEPS}", self.max_steps));
+        }
+        if self.motion() && self.correction_interval == 0 {
+            return bad("the correction interval must be at least 1".into());
+        }
+        if self.codec == CodecKind::Cgv && self.anchor_count() < 4 && !self.closed_loop() {
+            return bad("CGV without corrections (or for the paper's solver) needs at least 4 anchors".into());
+        }
+        Ok(())
+    }
+
+    /// Whether the encoder runs the predictive decoder in its loop.
+    fn closed_loop(&self) -> bool {
+        self.codec == CodecKind::Cgv && self.solver == SolverKind::Predictive && self.correction
+    }
+
+    /// Whether the corrections are coded as their running sum.
+    fn motion(&self) -> bool {
+        self.closed_loop() && self.corrections == CorrectionMode::Motion
+    }
+
+    fn anchor_count(&self) -> usize {
+        self.anchors.unwrap_or(if self.closed_loop() { 0 } else { PAPER_ANCHORS })
+    }
+}
+
+/// What an encode produced.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct EncodeReport {
+    pub bytes: usize,
+    pub frames: usize,
+    /// Bytes of H.264 per stream.
+    pub stream_bytes: Vec<(String, usize)>,
+    /// Bytes of the frame chunks besides the access units: framing, lengths,
+    /// predictor, correction scale and anchors.
+    pub side_bytes: usize,
+    pub parameterization: Parameterization,
+    pub seconds_parameterize: f64,
+    pub seconds_coding: f64,
+    pub seconds_total: f64,
+}
+
+/// Encodes a motion into `.cgv` bytes. `progress(stage, done, total)` is
+/// called as frames are processed.
+pub fn encode(
+    src: &dyn FrameSource,
+    opts: &EncodeOptions,
+    progress: &mut dyn FnMut(&str, usize, usize),
+) -> Result<(Vec<u8>, EncodeReport)> {
+    let image = prepare(src, opts)?;
+    encode_prepared(src, opts, &image, progress)
+}
+
+/// Checks the options and the motion, parameterizes the reference frame,
+/// and locates the grid's samples on it.
+pub fn prepare(src: &dyn FrameSource, opts: &EncodeOptions) -> Result<GeometryImage> {
+    opts.validate()?;
+    let frames = src.frame_count();
+    if opts.reference >= frames {
+        return Err(Error::Argument(format!(
+            "reference frame {} is past the last frame {}",
+            opts.reference,
+            frames as i64 - 1
+        )));
+    }
+    let reference = src.read_frame(opts.reference)?;
+    GeometryImage::build(src.label(), src.topology(), &reference, Grid::new(opts.grid)?, &opts.param)
+}
+
+/// [`encode`] with the geometry image already made (see [`prepare`]).
+pub fn encode_prepared(
+    src: &dyn FrameSource,
+    opts: &EncodeOptions,
+    image: &GeometryImage,
+    progress: &mut dyn FnMut(&str, usize, usize),
+) -> Result<(Vec<u8>, EncodeReport)> {
+    let t_start = std::time::Instant::now();
+    opts.validate()?;
+    let plan = plan::Plan::new(opts, src.frame_count())?;
+    if image.map.grid != plan.grid {
+        return Err(Error::Argument("the geometry image is for another grid size".into()));
+    }
+    let st = Stencils::new(plan.grid);
+    let analysis = analyse::analyse(src, &plan, &image.map, &st, progress)?;
+    let simulation = simulate::simulate(src, &plan, opts, &image.map, &st, &analysis.first_grid)?;
+    let diagonal = Bounds::of(&src.read_frame(opts.reference)?).diagonal();
+    let header = plan.header(src, opts, &analysis, &simulation, diagonal);
+    let code::Coded { bytes, stream_bytes, side_bytes, seconds_coding } =
+        code::code(src, opts, &plan, &header, &image.map, &st, progress)?;
+    let seconds_parameterize = image.seconds();
+    let report = EncodeReport {
+        bytes: bytes.len(),
+        frames: plan.frames,
+        stream_bytes,
+        side_bytes,
+        parameterization: image.param.clone(),
+        seconds_parameterize,
+        seconds_coding,
+        seconds_total: seconds_parameterize + t_start.elapsed().as_secs_f64(),
+    };
+    Ok((bytes, report))
+}
+
+/// The correction mode that measured better for these settings (cgv eval
+/// on samba, pcow and horse-gallop at N = 128 and 256, docs/RESULTS.md):
+/// motion below [`AUTO_SCALED_BITS`] bits per grid sample per frame or at
+/// QP [`AUTO_MOTION_QP`] and coarser, scaled above (where its per-frame
+/// scale buys precision that a fixed 8-bit range cannot).
+pub fn auto_corrections(video: &VideoSettings, grid: usize, fps: f32) -> CorrectionMode {
+    let motion = match video.kbps {
+        Some(kbps) => (kbps as f64 * 1000.0 / fps.max(1e-3) as f64 / (grid * grid) as f64) < AUTO_SCALED_BITS,
+        None => video.qp >= AUTO_MOTION_QP,
+    };
+    if motion {
+        CorrectionMode::Motion
+    } else {
+        CorrectionMode::Scaled
+    }
+}
+
+/// See [`auto_corrections`]: the best mode changed between 0.3-0.4 (motion)
+/// and 0.7-1.1 (scaled) bits per sample per frame, and between motion at
+/// QP 26-27 and scaled at QP 23-35 (whose files were as large as motion's
+/// at QP 20-25).
+pub const AUTO_SCALED_BITS: f64 = 0.5;
+pub const AUTO_MOTION_QP: u8 = 26;

@@ -1,0 +1,173 @@
+//! Step 1: what the file will hold, from the options alone: which streams
+//! at which frames, the key frames, the frames with corrections, and (once
+//! the other steps have measured the motion) the header.
+
+use super::analyse::Analysis;
+use super::simulate::Simulation;
+use super::EncodeOptions;
+use crate::error::Result;
+use crate::format::quant::Quantizer;
+use crate::format::stream::{CORRECTION, POSITION, SEED};
+use crate::format::{self, CodecKind, CorrectionMode, Coverage, Header, Settings, SourceInfo, StreamInfo, StreamName};
+use crate::grid::Grid;
+use crate::mesh::FrameSource;
+use crate::solve::predictor::{Extrapolation, ALL_EXTRAPOLATIONS, MOTION_EXTRAPOLATIONS};
+
+/// The layout of one encode.
+pub(super) struct Plan {
+    pub codec: CodecKind,
+    pub grid: Grid,
+    pub frames: usize,
+    /// The encoder runs the predictive decoder on what it codes.
+    pub closed_loop: bool,
+    /// The corrections are coded as their running sum.
+    pub motion: bool,
+    /// Motion files: corrections on frames 0, 1 and every `interval`-th
+    /// after; other files: λ every `interval`-th frame.
+    interval: u32,
+    pub key_frames: Vec<u32>,
+    /// Layer-1 streams and the frames each has.
+    pub names: Vec<(StreamName, Coverage)>,
+    pub anchor_count: usize,
+    /// The extrapolations the encoder may choose from.
+    pub allowed: &'static [Extrapolation],
+}
+
+impl Plan {
+    /// The plan of `opts` (already validated) for a motion of `frames` frames.
+    pub fn new(opts: &EncodeOptions, frames: usize) -> Result<Plan> {
+        let (closed_loop, motion) = (opts.closed_loop(), opts.motion());
+        // Motion files have no λ: their key frames are the frames with
+        // corrections, 0, 1 (which has no velocity to predict with yet), then
+        // every `interval`-th.
+        let interval = if motion { opts.correction_interval } else { opts.key_interval };
+        let mut plan = Plan {
+            codec: opts.codec,
+            grid: Grid::new(opts.grid)?,
+            frames,
+            closed_loop,
+            motion,
+            interval,
+            key_frames: Vec::new(),
+            names: Vec::new(),
+            anchor_count: opts.anchor_count(),
+            allowed: if motion { &MOTION_EXTRAPOLATIONS } else { &ALL_EXTRAPOLATIONS },
+        };
+        plan.key_frames = match (interval, motion) {
+            (0, _) | (1, true) => vec![0],
+            (_, true) => (0..frames as u32).filter(|&f| plan.corrected(f as usize)).collect(),
+            _ => (0..frames as u32).step_by(interval as usize).collect(),
+        };
+        plan.names = plan.stream_names();
+        Ok(plan)
+    }
+
+    fn stream_names(&self) -> Vec<(StreamName, Coverage)> {
+        let mut names: Vec<(StreamName, Coverage)> = match self.codec {
+            CodecKind::Gv => POSITION.map(|s| (s, Coverage::All)).to_vec(),
+            CodecKind::Cgv => {
+                // Motion files leave out H and λ (format version 3): the motion
+                // predictor never chose an H step (0 frames of 48-175 on
+                // horse-gallop, pcow and samba at QP 36 and 44), and they were
+                // 7-10 % of its files.
+                let mut v = if self.motion {
+                    Vec::new()
+                } else {
+                    vec![(StreamName::H, Coverage::All), (StreamName::Lambda, Coverage::Key)]
+                };
+                v.extend(SEED.map(|s| (s, Coverage::First)));
+                v
+            }
+        };
+        if self.closed_loop {
+            let coverage = if self.motion && self.interval > 1 { Coverage::Key } else { Coverage::All };
+            names.extend(CORRECTION.map(|s| (s, coverage)));
+        }
+        names
+    }
+
+    /// Whether frame `f` has corrections (every frame but in motion files
+    /// with a correction interval).
+    pub fn corrected(&self, f: usize) -> bool {
+        !self.motion || f == 0 || (f - 1) % self.interval as usize == 0
+    }
+
+    pub fn is_key(&self, f: usize) -> bool {
+        self.key_frames.binary_search(&(f as u32)).is_ok()
+    }
+
+    /// Whether any stream carries a differential quantity (H, λ) rather
+    /// than positions, so the frames' features must be computed.
+    pub fn needs_features(&self) -> bool {
+        self.names.iter().any(|(n, _)| n.axis().is_none())
+    }
+
+    /// The streams: layer 1 for each name, then the layer-2 refinements.
+    fn streams(&self, opts: &EncodeOptions, analysis: &Analysis, simulation: &Simulation) -> Vec<StreamInfo> {
+        let mut infos: Vec<StreamInfo> = self
+            .names
+            .iter()
+            .zip(&analysis.ranges)
+            .map(|(&(name, coverage), r)| StreamInfo {
+                name,
+                layer: 1,
+                refines: None,
+                quant: match CORRECTION.iter().position(|&c| c == name) {
+                    Some(c) if self.motion => simulation.motion_quant[c],
+                    Some(_) => Quantizer::new(-1.0, 1.0),
+                    None => r.quantizer(),
+                },
+                coverage,
+                scaled: name.is_correction() && !self.motion,
+            })
+            .collect();
+        if opts.layers == 2 {
+            for (k, &(name, coverage)) in self.names.iter().enumerate() {
+                if coverage != Coverage::First {
+                    let quant = infos[k].quant.residual(opts.residual_steps);
+                    infos.push(StreamInfo { name, layer: 2, refines: Some(k as u16), quant, coverage, scaled: false });
+                }
+            }
+        }
+        infos
+    }
+
+    /// The file's header.
+    pub fn header(
+        &self,
+        src: &dyn FrameSource,
+        opts: &EncodeOptions,
+        analysis: &Analysis,
+        simulation: &Simulation,
+        diagonal: f32,
+    ) -> Header {
+        let topology = src.topology();
+        Header {
+            grid: self.grid.n as u32,
+            seam: format::SEAM_RULE.into(),
+            frames: self.frames as u32,
+            fps: src.fps(),
+            codec: opts.codec,
+            streams: self.streams(opts, analysis, simulation),
+            key_frames: self.key_frames.clone(),
+            anchors: analysis.anchors.clone(),
+            solver: opts.solver,
+            settings: Settings {
+                qp: opts.video.qp,
+                kbps: opts.video.kbps,
+                gop: opts.video.gop,
+                cabac: opts.video.cabac,
+                layers: opts.layers,
+                residual_steps: if opts.layers == 2 { opts.residual_steps } else { 0.0 },
+            },
+            source: SourceInfo {
+                label: src.label().display().to_string(),
+                vertices: topology.vertex_count as u32,
+                faces: topology.faces.len() as u32,
+                diagonal,
+            },
+            corrections: if self.motion { CorrectionMode::Motion } else { CorrectionMode::Scaled },
+            max_lag: simulation.max_lag,
+        }
+    }
+}

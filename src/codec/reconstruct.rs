@@ -1,0 +1,368 @@
+//! What the decoder does with one frame, written once: the decoded 8-bit
+//! samples become values ([`frame_values`]), and the values become grid
+//! positions ([`Reconstructor`]). The encoder's closed loop calls the same
+//! code on what it coded ([`Predictive`]), so the frames it corrects are the
+//! decoder's, sample for sample.
+//!
+//! [`SequenceDecoder`] is push-style: it is fed each frame's side data and
+//! decoded luma planes as they arrive (from OpenH264 natively, from
+//! WebCodecs in the browser) and holds no file.
+
+use crate::error::{Error, Result};
+use crate::format::stream::{CORRECTION, POSITION, SEED};
+use crate::format::{CodecKind, CorrectionMode, FrameInfo, Header, PredictorCode, SolverKind, StreamName};
+use crate::grid::{Grid, Stencils};
+use crate::solve::paper::PaperSolver;
+use crate::solve::predictor::{Extrapolation, Predictor};
+use crate::solve::SolveStats;
+use glam::Vec3;
+
+/// Turns one frame's decoded 8-bit samples (per stream, `None` where the
+/// stream has no frame) into values: dequantize, add each layer 2 to its
+/// base, and scale the correction streams by the frame's scale.
+pub fn frame_values(h: &Header, samples: &[Option<Vec<u8>>], scale: f32) -> Result<Vec<Option<Vec<f32>>>> {
+    let mut out: Vec<Option<Vec<f32>>> = vec![None; h.streams.len()];
+    for (s, smp) in samples.iter().enumerate() {
+        let Some(smp) = smp else { continue };
+        let q = h.streams[s].quant;
+        let vals = smp.iter().map(|&x| q.dequantize(x));
+        match h.streams[s].refines {
+            Some(base) => {
+                let b =
+                    out[base as usize].as_mut().ok_or_else(|| Error::Argument("layer 2 without its base".into()))?;
+                b.iter_mut().zip(vals).for_each(|(x, r)| *x += r);
+            }
+            None => out[s] = Some(vals.collect()),
+        }
+    }
+    for (s, v) in out.iter_mut().enumerate() {
+        if let (Some(v), true) = (v.as_mut(), h.streams[s].scaled) {
+            v.iter_mut().for_each(|x| *x *= scale);
+        }
+    }
+    Ok(out)
+}
+
+/// One frame's stream values, looked up by name.
+pub struct Values<'a> {
+    header: &'a Header,
+    values: &'a [Option<Vec<f32>>],
+}
+
+impl<'a> Values<'a> {
+    pub fn new(header: &'a Header, values: &'a [Option<Vec<f32>>]) -> Values<'a> {
+        Values { header, values }
+    }
+
+    pub fn get(&self, name: StreamName) -> Option<&'a [f32]> {
+        self.header.stream(name).and_then(|s| self.values[s].as_deref())
+    }
+
+    /// Three streams as positions, if all are there.
+    pub fn xyz(&self, names: [StreamName; 3]) -> Option<Vec<Vec3>> {
+        let [x, y, z] = names.map(|n| self.get(n));
+        let (x, y, z) = (x?, y?, z?);
+        Some(x.iter().zip(y).zip(z).map(|((&x, &y), &z)| Vec3::new(x, y, z)).collect())
+    }
+}
+
+/// The filters (averaging passes) the encoder tries on each frame's
+/// correction; it keeps the one that lands closest to the true frame.
+pub const FILTER_CHOICES: [u8; 4] = [0, 1, 2, 4];
+
+/// Applies the decoded correction streams to the predictive decoder's
+/// prediction, by the file's [`CorrectionMode`], after the frame's filter
+/// (format version 5): `filter` averaging passes over the correction, as a
+/// video codec's in-loop deblocking filter. At the lowest rates H.264 keeps
+/// little of a correction but its block edges, and in motion mode they
+/// never cancel: each frame adds the difference of two decoded pictures,
+/// whose block noise the coarse corrections cannot take back, so it piles
+/// up in the decoded surface (samba, N = 256, 67 kbit/s: smoothness 24.5
+/// against GV's 22.9). The encoder chooses the filter per frame
+/// ([`FILTER_CHOICES`]), so a correction whose detail is real keeps it.
+#[derive(Debug, Clone)]
+pub struct Corrections {
+    mode: CorrectionMode,
+    st: Stencils,
+    /// Motion mode: the previous frame's decoded values.
+    prev: Option<Vec<Vec3>>,
+}
+
+impl Corrections {
+    pub fn new(mode: CorrectionMode, st: Stencils) -> Corrections {
+        Corrections { mode, st, prev: None }
+    }
+
+    /// The correction this frame's decoded streams carry (`decoded`: the
+    /// three streams' values, already scaled in scaled mode), unfiltered.
+    fn increment(&self, decoded: &[Vec3]) -> Vec<Vec3> {
+        match (self.mode, &self.prev) {
+            (CorrectionMode::Motion, Some(prev)) => decoded.iter().zip(prev).map(|(d, q)| *d - *q).collect(),
+            _ => decoded.to_vec(),
+        }
+    }
+
+    /// Adds this frame's correction, after `filter` averaging passes, to
+    /// the prediction `x`.
+    pub fn apply(&mut self, x: &mut [Vec3], decoded: Vec<Vec3>, filter: u8) {
+        let inc = self.st.smooth(self.increment(&decoded), filter as usize);
+        x.iter_mut().zip(&inc).for_each(|(p, d)| *p += *d);
+        if self.mode == CorrectionMode::Motion {
+            self.prev = Some(decoded);
+        }
+    }
+
+    /// The encoder's choice of filter for this frame: of
+    /// [`FILTER_CHOICES`], the one with which the correction `decoded`
+    /// brings the prediction `x` closest to `truth` (the smallest on a tie).
+    pub fn best_filter(&self, x: &[Vec3], decoded: &[Vec3], truth: &[Vec3]) -> u8 {
+        let mut inc = self.increment(decoded);
+        let mut done = 0;
+        let mut best = (f64::INFINITY, 0);
+        for f in FILTER_CHOICES {
+            inc = self.st.smooth(inc, (f - done) as usize);
+            done = f;
+            let e: f64 = x.iter().zip(&inc).zip(truth).map(|((p, d), t)| (*p + *d).distance_squared(*t) as f64).sum();
+            if e < best.0 {
+                best = (e, f);
+            }
+        }
+        best.1
+    }
+
+    /// The encoder's side of [`apply`](Self::apply): what the correction
+    /// streams must carry for this frame's correction to be `err`. Scaled:
+    /// `err` over the frame's `scale`. Motion: the running sum, `err` plus
+    /// what the previous picture held.
+    pub fn stream_values(&self, mut err: Vec<Vec3>, scale: f32) -> Vec<Vec3> {
+        match (self.mode, &self.prev) {
+            (CorrectionMode::Scaled, _) => err.iter_mut().for_each(|e| *e /= scale),
+            (CorrectionMode::Motion, Some(prev)) => err.iter_mut().zip(prev).for_each(|(e, p)| *e += *p),
+            (CorrectionMode::Motion, None) => {}
+        }
+        err
+    }
+}
+
+/// The predictive decoder's state: the predictor over the decoded past and
+/// the corrections. A frame is predicted ([`predict`](Self::predict) in the
+/// decoder, [`choose`](Self::choose) in the encoder, which knows the true
+/// frame), then [`finish`](Self::finish)ed: corrected and committed.
+pub struct Predictive {
+    pub predictor: Predictor,
+    pub corrections: Corrections,
+}
+
+impl Predictive {
+    pub fn new(header: &Header, st: Stencils) -> Predictive {
+        let predictor = Predictor::new(st.clone(), header.anchors.clone()).with_max_lag(header.max_lag);
+        Predictive { predictor, corrections: Corrections::new(header.corrections, st) }
+    }
+
+    /// The decoder's prediction of a frame with the file's predictor `code`.
+    pub fn predict(&mut self, code: PredictorCode, values: &Values, anchors: &[Vec3]) -> Result<Vec<Vec3>> {
+        let seed = values.xyz(SEED);
+        self.predictor.predict(code, seed.as_deref(), values.get(StreamName::H), anchors)
+    }
+
+    /// The encoder's prediction: of the extrapolations `allowed` and up to
+    /// `max_steps` H steps, the one closest to `truth`.
+    pub fn choose(
+        &mut self,
+        allowed: &[Extrapolation],
+        max_steps: u8,
+        values: &Values,
+        anchors: &[Vec3],
+        truth: &[Vec3],
+    ) -> Result<(PredictorCode, Vec<Vec3>)> {
+        let seed = values.xyz(SEED);
+        self.predictor.closest(allowed, max_steps, seed.as_deref(), values.get(StreamName::H), anchors, truth)
+    }
+
+    /// Adds the decoded correction (if the frame has one) to the prediction
+    /// `x` after `filter` passes, and records the result as decoded.
+    pub fn finish(
+        &mut self,
+        mut x: Vec<Vec3>,
+        correction: Option<Vec<Vec3>>,
+        filter: u8,
+        anchors: &[Vec3],
+    ) -> Vec<Vec3> {
+        if let Some(d) = correction {
+            self.corrections.apply(&mut x, d, filter);
+        }
+        self.predictor.commit(x.clone(), anchors);
+        x
+    }
+}
+
+/// How a file's frames are rebuilt from their values.
+enum Rebuild {
+    Gv,
+    Predictive(Predictive),
+    Paper(PaperSolver),
+}
+
+/// Rebuilds grid positions from one frame's values, frame after frame.
+pub struct Reconstructor {
+    rebuild: Rebuild,
+}
+
+impl Reconstructor {
+    /// Checks that the file has the streams `solver` needs.
+    pub fn new(h: &Header, solver: SolverKind) -> Result<Reconstructor> {
+        let require = |names: &[StreamName]| -> Result<()> {
+            for &name in names {
+                h.stream(name).ok_or_else(|| Error::Argument(format!("{:?} file without stream {name}", h.codec)))?;
+            }
+            Ok(())
+        };
+        let rebuild = match h.codec {
+            CodecKind::Gv => {
+                require(&POSITION)?;
+                Rebuild::Gv
+            }
+            CodecKind::Cgv => {
+                // Motion-corrected files may leave out H and λ (version 3),
+                // which only the paper's solver and H steps read.
+                let motion = h.corrections == CorrectionMode::Motion;
+                if solver == SolverKind::Paper && motion && h.stream(StreamName::H).is_none() {
+                    return Err(Error::Argument(
+                        "the paper's solver needs H and lambda, which this motion-corrected file leaves out \
+                         (decode it with the cgv solver)"
+                            .into(),
+                    ));
+                }
+                if !motion || solver == SolverKind::Paper {
+                    require(&[StreamName::H, StreamName::Lambda])?;
+                }
+                require(&SEED)?;
+                if CORRECTION.iter().any(|&n| h.stream(n).is_some()) {
+                    require(&CORRECTION)?;
+                }
+                let st = Stencils::new(Grid::new(h.grid as usize)?);
+                match solver {
+                    SolverKind::Predictive => Rebuild::Predictive(Predictive::new(h, st)),
+                    SolverKind::Paper => Rebuild::Paper(PaperSolver::new(st, h.anchors.clone())),
+                }
+            }
+        };
+        Ok(Reconstructor { rebuild })
+    }
+
+    /// Frame `f`'s positions from its side data and values.
+    pub fn frame(&mut self, f: u32, info: &FrameInfo, values: &Values) -> Result<(Vec<Vec3>, SolveStats)> {
+        let anchors: Vec<Vec3> = info.anchors.iter().map(|p| Vec3::from(*p)).collect();
+        match &mut self.rebuild {
+            Rebuild::Gv => {
+                let x = values
+                    .xyz(POSITION)
+                    .ok_or_else(|| Error::Argument(format!("GV frame {f} lacks a coordinate stream")))?;
+                Ok((x, SolveStats::default()))
+            }
+            Rebuild::Predictive(p) => {
+                let code = info.predictor;
+                let x = p.predict(code, values, &anchors)?;
+                let x = p.finish(x, values.xyz(CORRECTION), info.filter, &anchors);
+                Ok((x, SolveStats { iterations: code.steps as usize, residual: 0.0, converged: true }))
+            }
+            Rebuild::Paper(solver) => {
+                if let Some(l) = values.get(StreamName::Lambda) {
+                    solver.set_lambda(l);
+                }
+                let hv = values.get(StreamName::H).ok_or_else(|| Error::Argument(format!("frame {f} has no H")))?;
+                solver.solve_frame(hv, &anchors, values.xyz(SEED).as_deref())
+            }
+        }
+    }
+}
+
+/// What decoding one frame took.
+#[derive(Debug, Clone, Copy, Default, serde::Serialize)]
+pub struct FrameStats {
+    pub solve: SolveStats,
+    pub video_seconds: f64,
+    pub solve_seconds: f64,
+}
+
+/// Rebuilds a file's frames in order from their side data and decoded luma
+/// planes, pushed as they arrive.
+pub struct SequenceDecoder {
+    header: Header,
+    grid: Grid,
+    reconstructor: Reconstructor,
+    next: u32,
+}
+
+impl SequenceDecoder {
+    /// Refuses a header whose decoding would need more than
+    /// `memory_limit` bytes (see [`decoder_memory`]) before allocating.
+    pub fn new(header: Header, solver: SolverKind, memory_limit: u64) -> Result<SequenceDecoder> {
+        let needed = decoder_memory(&header, solver);
+        if needed > memory_limit {
+            return Err(Error::Memory { needed, limit: memory_limit });
+        }
+        let grid = Grid::new(header.grid as usize)?;
+        let reconstructor = Reconstructor::new(&header, solver)?;
+        Ok(SequenceDecoder { header, grid, reconstructor, next: 0 })
+    }
+
+    pub fn header(&self) -> &Header {
+        &self.header
+    }
+
+    pub fn grid(&self) -> Grid {
+        self.grid
+    }
+
+    /// The frame [`push_frame`](Self::push_frame) rebuilds next.
+    pub fn next_index(&self) -> u32 {
+        self.next
+    }
+
+    /// Rebuilds the next frame from its side data and each stream's decoded
+    /// luma plane (N x N, row-major; `None` where the stream has no frame).
+    pub fn push_frame(&mut self, info: &FrameInfo, lumas: &[Option<Vec<u8>>]) -> Result<(Vec<Vec3>, SolveStats)> {
+        let (f, h) = (self.next, &self.header);
+        if f >= h.frames {
+            return Err(Error::Argument("no frames left".into()));
+        }
+        if lumas.len() != h.streams.len() {
+            return Err(Error::Video(format!("{} pictures for {} streams", lumas.len(), h.streams.len())));
+        }
+        let n = self.grid.len();
+        for (s, luma) in lumas.iter().enumerate() {
+            let problem = match (h.stream_has_frame(s, f), luma) {
+                (true, Some(l)) if l.len() != n => format!("a picture of {} samples, not {n}", l.len()),
+                (true, None) => "no picture".into(),
+                (false, Some(_)) => "a picture the stream does not have".into(),
+                _ => continue,
+            };
+            return Err(Error::Video(format!("stream {s} frame {f}: {problem}")));
+        }
+        let vals = frame_values(h, lumas, info.correction_scale)?;
+        let out = self.reconstructor.frame(f, info, &Values::new(h, &vals))?;
+        self.next += 1;
+        Ok(out)
+    }
+}
+
+/// The default of [`SequenceDecoder::new`]'s memory limit: 1 GiB.
+pub const DEFAULT_MEMORY_LIMIT: u64 = 1 << 30;
+
+/// About the bytes a decoder of this header holds at once, before any
+/// frame arrives: per stream a luma plane and its values; per grid sample
+/// the decoded past (two frames, `max_lag` smoothed velocities, the motion
+/// corrections' previous picture, the tangential coefficients) and, for H
+/// steps and the paper's solver, their factorization or L-BFGS history.
+pub fn decoder_memory(h: &Header, solver: SolverKind) -> u64 {
+    let n = u64::from(h.grid) * u64::from(h.grid);
+    let streams = h.streams.len() as u64 * n * (1 + 4);
+    let frame = 12 * n;
+    let past = match (h.codec, solver) {
+        (CodecKind::Gv, _) => 2 * frame,
+        (CodecKind::Cgv, SolverKind::Predictive) => (4 + u64::from(h.max_lag)) * frame + 8 * n + 25 * 8 * n,
+        (CodecKind::Cgv, SolverKind::Paper) => (4 + 2 * 8) * 3 * 8 * n,
+    };
+    streams + past
+}

@@ -1,0 +1,175 @@
+//! Opening what a user names as a motion: a folder of OBJ files, one OBJ
+//! file, a glTF 2.0 animation or the built-in motion, with the adapters the
+//! options ask for (holes closed, a range of frames).
+
+use super::builtin;
+use super::gltf_in::GltfSource;
+use super::obj::ObjFolder;
+use super::source::FrameSource;
+use super::topology::HoleFill;
+use super::{Frame, Topology};
+use crate::error::{Error, Result};
+use std::path::Path;
+
+/// Options for [`open_sequence`].
+#[derive(Debug, Clone)]
+pub struct OpenOptions {
+    /// Frame rate given to OBJ sequences and used to bake glTF animations.
+    pub fps: f32,
+    /// glTF: which animation to bake (index or name); the first by default.
+    pub animation: Option<String>,
+    /// Close boundary loops (see [`HoleFill`]).
+    pub fill_holes: bool,
+    /// Keep only these frames (the first kept frame becomes frame 0).
+    pub frames: Option<FrameSelection>,
+}
+
+/// A range of frames, `A..B` (B excluded), `A..`, `..B` or `A..=B`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FrameSelection {
+    pub start: usize,
+    /// One past the last frame; `None` for the end of the sequence.
+    pub end: Option<usize>,
+}
+
+impl std::str::FromStr for FrameSelection {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        let bad = || format!("'{s}' is not a frame range (expected A..B, A.., ..B or A..=B)");
+        let (a, b, inclusive) = if let Some((a, b)) = s.split_once("..=") {
+            (a, Some(b), true)
+        } else if let Some((a, b)) = s.split_once("..") {
+            (a, if b.is_empty() { None } else { Some(b) }, false)
+        } else {
+            return Err(bad());
+        };
+        let start = if a.is_empty() { 0 } else { a.trim().parse().map_err(|_| bad())? };
+        let end = match b {
+            Some(b) => {
+                let e: usize = b.trim().parse().map_err(|_| bad())?;
+                Some(if inclusive { e + 1 } else { e })
+            }
+            None => None,
+        };
+        if end.is_some_and(|e| e <= start) {
+            return Err(format!("frame range '{s}' is empty"));
+        }
+        Ok(FrameSelection { start, end })
+    }
+}
+
+impl Default for OpenOptions {
+    fn default() -> Self {
+        OpenOptions { fps: 30.0, animation: None, fill_holes: false, frames: None }
+    }
+}
+
+/// Opens a sequence: a folder of OBJ files, one OBJ file, a glTF 2.0 file
+/// (`.gltf`, `.glb`) with an animation, or [`builtin::NAME`].
+pub fn open_sequence(spec: &str, opts: &OpenOptions) -> Result<Box<dyn FrameSource>> {
+    if !(opts.fps.is_finite() && opts.fps > 0.0 && opts.fps <= 1000.0) {
+        return Err(Error::Argument(format!("frame rate {} is not in (0, 1000]", opts.fps)));
+    }
+    let source: Box<dyn FrameSource> = if spec == builtin::NAME || spec == "builtin" {
+        Box::new(builtin::default_motion())
+    } else {
+        let path = Path::new(spec);
+        let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;
+        let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
+        if meta.is_dir() {
+            Box::new(ObjFolder::open(path, opts.fps)?)
+        } else {
+            match ext.as_deref() {
+                Some("obj") => Box::new(ObjFolder::single(path, opts.fps)?),
+                Some("gltf") | Some("glb") => Box::new(GltfSource::open(path, opts.fps, opts.animation.as_deref())?),
+                _ => {
+                    return Err(Error::Argument(format!(
+                        "{}: unknown input kind (expected a folder of .obj files, .obj, .gltf, .glb or {})",
+                        path.display(),
+                        builtin::NAME
+                    )))
+                }
+            }
+        }
+    };
+    let mut source = source;
+    if opts.fill_holes {
+        let plan = HoleFill::plan(source.topology());
+        if !plan.loops.is_empty() {
+            source = Box::new(FilledHoles { inner: source, plan });
+        }
+    }
+    if let Some(sel) = opts.frames {
+        let count = source.frame_count();
+        let end = sel.end.unwrap_or(count);
+        if end > count {
+            return Err(Error::Argument(format!(
+                "{}: frames {}..{end} asked for, but the sequence has {count}",
+                source.label().display(),
+                sel.start
+            )));
+        }
+        source = Box::new(Slice { inner: source, start: sel.start, len: end - sel.start });
+    }
+    Ok(source)
+}
+
+/// Frames `start..start + len` of another sequence.
+struct Slice {
+    inner: Box<dyn FrameSource>,
+    start: usize,
+    len: usize,
+}
+
+impl FrameSource for Slice {
+    fn label(&self) -> &Path {
+        self.inner.label()
+    }
+    fn frame_count(&self) -> usize {
+        self.len
+    }
+    fn fps(&self) -> f32 {
+        self.inner.fps()
+    }
+    fn topology(&self) -> &Topology {
+        self.inner.topology()
+    }
+    fn kind(&self) -> &'static str {
+        self.inner.kind()
+    }
+    fn read_frame(&self, i: usize) -> Result<Frame> {
+        if i >= self.len {
+            return Err(Error::Argument(format!("frame {i} is past the last selected frame {}", self.len as i64 - 1)));
+        }
+        self.inner.read_frame(self.start + i)
+    }
+}
+
+/// A sequence whose holes are closed by [`HoleFill`].
+struct FilledHoles {
+    inner: Box<dyn FrameSource>,
+    plan: HoleFill,
+}
+
+impl FrameSource for FilledHoles {
+    fn label(&self) -> &Path {
+        self.inner.label()
+    }
+    fn frame_count(&self) -> usize {
+        self.inner.frame_count()
+    }
+    fn fps(&self) -> f32 {
+        self.inner.fps()
+    }
+    fn topology(&self) -> &Topology {
+        &self.plan.topology
+    }
+    fn kind(&self) -> &'static str {
+        self.inner.kind()
+    }
+    fn read_frame(&self, i: usize) -> Result<Frame> {
+        let mut f = self.inner.read_frame(i)?;
+        self.plan.apply(&mut f);
+        Ok(f)
+    }
+}

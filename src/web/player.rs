@@ -1,0 +1,112 @@
+//! The decoder at the wasm edge: bytes in, positions out.
+
+use super::js;
+use crate::codec::{SequenceDecoder, DEFAULT_MEMORY_LIMIT};
+use crate::format::{SolverKind, StreamReader};
+use wasm_bindgen::prelude::*;
+
+/// Reads a `.cgv` file as it arrives and rebuilds its frames in order. The
+/// file's bytes are held once, in the reader; the page decodes each access
+/// unit with WebCodecs and hands the luma planes back.
+#[wasm_bindgen]
+pub struct Player {
+    reader: StreamReader,
+    dec: Option<SequenceDecoder>,
+    /// The next frame's luma planes, per stream, as the page supplies them.
+    lumas: Vec<Option<Vec<u8>>>,
+    solver: Option<SolverKind>,
+    memory_limit: u64,
+}
+
+#[wasm_bindgen]
+impl Player {
+    /// `solver`: "cgv", "paper", or "" for the one recorded in the file.
+    #[wasm_bindgen(constructor)]
+    pub fn new(solver: &str) -> std::result::Result<Player, JsError> {
+        let solver = if solver.is_empty() { None } else { Some(solver.parse::<SolverKind>().map_err(js)?) };
+        Ok(Player {
+            reader: StreamReader::default(),
+            dec: None,
+            lumas: Vec::new(),
+            solver,
+            memory_limit: DEFAULT_MEMORY_LIMIT,
+        })
+    }
+
+    /// The most memory, in MiB, the decoder may need for a file (1024 by
+    /// default); a file asking for more is refused when its header arrives.
+    pub fn set_memory_limit_mib(&mut self, mib: f64) {
+        self.memory_limit = (mib.max(0.0) * 1048576.0) as u64;
+    }
+
+    /// Adds bytes of the file (the whole file, or the next piece of a stream).
+    pub fn push(&mut self, bytes: &[u8]) -> std::result::Result<(), JsError> {
+        self.reader.push(bytes).map_err(js)?;
+        if let (None, Some(header)) = (&self.dec, self.reader.header()) {
+            let solver = self.solver.unwrap_or(header.solver);
+            self.lumas = vec![None; header.streams.len()];
+            self.dec = Some(SequenceDecoder::new(header.clone(), solver, self.memory_limit).map_err(js)?);
+        }
+        Ok(())
+    }
+
+    /// The header as JSON, once it has arrived.
+    pub fn header_json(&self) -> Option<String> {
+        self.reader.header().and_then(|h| serde_json::to_string(h).ok())
+    }
+
+    /// Frames whose bytes have all arrived.
+    pub fn complete_frames(&self) -> u32 {
+        self.reader.complete_frames()
+    }
+
+    pub fn is_complete(&self) -> bool {
+        self.reader.is_complete()
+    }
+
+    /// Bytes received.
+    pub fn bytes(&self) -> usize {
+        self.reader.bytes()
+    }
+
+    /// The frame [`decode_next`](Self::decode_next) rebuilds next.
+    pub fn next_frame(&self) -> u32 {
+        self.dec.as_ref().map_or(0, |d| d.next_index())
+    }
+
+    /// Whether stream `s` has an access unit at `frame`.
+    pub fn has_frame(&self, s: usize, frame: u32) -> bool {
+        self.reader.header().is_some_and(|h| s < h.streams.len() && h.stream_has_frame(s, frame))
+    }
+
+    /// Stream `s`'s access unit (Annex-B) at `frame`, copied out for WebCodecs.
+    pub fn access_unit(&self, s: usize, frame: u32) -> std::result::Result<Vec<u8>, JsError> {
+        self.reader
+            .file()
+            .filter(|_| frame < self.reader.complete_frames())
+            .and_then(|f| f.units.get(s)?.get(frame as usize).cloned())
+            .ok_or_else(|| JsError::new(&format!("stream {s} frame {frame} has not arrived")))
+    }
+
+    /// Hands in stream `s`'s decoded luma plane (width x height, row-major)
+    /// for the next frame to rebuild.
+    pub fn supply_luma(&mut self, s: usize, luma: Vec<u8>) -> std::result::Result<(), JsError> {
+        *self.lumas.get_mut(s).ok_or_else(|| JsError::new(&format!("no stream {s}")))? = Some(luma);
+        Ok(())
+    }
+
+    /// Rebuilds the next frame from the pictures supplied: x, y, z per grid sample.
+    pub fn decode_next(&mut self) -> std::result::Result<Vec<f32>, JsError> {
+        let dec = self.dec.as_mut().ok_or_else(|| JsError::new("the header has not arrived"))?;
+        let f = dec.next_index();
+        let info = self
+            .reader
+            .file()
+            .filter(|_| f < self.reader.complete_frames())
+            .and_then(|file| file.frames.get(f as usize))
+            .ok_or_else(|| JsError::new(&format!("frame {f} has not arrived")))?;
+        let lumas = std::mem::replace(&mut self.lumas, vec![None; dec.header().streams.len()]);
+        let (x, _) = dec.push_frame(info, &lumas).map_err(js)?;
+        Ok(x.iter().flat_map(|p| p.to_array()).collect())
+    }
+}
