@@ -15,15 +15,21 @@ mkdir -p out/demo www/media
 "$cgv" info builtin:walk --quick
 "$cgv" remesh builtin:walk -o out/demo/walk.glb --grid 128
 "$cgv" encode builtin:walk -o www/media/walk.cgv --codec cgv --grid 128 --qp 30
-"$cgv" encode builtin:walk -o www/media/walk-gv.cgv --codec gv --grid 128 --qp 12
+# GV at the CGV file's bitrate (its rate control lands near, not on, it).
+cgv_kbps=$(awk -v b="$(stat -c %s www/media/walk.cgv)" 'BEGIN { printf "%.0f", b * 8 / 1000 / 2.4 }')
+"$cgv" encode builtin:walk -o www/media/walk-gv.cgv --codec gv --grid 128 --kbps "$cgv_kbps"
 "$cgv" render www/media/walk.cgv --frame 36 -o out/demo/walk-36.png
+# The two files' real sizes (2.4 s of motion each).
+kb() { awk -v b="$(stat -c %s "$1")" 'BEGIN { printf "%.1f KB, %.0f kbit/s", b / 1000, b * 8 / 1000 / 2.4 }'; }
+sizes="left: the project's CGV (QP 30), $(kb www/media/walk.cgv); right: GV (--kbps $cgv_kbps), $(kb www/media/walk-gv.cgv)"
 echo
 echo "out/demo/walk.glb plays in any glTF viewer; out/demo/walk-36.png is frame 36 as cgv draws it."
+echo "$sizes"
 port="${PORT:-8080}"
 if [ "${CGV_DEMO_NO_SERVE:-0}" = 1 ]; then
   echo "viewer: $cgv serve www --port $port, then open http://127.0.0.1:$port/?src=media/walk.cgv&compare=media/walk-gv.cgv&autoplay"
   exit 0
 fi
 echo "Open http://127.0.0.1:$port/?src=media/walk.cgv&compare=media/walk-gv.cgv&autoplay"
-echo "(left: the project's CGV, right: GV at about the same size; Ctrl-C stops the server)"
+echo "($sizes; Ctrl-C stops the server)"
 exec "$cgv" serve www --port "$port"
