@@ -1,40 +1,58 @@
 #!/usr/bin/env bash
-# Fuzzes the .cgv reader and the decoder for a short time each (default 60 s;
-# FUZZ_SECONDS=600 for longer). Seeds come from tests/fixtures and from
-# files the encoder writes on the spot. Needs cargo-fuzz (installed here on
-# first use) and libFuzzer's nightly flags, which RUSTC_BOOTSTRAP enables on
-# the stable toolchain.
+# Fuzzes the .cgv reader and the decoder for a while each: FUZZ_SECONDS per
+# target (default 60; test.sh runs 30, and before a release run it for
+# longer by hand: FUZZ_SECONDS=3600). Seeds come from tests/fixtures, from
+# tests/fuzz-regressions and from files the encoder writes on the spot. A
+# crash is copied into tests/fuzz-regressions (where tests/fuzz_regressions.rs
+# runs it from then on) and fails the run. Needs cargo-fuzz (installed here
+# on first use) and libFuzzer's nightly flags, which RUSTC_BOOTSTRAP enables
+# on the stable toolchain. FUZZ_SANITIZER: address (default) or none (what
+# test.sh uses: a quicker build, and OpenH264's C code is not instrumented
+# either way).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 source pkg-scripts/setup.sh
 seconds="${FUZZ_SECONDS:-60}"
+sanitizer="${FUZZ_SANITIZER:-address}"
+say() { printf '\033[1m[fuzz]\033[0m %s\n' "$*" >&2; }
 
 if ! cargo fuzz --version >/dev/null 2>&1; then
-  echo "[fuzz] installing cargo-fuzz" >&2
+  say "installing cargo-fuzz (once)"
   CARGO_TARGET_DIR="$HOME/.cache/cgv/cargo-fuzz-build" cargo install -q cargo-fuzz --root "$HOME/.cache/cgv/tools"
   rm -rf "$HOME/.cache/cgv/cargo-fuzz-build"
 fi
 
-# Seed corpus: real files from the encoder.
-corpus=fuzz/corpus/read
-mkdir -p "$corpus" fuzz/corpus/decode
+# Seed corpus: real files from the encoder, the fixtures, the regressions.
 cargo build --release --bin cgv
 cgv="$CARGO_TARGET_DIR/release/cgv"
+mkdir -p fuzz/corpus/read fuzz/corpus/decode
+seed() { for f in "$@"; do for t in read decode; do cp "$f" "fuzz/corpus/$t/$(basename "$(dirname "$f")")-$(basename "$f")"; done; done; }
 for codec in gv cgv; do
-  [ -e "$corpus/walk-$codec.cgv" ] || "$cgv" encode builtin:walk --codec "$codec" --grid 16 --qp 30 -o "$corpus/walk-$codec.cgv" >/dev/null
-  cp "$corpus/walk-$codec.cgv" fuzz/corpus/decode/
+  f="fuzz/corpus/read/walk-$codec.cgv"
+  [ -e "$f" ] || "$cgv" encode builtin:walk --codec "$codec" --grid 16 --qp 30 -o "$f" >/dev/null
+  cp "$f" fuzz/corpus/decode/
 done
-[ -e "$corpus/walk-motion.cgv" ] || "$cgv" encode builtin:walk --corrections motion --grid 16 --qp 30 -o "$corpus/walk-motion.cgv" >/dev/null
-cp "$corpus/walk-motion.cgv" fuzz/corpus/decode/
-# Every frozen fixture, so both container layouts are seeded.
-for v in tests/fixtures/v*; do
-  for f in "$v"/*.cgv; do cp "$f" "$corpus/$(basename "$v")-$(basename "$f")"; done
-done
+f=fuzz/corpus/read/walk-motion.cgv
+[ -e "$f" ] || "$cgv" encode builtin:walk --corrections motion --grid 16 --qp 30 -o "$f" >/dev/null
+cp "$f" fuzz/corpus/decode/
+seed tests/fixtures/v*/*.cgv
+seed $(find tests/fuzz-regressions -type f ! -name '*.md')
 
 export RUSTC_BOOTSTRAP=1
 # Fuzz builds go to their own folder (sanitizer flags rebuild everything).
-export CARGO_TARGET_DIR="$HOME/.cache/cgv/fuzz-target"
+export CARGO_TARGET_DIR="$HOME/.cache/cgv/fuzz-target-$sanitizer"
 for target in read decode; do
-  echo "[fuzz] $target for $seconds s" >&2
-  (cd fuzz && cargo fuzz run "$target" "corpus/$target" -- -max_total_time="$seconds" -rss_limit_mb=2048 -max_len=65536)
+  say "$target for $seconds s"
+  rm -rf "fuzz/artifacts/$target"
+  status=0
+  (cd fuzz && cargo fuzz run --sanitizer "$sanitizer" "$target" "corpus/$target" -- \
+    -max_total_time="$seconds" -rss_limit_mb=2048 -max_len=65536 -print_final_stats=1) || status=$?
+  found=$(find "fuzz/artifacts/$target" -type f 2>/dev/null || true)
+  if [ -n "$found" ] || [ "$status" -ne 0 ]; then
+    mkdir -p tests/fuzz-regressions
+    for f in $found; do cp "$f" "tests/fuzz-regressions/$target-$(basename "$f")"; done
+    say "$target failed (exit $status); inputs kept in tests/fuzz-regressions: ${found:-none}"
+    exit 1
+  fi
 done
+say "no crash in ${seconds} s per target"

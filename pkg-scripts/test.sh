@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Set up what is missing, then run every check: formatting, clippy, the web
-# package (wasm32 + wasm-bindgen), and all tests (including those on
-# ../shared/data and the viewer in headless Chromium, which uses the package).
+# package (wasm32 + wasm-bindgen), all tests (including those on
+# ../shared/data and the viewer in headless Chromium, which uses the
+# package), and the fuzz targets for 30 s each (FUZZ_SECONDS to change it).
 # Benchmarks are compiled by clippy and run by `cargo bench`, not here.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
@@ -27,6 +28,9 @@ step "wasm tests in headless Chromium (wasm-bindgen-test)"
 export CHROMEDRIVER="${CHROMEDRIVER:-$(command -v chromedriver)}"
 export WASM_BINDGEN_TEST_WEBDRIVER_JSON="$PWD/pkg-scripts/webdriver.json"
 cargo test --release --target wasm32-unknown-unknown --test web 2>&1 | tee -a "$log"
+step "fuzz targets, ${FUZZ_SECONDS:-30} s each (pkg-scripts/fuzz.sh)"
+FUZZ_SECONDS="${FUZZ_SECONDS:-30}" FUZZ_SANITIZER=none bash pkg-scripts/fuzz.sh
+
 # One closing line for the whole run (cargo prints one per test binary).
 awk '/^test result:/ { for (i = 2; i <= NF; i++) { if ($i == "passed;") p += $(i-1); if ($i == "failed;") f += $(i-1) } }
      END { printf "tests: %d passed, %d failed\n", p, f }' "$log"
