@@ -300,6 +300,12 @@ pub fn run(src: &dyn FrameSource, opts: &EvalOptions, progress: &(dyn Fn(&str) +
     if !(opts.tolerance > 0.0 && opts.tolerance < 1.0) {
         return Err(Error::Argument(format!("tolerance {} is not in (0, 1)", opts.tolerance)));
     }
+    opts.base.validate()?;
+    if let Rates::Kbps(k) = &opts.rates {
+        if let Some(bad) = k.iter().find(|k| !(k.is_finite() && **k > 0.0)) {
+            return Err(Error::Argument(format!("a rate point of {bad} kbit/s is not above 0")));
+        }
+    }
     // Everything in memory once: the input frames and the uncompressed grids.
     let frames = src.frame_count();
     let input: Vec<Vec<Vec3>> = (0..frames).map(|i| src.read_frame(i)).collect::<Result<_>>()?;
