@@ -23,8 +23,10 @@ if ! cargo fuzz --version >/dev/null 2>&1; then
 fi
 
 # Seed corpus: real files from the encoder, the fixtures, the regressions.
-cargo build --release --bin cgv
+# The encoder's files are made once (a binary the tests already built will
+# do: they are only seeds).
 cgv="$CARGO_TARGET_DIR/release/cgv"
+[ -x "$cgv" ] || cargo build --release --bin cgv
 mkdir -p fuzz/corpus/read fuzz/corpus/decode
 seed() { for f in "$@"; do for t in read decode; do cp "$f" "fuzz/corpus/$t/$(basename "$(dirname "$f")")-$(basename "$f")"; done; done; }
 for codec in gv cgv; do
