@@ -92,3 +92,53 @@ impl SampleMap {
         );
     }
 }
+
+/// Where each input vertex lies on the grid mesh: the inverse direction of
+/// [`SampleMap`]. A vertex's place in the parameterization falls in one
+/// grid quad (read on the grid's extended lattice, so a quad across the
+/// folded border is the same one the seam rule glues), split along its
+/// (0, 2) diagonal as [`Grid::topology`] splits it; the vertex is that
+/// triangle's barycentric combination of three grid samples. So the
+/// vertices rebuilt from a grid frame lie on its grid mesh, the surface
+/// the decoder shows.
+#[derive(Debug, Clone)]
+pub struct SourcePoints {
+    pub corners: Vec<[u32; 3]>,
+    pub bary: Vec<[f32; 3]>,
+}
+
+impl SourcePoints {
+    /// The place of every vertex of the parameterized mesh on `grid`.
+    pub fn build(grid: Grid, param: &Parameterization) -> SourcePoints {
+        let n = grid.n as f64;
+        let mut points = SourcePoints { corners: Vec::with_capacity(param.uv.len()), bary: Vec::new() };
+        for uv in &param.uv {
+            // Lattice coordinates: sample (a, b) sits at a = (u + 1) N / 2 - 1/2.
+            let (x, y) = ((uv.x + 1.0) * n / 2.0 - 0.5, (uv.y + 1.0) * n / 2.0 - 0.5);
+            let (a, b) = (x.floor() as i64, y.floor() as i64);
+            let (s, t) = (x - a as f64, y - b as f64);
+            let q = [(a, b), (a + 1, b), (a + 1, b + 1), (a, b + 1)].map(|(i, j)| grid.canonical_index(i, j));
+            let (corners, w) = if s >= t {
+                ([q[0], q[1], q[2]], [1.0 - s, s - t, t])
+            } else {
+                ([q[0], q[2], q[3]], [1.0 - t, s, t - s])
+            };
+            points.corners.push(corners);
+            points.bary.push(w.map(|w| w as f32));
+        }
+        points
+    }
+
+    /// The input's vertices rebuilt from one grid frame.
+    pub fn apply(&self, grid_positions: &[Vec3]) -> Vec<Vec3> {
+        self.corners
+            .iter()
+            .zip(&self.bary)
+            .map(|(c, w)| {
+                grid_positions[c[0] as usize] * w[0]
+                    + grid_positions[c[1] as usize] * w[1]
+                    + grid_positions[c[2] as usize] * w[2]
+            })
+            .collect()
+    }
+}

@@ -17,6 +17,7 @@
 pub mod bdrate;
 pub mod plot;
 pub mod report;
+pub mod source;
 
 use crate::codec::{encode_prepared, EncodeOptions, FileDecoder};
 use crate::error::{Error, Result};
@@ -26,10 +27,12 @@ use crate::grid::stencil::Stencils;
 use crate::grid::Grid;
 use crate::mesh::{Bounds, FrameSource, InMemory};
 use crate::metrics::{self, surface};
+use crate::resample::SourcePoints;
 use crate::solve::SolverKind;
 use glam::Vec3;
 use rayon::prelude::*;
 use serde::Serialize;
+use source::{SourceErrors, SourceMeasure};
 
 /// A codec as `cgv eval` runs it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -168,6 +171,8 @@ pub struct FrameMetrics {
     pub smoothness: f64,
     pub surface_rms: Option<f64>,
     pub surface_max: Option<f64>,
+    /// RMS distance of the input's vertices rebuilt from the decoded grid.
+    pub source_vertex_rms: f64,
 }
 
 /// One codec at one rate point.
@@ -201,6 +206,8 @@ pub struct CodecResult {
     pub worst_over_mean: f64,
     /// Karni & Gotsman, percent, over the grid samples against the uncompressed grid.
     pub kg: f64,
+    /// The errors on the input's own vertices, rebuilt from the decoded grid.
+    pub source: SourceErrors,
     pub encode_ms_per_frame: f64,
     pub video_decode_ms_per_frame: f64,
     pub reconstruct_ms_per_frame: f64,
@@ -274,13 +281,17 @@ pub struct Report {
     pub normalization: &'static str,
     pub points: Vec<RatePoint>,
     pub bd_rates: Vec<BdRate>,
+    /// The input's vertices rebuilt from the uncompressed grid: the floor
+    /// of every codec's source errors.
+    pub source_floor: SourceErrors,
     pub seconds: f64,
 }
 
 pub const NORMALIZATION: &str = "errors and the smoothness metric are divided by the bounding-box diagonal of \
      the first input frame; smoothness = sqrt(mean |Δv − Δv'|²) over grid samples (the paper's Table 2 is in \
      units of 1e-4 of that); vertex errors and KG are against the uncompressed grid, surface distances \
-     (symmetric, RMS and max) against the original input frames";
+     (symmetric, RMS and max) against the original input frames, and the source errors are on the input's own \
+     vertices, each rebuilt from the decoded grid where it lies on the grid mesh";
 
 /// The encoded file of one try.
 struct Try {
@@ -317,11 +328,16 @@ pub fn run(src: &dyn FrameSource, opts: &EvalOptions, progress: &(dyn Fn(&str) +
     progress(&format!("parameterized in {:.1} s", prepared.seconds()));
 
     let grid = Grid::new(opts.base.grid)?;
-    let ctx = Ctx { mem: &mem, prepared: &prepared, truth: &truth, grid, diagonal, opts };
+    let points = SourcePoints::build(grid, &prepared.param);
+    let mut floor = SourceMeasure::new(&points, diagonal);
+    for (input, g) in mem.frames.iter().zip(&truth) {
+        floor.add_frame(input, g);
+    }
+    let ctx = Ctx { mem: &mem, prepared: &prepared, truth: &truth, grid, diagonal, opts, points: &points };
     let targets = ctx.targets()?;
     progress(&format!("{} rate points, {} codecs", targets.len(), opts.codecs.len()));
-    let points = ctx.rate_points(&targets, progress)?;
-    let bd_rates = bd_rates(&points, &opts.codecs);
+    let rate_points = ctx.rate_points(&targets, progress)?;
+    let bd_rates = bd_rates(&rate_points, &opts.codecs);
     Ok(Report {
         input: src.label().display().to_string(),
         input_vertices: mem.topology.vertex_count,
@@ -331,8 +347,9 @@ pub fn run(src: &dyn FrameSource, opts: &EvalOptions, progress: &(dyn Fn(&str) +
         diagonal,
         surface_every: opts.surface_every,
         normalization: NORMALIZATION,
-        points,
+        points: rate_points,
         bd_rates,
+        source_floor: floor.finish(),
         seconds: t0.elapsed().as_secs_f64(),
     })
 }
@@ -392,6 +409,8 @@ struct Ctx<'a> {
     grid: Grid,
     diagonal: f64,
     opts: &'a EvalOptions,
+    /// Where the input's vertices lie on the grid.
+    points: &'a SourcePoints,
 }
 
 /// Average file size shrinks by about this factor per QP step (H.264's
@@ -619,6 +638,7 @@ impl Ctx<'_> {
         let n = self.mem.frames.len();
         let (mut video, mut solve) = (0.0, 0.0);
         let mut kg = metrics::KgError::default();
+        let mut source = SourceMeasure::new(self.points, self.diagonal);
         let mut per_frame = Vec::with_capacity(n);
         for f in 0..n {
             let (x, stats) = dec.next_frame()?;
@@ -640,6 +660,7 @@ impl Ctx<'_> {
                 smoothness: metrics::smoothness(&st, truth, &x) / self.diagonal,
                 surface_rms: surf.map(|d| d.rms / self.diagonal),
                 surface_max: surf.map(|d| d.max / self.diagonal),
+                source_vertex_rms: source.add_frame(&self.mem.frames[f], &x),
             });
         }
         let mean = |g: &dyn Fn(&FrameMetrics) -> Option<f64>| -> Option<f64> {
@@ -674,6 +695,7 @@ impl Ctx<'_> {
             surface_max: per_frame.iter().filter_map(|m| m.surface_max).reduce(f64::max),
             worst_over_mean,
             kg: kg.value(),
+            source: source.finish(),
             encode_ms_per_frame: 1000.0 * t.encode_seconds / n as f64,
             video_decode_ms_per_frame: 1000.0 * video / n as f64,
             reconstruct_ms_per_frame: 1000.0 * solve / n as f64,

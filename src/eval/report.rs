@@ -39,6 +39,7 @@ pub fn markdown(r: &Report) -> String {
     let _ = writeln!(s, "Normalization: {}.\n", r.normalization);
     bitrates(&mut s, r);
     quality(&mut s, r);
+    source(&mut s, r);
     variants(&mut s, r);
     bd_rates(&mut s, r);
     s
@@ -98,6 +99,44 @@ fn quality(s: &mut String, r: &Report) {
                 c.encode_ms_per_frame,
                 c.video_decode_ms_per_frame,
                 c.reconstruct_ms_per_frame
+            );
+        }
+    }
+}
+
+/// The errors on the input's own vertices.
+fn source(s: &mut String, r: &Report) {
+    let _ = writeln!(s, "\n## On the input's own vertices\n");
+    let f = &r.source_floor;
+    let _ = writeln!(
+        s,
+        "Each input vertex rebuilt from the decoded grid, where it lies on the grid mesh, against the input \
+         frame: vertex RMS (mean over frames) and max relative to the diagonal, and the KG error by both \
+         definitions (each frame's centroid, as Karni & Gotsman and most of the literature; each vertex's mean \
+         over time). The uncompressed grid's own, the floor of every codec here: vertex RMS {}, max {}, KG {:.3} \
+         / {:.3}.\n",
+        pct(f.vertex_rms),
+        pct(f.vertex_max),
+        f.kg,
+        f.kg_temporal
+    );
+    let _ = writeln!(
+        s,
+        "| rate point | codec | vertex RMS | vertex max | KG, frame centroid (%) | KG, temporal mean (%) |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|");
+    for p in &r.points {
+        for c in &p.results {
+            let e = &c.source;
+            let _ = writeln!(
+                s,
+                "| {} | {} | {} | {} | {:.3} | {:.3} |",
+                p.name,
+                c.codec,
+                pct(e.vertex_rms),
+                pct(e.vertex_max),
+                e.kg,
+                e.kg_temporal
             );
         }
     }

@@ -32,28 +32,57 @@ pub fn smoothness(st: &crate::grid::stencil::Stencils, v: &[Vec3], decoded: &[Ve
 
 /// The KG error of Karni & Gotsman (2004), "Compression of soft-body
 /// animation sequences": 100 ‖A − A'‖_F / ‖A − E(A)‖_F, A the 3V x F matrix
-/// of a sequence's coordinates, A' the decoded one, and E(A) each frame's
-/// centroid repeated over its vertices. Fed one frame at a time.
-#[derive(Debug, Clone, Copy, Default)]
+/// of a sequence's coordinates and A' the decoded one. Two definitions of
+/// E(A) are in use, and both are kept: each frame's centroid repeated over
+/// its vertices ([`value`](Self::value), Karni & Gotsman's own, which the
+/// dynamic-mesh-compression literature reports), and each vertex's mean
+/// position over the sequence ([`temporal`](Self::temporal)). Fed one frame
+/// at a time; the second keeps a sum per vertex.
+#[derive(Debug, Clone, Default)]
 pub struct KgError {
     diff: f64,
     spread: f64,
+    frames: usize,
+    /// Per vertex: the sum of its positions and of their squared lengths.
+    sum: Vec<glam::DVec3>,
+    sum_squares: f64,
 }
 
 impl KgError {
     pub fn add_frame(&mut self, original: &[Vec3], decoded: &[Vec3]) {
         assert_eq!(original.len(), decoded.len(), "KG error needs corresponding points");
         let c = original.iter().map(|p| p.as_dvec3()).sum::<glam::DVec3>() / original.len().max(1) as f64;
-        for (p, q) in original.iter().zip(decoded) {
-            self.diff += (p.as_dvec3() - q.as_dvec3()).length_squared();
-            self.spread += (p.as_dvec3() - c).length_squared();
+        if self.sum.is_empty() {
+            self.sum = vec![glam::DVec3::ZERO; original.len()];
         }
+        for (v, (p, q)) in original.iter().zip(decoded).enumerate() {
+            let p = p.as_dvec3();
+            self.diff += (p - q.as_dvec3()).length_squared();
+            self.spread += (p - c).length_squared();
+            if let Some(s) = self.sum.get_mut(v) {
+                *s += p;
+            }
+            self.sum_squares += p.length_squared();
+        }
+        self.frames += 1;
     }
 
-    /// The error in percent (0 for identical sequences).
+    /// The error in percent against each frame's centroid (0 for identical
+    /// sequences).
     pub fn value(&self) -> f64 {
-        if self.spread > 0.0 {
-            100.0 * (self.diff / self.spread).sqrt()
+        Self::percent(self.diff, self.spread)
+    }
+
+    /// The error in percent against each vertex's mean over time.
+    pub fn temporal(&self) -> f64 {
+        let f = self.frames.max(1) as f64;
+        let spread = self.sum_squares - self.sum.iter().map(|s| s.length_squared() / f).sum::<f64>();
+        Self::percent(self.diff, spread)
+    }
+
+    fn percent(diff: f64, spread: f64) -> f64 {
+        if spread > 0.0 {
+            100.0 * (diff / spread).sqrt()
         } else {
             0.0
         }
