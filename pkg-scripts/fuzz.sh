@@ -29,13 +29,25 @@ cgv="$CARGO_TARGET_DIR/release/cgv"
 [ -x "$cgv" ] || cargo build --release --bin cgv
 mkdir -p fuzz/corpus/read fuzz/corpus/decode
 seed() { for f in "$@"; do for t in read decode; do cp "$f" "fuzz/corpus/$t/$(basename "$(dirname "$f")")-$(basename "$f")"; done; done; }
+# (Without the figure's 6274-vertex mesh, which is larger than -max_len;
+# an icosahedron's stands for format version 6's source mesh.)
 for codec in gv cgv; do
   f="fuzz/corpus/read/walk-$codec.cgv"
-  [ -e "$f" ] || "$cgv" encode builtin:walk --codec "$codec" --grid 16 --qp 30 -o "$f" >/dev/null
+  [ -e "$f" ] || "$cgv" encode builtin:walk --codec "$codec" --grid 16 --qp 30 --no-source-mesh -o "$f" >/dev/null
   cp "$f" fuzz/corpus/decode/
 done
 f=fuzz/corpus/read/walk-motion.cgv
-[ -e "$f" ] || "$cgv" encode builtin:walk --corrections motion --grid 16 --qp 30 -o "$f" >/dev/null
+[ -e "$f" ] || "$cgv" encode builtin:walk --corrections motion --grid 16 --qp 30 --no-source-mesh -o "$f" >/dev/null
+cp "$f" fuzz/corpus/decode/
+f=fuzz/corpus/read/icosahedron-source.cgv
+if [ ! -e "$f" ]; then
+  awk 'BEGIN { t = (1 + sqrt(5)) / 2
+    split("-1 t 0 1 t 0 -1 -t 0 1 -t 0 0 -1 t 0 1 t 0 -1 -t 0 1 -t t 0 -1 t 0 1 -t 0 -1 -t 0 1", v, " ")
+    for (i = 1; i <= 36; i += 3) { o = ""; for (k = 0; k < 3; k++) { x = v[i + k]; x = (x == "t") ? t : (x == "-t") ? -t : x; o = o " " x }; print "v" o }
+    split("1 12 6 1 6 2 1 2 8 1 8 11 1 11 12 2 6 10 6 12 5 12 11 3 11 8 7 8 2 9 4 10 5 4 5 3 4 3 7 4 7 9 4 9 10 5 10 6 3 5 12 7 3 11 9 7 8 10 9 2", f, " ")
+    for (i = 1; i <= 60; i += 3) print "f", f[i], f[i + 1], f[i + 2] }' > fuzz/corpus/icosahedron.obj
+  "$cgv" encode fuzz/corpus/icosahedron.obj --grid 16 --qp 30 -o "$f" >/dev/null
+fi
 cp "$f" fuzz/corpus/decode/
 seed tests/fixtures/v*/*.cgv
 seed $(find tests/fuzz-regressions -type f ! -name '*.md')

@@ -5,6 +5,7 @@
 //! sample follows the same material point through the motion.
 
 use crate::error::{Error, Result};
+use crate::format::source_mesh::{place, quantize_place};
 use crate::grid::Grid;
 use crate::param::Parameterization;
 use glam::{DVec2, Vec3};
@@ -93,6 +94,16 @@ impl SampleMap {
     }
 }
 
+/// Each vertex's place in the parameterization, folded into the square
+/// and quantized as format version 6 stores it (so the rebuilt vertices
+/// are the decoder's).
+pub fn places(param: &Parameterization) -> Vec<[u32; 2]> {
+    // Any copy of a vertex on the extended lattice is the same place; the
+    // one inside the square is what fits the quantizer's range.
+    let square = |uv: &DVec2| Grid::canonical_uv(*uv);
+    param.uv.iter().map(square).map(|uv| [quantize_place(uv.x), quantize_place(uv.y)]).collect()
+}
+
 /// Where each input vertex lies on the grid mesh: the inverse direction of
 /// [`SampleMap`]. A vertex's place in the parameterization falls in one
 /// grid quad (read on the grid's extended lattice, so a quad across the
@@ -108,13 +119,20 @@ pub struct SourcePoints {
 }
 
 impl SourcePoints {
-    /// The place of every vertex of the parameterized mesh on `grid`.
+    /// The place of every vertex of the parameterized mesh on `grid`, as
+    /// a file carries it (quantized: see [`places`]).
     pub fn build(grid: Grid, param: &Parameterization) -> SourcePoints {
+        SourcePoints::from_places(grid, &places(param))
+    }
+
+    /// The vertices at quantized `places` (format version 6's source mesh).
+    pub fn from_places(grid: Grid, places: &[[u32; 2]]) -> SourcePoints {
         let n = grid.n as f64;
-        let mut points = SourcePoints { corners: Vec::with_capacity(param.uv.len()), bary: Vec::new() };
-        for uv in &param.uv {
+        let mut points = SourcePoints { corners: Vec::with_capacity(places.len()), bary: Vec::new() };
+        for q in places {
+            let (u, v) = (place(q[0]), place(q[1]));
             // Lattice coordinates: sample (a, b) sits at a = (u + 1) N / 2 - 1/2.
-            let (x, y) = ((uv.x + 1.0) * n / 2.0 - 0.5, (uv.y + 1.0) * n / 2.0 - 0.5);
+            let (x, y) = ((u + 1.0) * n / 2.0 - 0.5, (v + 1.0) * n / 2.0 - 0.5);
             let (a, b) = (x.floor() as i64, y.floor() as i64);
             let (s, t) = (x - a as f64, y - b as f64);
             let q = [(a, b), (a + 1, b), (a + 1, b + 1), (a, b + 1)].map(|(i, j)| grid.canonical_index(i, j));

@@ -94,11 +94,55 @@ fn encode_info_and_decode_a_gv_file() {
     let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
     assert_eq!(v["header"]["codec"], "gv");
     assert_eq!(v["header"]["grid"], 16);
+    // The file carries the input's mesh (format version 6): decode gives
+    // back its 6274 vertices and 12544 faces, or the grid mesh when asked.
     let glb = dir.join("decoded.glb");
-    let dec = cgv(&["decode", cgv_file.to_str().unwrap(), "-o", glb.to_str().unwrap()]);
+    let dec = cgv(&["decode", cgv_file.to_str().unwrap(), "-o", glb.to_str().unwrap(), "--json"]);
     assert!(dec.status.success(), "{}", String::from_utf8_lossy(&dec.stderr));
-    let back = cgv::mesh::open_sequence(glb.to_str().unwrap(), &Default::default()).unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&dec.stdout).unwrap();
+    assert_eq!(
+        (v["mesh"].as_str(), v["vertices"].as_u64(), v["faces"].as_u64()),
+        (Some("source"), Some(6274), Some(12544))
+    );
+    // As OBJ frames, the input's own vertices in its order: frame 40 lies
+    // within the coarse N = 16 grid's reach of the input's frame 40 (measured
+    // 2.93 % of the diagonal: the grid is 256 samples for 6274 vertices).
+    let objs = dir.join("decoded");
+    let dec = cgv(&["decode", cgv_file.to_str().unwrap(), "-o", objs.to_str().unwrap()]);
+    assert!(dec.status.success(), "{}", String::from_utf8_lossy(&dec.stderr));
+    let (rebuilt, faces) = cgv::mesh::obj::read_obj(&objs.join("frame_0040.obj")).unwrap();
+    let walk = cgv::mesh::builtin::motion(72);
+    assert_eq!((rebuilt.len(), &faces), (6274, &walk.topology.faces));
+    let (rms, _) = cgv::metrics::vertex_error(&rebuilt, &walk.frames[40]);
+    let diagonal = cgv::mesh::Bounds::of(&walk.frames[40]).diagonal() as f64;
+    eprintln!("source vertices at N = 16: RMS {:.3} % of the diagonal", 100.0 * rms / diagonal);
+    assert!(rms / diagonal < 0.05, "{rms}");
+    let grid_glb = dir.join("grid.glb");
+    let dec = cgv(&["decode", cgv_file.to_str().unwrap(), "-o", grid_glb.to_str().unwrap(), "--mesh", "grid"]);
+    assert!(dec.status.success(), "{}", String::from_utf8_lossy(&dec.stderr));
+    let back = cgv::mesh::open_sequence(grid_glb.to_str().unwrap(), &Default::default()).unwrap();
     assert_eq!((back.frame_count(), back.topology().vertex_count), (72, 256));
+    // Without the source mesh the file is smaller, and --mesh source is refused by name.
+    let plain = dir.join("plain.cgv");
+    let out = cgv(&[
+        "encode",
+        "builtin:walk",
+        "--codec",
+        "gv",
+        "--grid",
+        "16",
+        "--no-source-mesh",
+        "-o",
+        plain.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(std::fs::metadata(&plain).unwrap().len() < std::fs::metadata(&cgv_file).unwrap().len());
+    let dec = cgv(&["decode", plain.to_str().unwrap(), "-o", dir.join("p.glb").to_str().unwrap(), "--mesh", "source"]);
+    assert!(
+        String::from_utf8_lossy(&dec.stderr).contains("carries no source mesh"),
+        "{}",
+        String::from_utf8_lossy(&dec.stderr)
+    );
 
     // A damaged file: a clear error naming it, and no output left behind.
     let mut bytes = std::fs::read(&cgv_file).unwrap();
@@ -125,10 +169,10 @@ fn encode_info_and_decode_motion_corrections() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let info = cgv(&["info", f.to_str().unwrap()]);
     let text = String::from_utf8_lossy(&info.stdout);
-    assert!(text.contains("format version 5") && text.contains("corrections   motion"), "{text}");
+    assert!(text.contains("format version 6") && text.contains("corrections   motion"), "{text}");
     let info = cgv(&["info", f.to_str().unwrap(), "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
-    assert_eq!((v["version"].as_u64(), v["header"]["corrections"].as_str()), (Some(5), Some("motion")));
+    assert_eq!((v["version"].as_u64(), v["header"]["corrections"].as_str()), (Some(6), Some("motion")));
     assert_eq!(v["filters"].as_array().map(Vec::len), Some(8));
     // At a coarse QP the encoder filters corrections, and info says so;
     // --no-correction-filter leaves every frame's filter at 0.
@@ -314,6 +358,7 @@ fn greedy_file() -> Vec<u8> {
         source: Default::default(),
         corrections: format::CorrectionMode::Motion,
         max_lag: 255,
+        source_mesh: None,
     };
     let mut bytes = format::write_header(&header).unwrap();
     bytes.extend(format::write_frame(0, &FrameInfo::default(), &[&[1u8][..]; 6]));

@@ -47,6 +47,7 @@ fn header() -> Header {
         source: Default::default(),
         corrections: CorrectionMode::Scaled,
         max_lag: 0,
+        source_mesh: None,
     }
 }
 
@@ -102,12 +103,12 @@ fn file_v1(h: &Header) -> Vec<u8> {
 fn reads_what_it_writes_in_both_layouts() {
     let h = header();
     let (v1, v2) = (file_v1(&h), file(&h));
-    // Versions 2 to 5 save 20 bytes per access unit but the frame's first.
+    // Versions 2 to 6 save 20 bytes per access unit but the frame's first.
     assert_eq!(v1.len() - v2.len(), (h.expected_chunks() as usize - 3) * 20 - 8);
     let a = format::read(&v1).unwrap();
     let f = format::read(&v2).unwrap();
-    assert_eq!((a.version, f.version), (1, 5));
-    for version in 2..=4 {
+    assert_eq!((a.version, f.version), (1, 6));
+    for version in 2..=5 {
         assert_eq!(format::read(&with_version(v2.clone(), version)).unwrap().header, h);
     }
     assert_eq!((&a.header, &a.units, &a.frames), (&f.header, &f.units, &f.frames));
@@ -127,9 +128,9 @@ fn bad_magic_and_versions() {
     assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::BadMagic);
     assert_eq!(format::read(b"GIF89a").unwrap_err(), ContainerError::BadMagic);
     let mut bytes = file(&header());
-    bytes[8] = 6;
-    assert_eq!(format::VERSION, 5);
-    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 6 });
+    bytes[8] = 7;
+    assert_eq!(format::VERSION, 6);
+    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 7 });
     bytes[8] = 0;
     assert!(matches!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 0 }));
 }
@@ -278,7 +279,8 @@ fn correction_filters_from_version_five() {
     let h = motion_header();
     let bytes = filtered_file(&h, |f| [0, 1, format::MAX_FILTER][f as usize % 3]);
     let f = format::read(&bytes).unwrap();
-    assert_eq!(f.version, 5);
+    assert_eq!(f.version, 6);
+    assert_eq!(format::read(&with_version(bytes.clone(), 5)).unwrap().frames, f.frames);
     assert_eq!(f.frames.iter().map(|i| i.filter).collect::<Vec<_>>(), [0, 1, format::MAX_FILTER]);
     // A version-4 reader's file had the byte reserved: a filter there is
     // refused by name, no filter still reads.
@@ -474,4 +476,78 @@ fn streams_byte_by_byte(h: &Header, bytes: &[u8]) {
     let mut r = format::StreamReader::default();
     r.push(&bad[..k - 10]).unwrap();
     assert!(r.push(&bad[k - 10..]).is_err());
+}
+
+/// A tetrahedron as a file carries it.
+fn source_mesh() -> format::SourceMesh {
+    format::SourceMesh {
+        faces: vec![[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]],
+        places: vec![[0, 0], [u32::MAX, 0], [0, u32::MAX], [1 << 31, 3 << 30]],
+    }
+}
+
+/// `h`'s file with `chunk` right after the header (and `h` saying a source
+/// mesh of `info` is there).
+fn file_with_source(h: &Header, info: format::SourceMeshInfo, chunk: Vec<u8>) -> Vec<u8> {
+    let h = Header { source_mesh: Some(info), ..h.clone() };
+    let plain = file(&h);
+    let header_len = format::parse_header(&plain).unwrap().unwrap().1;
+    [&plain[..header_len], &chunk, &plain[header_len..]].concat()
+}
+
+#[test]
+fn version_six_carries_the_source_mesh() {
+    let (h, mesh) = (header(), source_mesh());
+    let bytes = file_with_source(&h, mesh.info(), format::write_source_mesh(&mesh));
+    let f = format::read(&bytes).unwrap();
+    assert_eq!((f.version, f.header.min_version()), (6, 6));
+    assert_eq!(f.source_mesh.as_ref(), Some(&mesh));
+    assert_eq!(f.frames.len(), h.frames as usize);
+    // Byte by byte, as a stream: the same file.
+    let mut r = format::StreamReader::default();
+    for b in &bytes {
+        r.push(std::slice::from_ref(b)).unwrap();
+    }
+    assert_eq!(r.finish().unwrap().source_mesh, Some(mesh.clone()));
+    // A version-5 reader's file cannot hold it.
+    let e = format::read(&with_version(bytes, 5)).unwrap_err();
+    assert!(matches!(&e, ContainerError::Header(m) if m.contains("version 5")), "{e}");
+    // Files without it are as before.
+    assert!(format::read(&file(&h)).unwrap().source_mesh.is_none());
+}
+
+#[test]
+fn bad_source_meshes_are_errors() {
+    let (h, mesh) = (header(), source_mesh());
+    let info = mesh.info();
+    let chunk = |payload: &[u8]| format::write_chunk(format::TAG_SOURCE_MESH, 0, 0, payload);
+    let deflate = |raw: &[u8]| miniz_oxide::deflate::compress_to_vec(raw, 6);
+    let mut past_end = source_mesh();
+    past_end.faces[2][1] = 4;
+    let cases: Vec<(&str, Vec<u8>)> = vec![
+        // The header says a source mesh, the frame chunk comes first.
+        ("expected the source mesh", file_with_source(&h, info, Vec::new())),
+        ("uses vertex 4", file_with_source(&h, info, format::write_source_mesh(&past_end))),
+        ("does not inflate", file_with_source(&h, info, chunk(&[1, 2, 3, 4]))),
+        // More bytes than the counts allow (a deflate bomb): refused while inflating.
+        ("does not inflate", file_with_source(&h, info, chunk(&deflate(&vec![0u8; 1 << 20])))),
+        // Counts that disagree with the payload.
+        (
+            "vertex places",
+            file_with_source(&h, format::SourceMeshInfo { vertices: 5, ..info }, format::write_source_mesh(&mesh)),
+        ),
+        (
+            "vertex places",
+            file_with_source(&h, format::SourceMeshInfo { faces: 5, ..info }, format::write_source_mesh(&mesh)),
+        ),
+    ];
+    for (want, bytes) in cases {
+        let e = format::read(&bytes).unwrap_err();
+        assert!(matches!(&e, ContainerError::Chunk { msg, .. } if msg.contains(want)), "{want}: {e}");
+    }
+    // Counts past the limits, in the header itself.
+    for info in [format::SourceMeshInfo { vertices: 2, faces: 1 }, format::SourceMeshInfo { vertices: 3, faces: 0 }] {
+        let e = format::write_header(&Header { source_mesh: Some(info), ..h.clone() }).unwrap_err();
+        assert!(matches!(&e, ContainerError::Header(m) if m.contains("source mesh")), "{e}");
+    }
 }

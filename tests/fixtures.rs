@@ -47,17 +47,22 @@ fn check(name: &str, solver: SolverKind, tolerance: f64) {
     let file = open(name);
     let diag = file.header.source.diagonal as f64;
     let got = decode(file, solver);
-    let expected_path = fixture(&format!("{name}.{solver}.positions"));
+    compare(&format!("{name}.{solver}.positions"), &got, tolerance * diag);
+}
+
+/// `got` against the stored `expected` (written once, when blessing).
+fn compare(expected: &str, got: &[f32], tolerance: f64) {
+    let expected_path = fixture(expected);
     if !expected_path.exists() && std::env::var("CGV_BLESS_FIXTURES").is_ok_and(|v| v == "1") {
         let bytes: Vec<u8> = got.iter().flat_map(|v| v.to_le_bytes()).collect();
         std::fs::write(&expected_path, bytes).unwrap();
     }
     let bytes = std::fs::read(&expected_path)
         .unwrap_or_else(|e| panic!("{}: {e} (see the note at the top of this file)", expected_path.display()));
-    let expected: Vec<f32> = bytes.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
-    assert_eq!(got.len(), expected.len(), "{name}: sample count");
-    let worst = got.iter().zip(&expected).map(|(a, b)| (a - b).abs() as f64).fold(0.0, f64::max);
-    assert!(worst <= tolerance * diag, "{name} ({solver}): differs by {worst} (> {tolerance} of {diag})");
+    let want: Vec<f32> = bytes.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+    assert_eq!(got.len(), want.len(), "{expected}: value count");
+    let worst = got.iter().zip(&want).map(|(a, b)| (a - b).abs() as f64).fold(0.0, f64::max);
+    assert!(worst <= tolerance, "{expected}: differs by {worst} (> {tolerance})");
 }
 
 #[test]
@@ -129,4 +134,25 @@ fn v5_filter_fixture_decodes_as_frozen() {
         assert!(f.frames.iter().any(|i| i.filter == passes), "no frame with {passes} passes");
     }
     check("v5/walk-cgv-filter.cgv", SolverKind::Predictive, 1e-5);
+}
+
+#[test]
+fn v6_source_mesh_fixture_decodes_as_frozen() {
+    let f = open("v6/walk-cgv-source.cgv");
+    assert_eq!((f.version, f.header.corrections), (6, CorrectionMode::Motion));
+    let walk = cgv::mesh::builtin::motion(1);
+    let mesh = f.source_mesh.as_ref().expect("the file carries its input's mesh");
+    assert_eq!((&mesh.faces, mesh.places.len()), (&walk.topology.faces, walk.topology.vertex_count));
+    check("v6/walk-cgv-source.cgv", SolverKind::Predictive, 1e-5);
+    // The input's vertices rebuilt on every frame are frozen too: turning
+    // the stored places into vertices is part of what the file means.
+    let diag = f.header.source.diagonal as f64;
+    let mut dec = FileDecoder::new(f, SolverKind::Predictive).unwrap();
+    let source = dec.source_mesh().unwrap();
+    let mut got = Vec::new();
+    for _ in 0..dec.frame_count() {
+        let (x, _) = dec.next_frame().unwrap();
+        got.extend(source.vertices(&x).iter().flat_map(|p| p.to_array()));
+    }
+    compare("v6/walk-cgv-source.cgv.source.positions", &got, 1e-5 * diag);
 }

@@ -194,3 +194,17 @@ fn input_vertices_are_rebuilt_from_the_grid_where_they_lie() {
     let c = glam::Vec3::new(1.0, 2.0, 3.0);
     assert!(points.apply(&vec![c; grid.len()]).iter().all(|p| p.distance(c) < 1e-5));
 }
+
+#[test]
+fn a_plane_point_folds_to_the_sample_it_is_glued_to() {
+    // The continuous fold agrees with the lattice's: every sample centre of
+    // the extended lattice folds onto its canonical sample's centre.
+    let g = Grid::new(16).unwrap();
+    for b in -40..40i64 {
+        for a in -40..40i64 {
+            let (i, j) = g.canonical(a, b);
+            let folded = Grid::canonical_uv(g.uv(a, b));
+            assert!(folded.distance(g.uv(i as i64, j as i64)) < 1e-9, "({a}, {b}) -> {folded}");
+        }
+    }
+}

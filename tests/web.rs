@@ -1,5 +1,5 @@
 //! The wasm build in headless Chromium (wasm-bindgen-test): the container
-//! reader and the reconstruction on the v1 to v5 fixtures give the native
+//! reader and the reconstruction on the v1 to v6 fixtures give the native
 //! decoder's positions; WebCodecs gives exactly openh264's samples; the
 //! renderer draws on WebGPU and on WebGL2.
 //!
@@ -28,6 +28,8 @@ const CYCLE4: &[u8] = include_bytes!("fixtures/v4/walk-cgv-cycle.cgv");
 const CYCLE4_POS: &[u8] = include_bytes!("fixtures/v4/walk-cgv-cycle.cgv.cgv.positions");
 const FILTER5: &[u8] = include_bytes!("fixtures/v5/walk-cgv-filter.cgv");
 const FILTER5_POS: &[u8] = include_bytes!("fixtures/v5/walk-cgv-filter.cgv.cgv.positions");
+const SOURCE6: &[u8] = include_bytes!("fixtures/v6/walk-cgv-source.cgv");
+const SOURCE6_POS: &[u8] = include_bytes!("fixtures/v6/walk-cgv-source.cgv.cgv.positions");
 
 #[wasm_bindgen(inline_js = r#"
 const decoders = new Map();
@@ -143,6 +145,7 @@ async fn wasm_reconstruction_equals_native() {
         ("motion3", MOTION3, MOTION3_POS, 1e-5),
         ("cycle4", CYCLE4, CYCLE4_POS, 1e-5),
         ("filter5", FILTER5, FILTER5_POS, 1e-5),
+        ("source6", SOURCE6, SOURCE6_POS, 1e-5),
     ] {
         let diag = cgv::format::read(bytes).unwrap().header.source.diagonal;
         let (got, _) = decode(name, bytes).await;

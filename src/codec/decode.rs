@@ -4,7 +4,7 @@
 //! feeds it from a whole file in memory.
 
 use super::h264::Decoder as H264Decoder;
-use super::reconstruct::{FrameStats, SequenceDecoder, DEFAULT_MEMORY_LIMIT};
+use super::reconstruct::{FrameStats, SequenceDecoder, SourceMeshDecoder, DEFAULT_MEMORY_LIMIT};
 use crate::error::{Error, Result};
 use crate::format::{CgvFile, FrameInfo, Header, SolverKind};
 use crate::grid::Grid;
@@ -70,6 +70,11 @@ impl FileDecoder {
 
     pub fn frame_count(&self) -> usize {
         self.file.header.frames as usize
+    }
+
+    /// The input's mesh, when the file carries it (format version 6).
+    pub fn source_mesh(&self) -> Option<SourceMeshDecoder> {
+        self.file.source_mesh.as_ref().map(|m| SourceMeshDecoder::new(self.grid, m))
     }
 
     /// The frame [`next_frame`](Self::next_frame) decodes next.

@@ -33,7 +33,8 @@ pub use encode::{
     MOTION_MARGIN, PAPER_ANCHORS,
 };
 pub use reconstruct::{
-    frame_values, Corrections, FrameStats, Reconstructor, SequenceDecoder, DEFAULT_MEMORY_LIMIT, FILTER_CHOICES,
+    frame_values, Corrections, FrameStats, Reconstructor, SequenceDecoder, SourceMeshDecoder, DEFAULT_MEMORY_LIMIT,
+    FILTER_CHOICES,
 };
 
 use glam::Vec3;

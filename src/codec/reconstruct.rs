@@ -10,8 +10,10 @@
 
 use crate::error::{Error, Result};
 use crate::format::stream::{CORRECTION, POSITION, SEED};
-use crate::format::{CodecKind, CorrectionMode, FrameInfo, Header, PredictorCode, SolverKind, StreamName};
+use crate::format::{CodecKind, CorrectionMode, FrameInfo, Header, PredictorCode, SolverKind, SourceMesh, StreamName};
 use crate::grid::{Grid, Stencils};
+use crate::mesh::Topology;
+use crate::resample::SourcePoints;
 use crate::solve::paper::PaperSolver;
 use crate::solve::predictor::{Extrapolation, Predictor};
 use crate::solve::SolveStats;
@@ -347,6 +349,26 @@ impl SequenceDecoder {
     }
 }
 
+/// The input's own mesh that a version-6 file carries, and where its
+/// vertices lie on the grid: each decoded grid frame rebuilds them
+/// ([`SourcePoints`], the rule the encoder's evaluation uses too).
+pub struct SourceMeshDecoder {
+    pub topology: Topology,
+    pub points: SourcePoints,
+}
+
+impl SourceMeshDecoder {
+    pub fn new(grid: Grid, mesh: &SourceMesh) -> SourceMeshDecoder {
+        let topology = Topology { vertex_count: mesh.places.len(), faces: mesh.faces.clone() };
+        SourceMeshDecoder { topology, points: SourcePoints::from_places(grid, &mesh.places) }
+    }
+
+    /// The input's vertices on one decoded grid frame.
+    pub fn vertices(&self, grid_frame: &[Vec3]) -> Vec<Vec3> {
+        self.points.apply(grid_frame)
+    }
+}
+
 /// The default of [`SequenceDecoder::new`]'s memory limit: 1 GiB.
 pub const DEFAULT_MEMORY_LIMIT: u64 = 1 << 30;
 
@@ -354,7 +376,8 @@ pub const DEFAULT_MEMORY_LIMIT: u64 = 1 << 30;
 /// frame arrives: per stream a luma plane and its values; per grid sample
 /// the decoded past (two frames, `max_lag` smoothed velocities, the motion
 /// corrections' previous picture, the tangential coefficients) and, for H
-/// steps and the paper's solver, their factorization or L-BFGS history.
+/// steps and the paper's solver, their factorization or L-BFGS history;
+/// and a version-6 source mesh with its rebuilt vertices.
 pub fn decoder_memory(h: &Header, solver: SolverKind) -> u64 {
     let n = u64::from(h.grid) * u64::from(h.grid);
     let streams = h.streams.len() as u64 * n * (1 + 4);
@@ -364,5 +387,6 @@ pub fn decoder_memory(h: &Header, solver: SolverKind) -> u64 {
         (CodecKind::Cgv, SolverKind::Predictive) => (4 + u64::from(h.max_lag)) * frame + 8 * n + 25 * 8 * n,
         (CodecKind::Cgv, SolverKind::Paper) => (4 + 2 * 8) * 3 * 8 * n,
     };
-    streams + past
+    let source = h.source_mesh.map_or(0, |m| u64::from(m.vertices) * 40 + u64::from(m.faces) * 24);
+    streams + past + source
 }

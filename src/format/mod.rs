@@ -1,4 +1,4 @@
-//! The `.cgv` file format, versions 1 to 5 (documented in `docs/FORMAT.md`).
+//! The `.cgv` file format, versions 1 to 6 (documented in `docs/FORMAT.md`).
 //! Version 2 puts each frame in one chunk (version 1: one chunk per access
 //! unit, 20 bytes each, a quarter of a low-bitrate file) and adds one
 //! header field, `corrections` (see [`CorrectionMode`]). Version 3 has the
@@ -6,8 +6,10 @@
 //! `H` and `lambda` streams. Version 4 adds cycle predictions: a lag byte
 //! in the frame chunk and the header field `max_lag`. Version 5 adds a
 //! filter byte to the frame chunk: the averaging passes the decoder applies
-//! to the frame's correction. This writer writes version 5; the reader
-//! reads all five.
+//! to the frame's correction. Version 6 may carry the input's own mesh
+//! ([`source_mesh`]: the `SMSH` chunk after the header, and the header
+//! field `source_mesh`). This writer writes version 6; the reader reads
+//! all six.
 //!
 //! ```text
 //! magic    8 bytes   89 43 47 56 0D 0A 1A 0A   ("\x89CGV\r\n\x1a\n")
@@ -30,16 +32,18 @@
 
 pub mod predictor;
 pub mod quant;
+pub mod source_mesh;
 pub mod stream;
 
 pub use predictor::{Extrapolation, PredictorCode, SolverKind, MAX_PREDICTOR, MAX_STEPS};
 pub use quant::Quantizer;
 use serde::{Deserialize, Serialize};
+pub use source_mesh::{SourceMesh, SourceMeshInfo};
 pub use stream::StreamName;
 
 pub const MAGIC: [u8; 8] = [0x89, b'C', b'G', b'V', b'\r', b'\n', 0x1A, b'\n'];
 /// The newest version this reader reads and this writer writes.
-pub const VERSION: u16 = 5;
+pub const VERSION: u16 = 6;
 /// Largest header accepted.
 pub const MAX_HEADER: usize = 1 << 20;
 /// Largest chunk payload accepted (an access unit of a 4096² frame at QP 0
@@ -67,6 +71,8 @@ pub fn check_grid_size(n: u64) -> Result<(), String> {
 pub const TAG_ACCESS_UNIT: [u8; 4] = *b"AUNT";
 pub const TAG_FRAME: [u8; 4] = *b"FRAM";
 pub const TAG_END: [u8; 4] = *b"CEND";
+/// Version 6: the input's mesh, once, before frame 0's chunk.
+pub const TAG_SOURCE_MESH: [u8; 4] = *b"SMSH";
 
 /// What is wrong with a `.cgv` file, with the byte offset where it was found.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -278,6 +284,9 @@ pub struct Header {
     /// or absent: none). A decoder keeps this many past smoothed velocities.
     #[serde(default, skip_serializing_if = "is_zero")]
     pub max_lag: u8,
+    /// Version 6: the input's mesh is in the `SMSH` chunk (absent: it is not).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub source_mesh: Option<SourceMeshInfo>,
 }
 
 fn is_scaled(m: &CorrectionMode) -> bool {
@@ -351,14 +360,20 @@ impl Header {
         if self.codec == CodecKind::Cgv && self.anchors.len() < 4 && !closed_loop {
             return bad("a CGV file without correction streams needs at least 4 anchors".into());
         }
+        if let Some(m) = &self.source_mesh {
+            m.validate().map_err(ContainerError::Header)?;
+        }
         Ok(())
     }
 
-    /// The oldest format version that can hold this header: 4 for cycle
+    /// The oldest format version that can hold this header: 6 for the
+    /// source mesh, 4 for cycle
     /// predictions, 3 for a CGV file without H, 2 for motion corrections,
     /// else 1.
     pub fn min_version(&self) -> u16 {
-        if self.max_lag > 0 {
+        if self.source_mesh.is_some() {
+            6
+        } else if self.max_lag > 0 {
             4
         } else if self.codec == CodecKind::Cgv && self.stream(StreamName::H).is_none() {
             3
@@ -416,6 +431,11 @@ pub fn write_header(header: &Header) -> Result<Vec<u8>, ContainerError> {
     let crc = crc32fast::hash(&out[8..]);
     out.extend_from_slice(&crc.to_le_bytes());
     Ok(out)
+}
+
+/// Version 6: the chunk carrying the input's mesh, written right after the header.
+pub fn write_source_mesh(mesh: &SourceMesh) -> Vec<u8> {
+    write_chunk(TAG_SOURCE_MESH, 0, 0, &mesh.to_bytes())
 }
 
 /// Encodes one chunk.
@@ -539,7 +559,7 @@ pub fn parse_chunk(bytes: &[u8], offset: usize) -> Result<Option<(Chunk<'_>, usi
         return Err(ContainerError::BadCrc { offset, what: "a chunk" });
     }
     let tag = [b[0], b[1], b[2], b[3]];
-    if tag != TAG_ACCESS_UNIT && tag != TAG_FRAME && tag != TAG_END {
+    if ![TAG_ACCESS_UNIT, TAG_FRAME, TAG_END, TAG_SOURCE_MESH].contains(&tag) {
         return Err(ContainerError::Chunk {
             offset,
             msg: format!("unknown chunk tag {:?}", String::from_utf8_lossy(&tag)),
@@ -560,6 +580,8 @@ pub struct CgvFile {
     pub units: Vec<Vec<Vec<u8>>>,
     /// Side data per frame.
     pub frames: Vec<FrameInfo>,
+    /// Version 6: the input's mesh, when the file carries it.
+    pub source_mesh: Option<SourceMesh>,
     /// Size of the file in bytes.
     pub bytes: usize,
 }
@@ -632,8 +654,14 @@ impl StreamReader {
                     // Allocate per frame only as chunks arrive: a header cannot
                     // make us reserve memory the file does not back.
                     let version = u16_at(&self.pending, 8);
-                    self.file =
-                        Some(CgvFile { version, header, units: vec![Vec::new(); n], frames: Vec::new(), bytes: 0 });
+                    self.file = Some(CgvFile {
+                        version,
+                        header,
+                        units: vec![Vec::new(); n],
+                        frames: Vec::new(),
+                        source_mesh: None,
+                        bytes: 0,
+                    });
                     at = len;
                 }
             }
@@ -674,6 +702,14 @@ impl StreamReader {
         let Some(file) = self.file.as_mut() else {
             return Err(ContainerError::Chunk { offset, msg: "a chunk before the header".into() });
         };
+        if let (Some(info), None, 0, 0) = (file.header.source_mesh, &file.source_mesh, self.frame, self.slot) {
+            // Version 6: the source mesh comes first.
+            if chunk.tag != TAG_SOURCE_MESH || chunk.frame != 0 {
+                return Err(unexpected(&chunk, offset, "the source mesh", 0));
+            }
+            file.source_mesh = Some(SourceMesh::parse(chunk.payload, &info, offset)?);
+            return Ok(());
+        }
         let header = &file.header;
         let nstreams = header.streams.len();
         if self.frame >= header.frames {

@@ -83,6 +83,27 @@ impl Grid {
         }
     }
 
+    /// The point of the square [-1, 1]² that the plane point `p` is glued
+    /// to: the continuous form of [`canonical`](Self::canonical) (the same
+    /// half-turns about the side middles; a translation by 4 is two of them).
+    pub fn canonical_uv(p: DVec2) -> DVec2 {
+        let (mut u, mut v) = ((p.x + 1.0).rem_euclid(4.0) - 1.0, (p.y + 1.0).rem_euclid(4.0) - 1.0);
+        for _ in 0..8 {
+            if u > 1.0 {
+                (u, v) = (2.0 - u, -v);
+            } else if u < -1.0 {
+                (u, v) = (-2.0 - u, -v);
+            } else if v > 1.0 {
+                (u, v) = (-u, 2.0 - v);
+            } else if v < -1.0 {
+                (u, v) = (-u, -2.0 - v);
+            } else {
+                break;
+            }
+        }
+        DVec2::new(u.clamp(-1.0, 1.0), v.clamp(-1.0, 1.0))
+    }
+
     pub fn canonical_index(&self, a: i64, b: i64) -> u32 {
         let (i, j) = self.canonical(a, b);
         self.index(i, j)

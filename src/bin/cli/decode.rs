@@ -16,11 +16,24 @@ pub struct Args {
     /// Default: the one recorded in the file.
     #[arg(long)]
     solver: Option<SolverKind>,
+    /// Which mesh to write: `source` (the input's own vertices and faces,
+    /// rebuilt on each decoded frame; files from format version 6 carry
+    /// it), `grid` (the N x N grid mesh the file codes), or `auto` (source
+    /// when the file carries it, else grid).
+    #[arg(long, value_enum, default_value = "auto")]
+    mesh: MeshChoice,
     #[command(flatten)]
     memory: MemoryArgs,
     /// Print statistics as JSON.
     #[arg(long)]
     json: bool,
+}
+
+#[derive(Clone, Copy, PartialEq, clap::ValueEnum)]
+enum MeshChoice {
+    Auto,
+    Source,
+    Grid,
 }
 
 /// The decoder's memory limit, for files from elsewhere.
@@ -52,7 +65,19 @@ pub fn open_decoder(
 
 pub fn run(args: Args) -> Result<()> {
     let (mut dec, solver) = open_decoder(&args.input, args.solver, args.memory)?;
-    let topo = dec.grid.topology();
+    let source = match (args.mesh, dec.source_mesh()) {
+        (MeshChoice::Grid, _) => None,
+        (_, Some(s)) => Some(s),
+        (MeshChoice::Source, None) => anyhow::bail!(
+            "{}: the file carries no source mesh (format version {}; only version 6 files written with it do): \
+             use --mesh grid",
+            args.input.display(),
+            dec.file.version
+        ),
+        (MeshChoice::Auto, None) => None,
+    };
+    let topo = source.as_ref().map_or_else(|| dec.grid.topology(), |s| s.topology.clone());
+    let mesh_name = if source.is_some() { "source" } else { "grid" };
     let frames = dec.frame_count();
     let fps = dec.file.header.fps;
     let pb = super::progress(frames, "decoding", args.json);
@@ -61,7 +86,10 @@ pub fn run(args: Args) -> Result<()> {
         let (x, s) = dec.next_frame()?;
         stats.push(s);
         pb.inc(1);
-        Ok(x)
+        Ok(match &source {
+            Some(m) => m.vertices(&x),
+            None => x,
+        })
     };
     let out = &args.output;
     super::write_sequence(out, &topo, frames, fps, "cgv", &mut next)?;
@@ -74,12 +102,21 @@ pub fn run(args: Args) -> Result<()> {
             "{}",
             serde_json::to_string_pretty(&serde_json::json!({
                 "output": out, "frames": frames, "solver": solver.to_string(),
+                "mesh": mesh_name, "vertices": topo.vertex_count, "faces": topo.faces.len(),
                 "seconds_video": video, "seconds_solve": solve,
                 "unconverged_frames": unconverged, "per_frame": stats,
             }))?
         );
     } else {
-        println!("{} -> {} ({} frames, solver {})", args.input.display(), out.display(), frames, solver);
+        println!(
+            "{} -> {} ({} frames, solver {}, the {mesh_name} mesh: {} vertices, {} faces)",
+            args.input.display(),
+            out.display(),
+            frames,
+            solver,
+            topo.vertex_count,
+            topo.faces.len()
+        );
         println!(
             "  H.264 decode {:.1} ms/frame, reconstruction {:.1} ms/frame; {} frames did not converge",
             1000.0 * video / frames as f64,

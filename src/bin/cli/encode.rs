@@ -62,6 +62,11 @@ pub struct Args {
     /// at low bitrates from piling up; for measurement).
     #[arg(long)]
     no_correction_filter: bool,
+    /// Leave out the input's own mesh (its faces and each vertex's place on
+    /// the grid, written once: format version 6), so that a decoder can only
+    /// give back the grid mesh; smaller by what `source mesh` reports.
+    #[arg(long)]
+    no_source_mesh: bool,
     /// CGV: how the corrections are coded. `scaled`: each frame's error,
     /// scaled to the frame's largest. `motion`: their running sum at a
     /// fixed scale, so H.264 skips what the prediction got right (better at
@@ -145,6 +150,7 @@ fn options(args: &Args, fps: f32) -> EncodeOptions {
         solver: args.solver,
         param: ParamOptions { area_correction: args.area_correction, area_passes: args.area_passes, cones: None },
         reference: 0,
+        source_mesh: !args.no_source_mesh,
     }
 }
 
@@ -195,6 +201,12 @@ pub fn run(args: Args) -> Result<()> {
             println!("  stream {name:<8} {b:>10} bytes");
         }
         println!("  frame chunks    {:>10} bytes (chunk framing, anchors, predictor, scale)", report.side_bytes);
+        if report.source_mesh_bytes > 0 {
+            println!(
+                "  source mesh     {:>10} bytes (the input's faces and vertex places, once; --no-source-mesh leaves it out)",
+                report.source_mesh_bytes
+            );
+        }
         let p = &report.parameterization;
         if let Some(score) = p.score {
             let diagonal = cgv::mesh::Bounds::of(&src.read_frame(opts.reference)?).diagonal() as f64;

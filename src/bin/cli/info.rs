@@ -156,6 +156,10 @@ fn cgv_info(args: &Args) -> Result<()> {
         h.settings.layers
     );
     println!("  source        {} ({} vertices, diagonal {})", h.source.label, h.source.vertices, h.source.diagonal);
+    match &h.source_mesh {
+        Some(m) => println!("  source mesh   {} vertices, {} faces (decoders give them back)", m.vertices, m.faces),
+        None => println!("  source mesh   none (decoders give back the grid mesh)"),
+    }
     for (s, b) in h.streams.iter().zip(&stream_bytes) {
         println!(
             "  stream {:<7} layer {} {:?} range [{:.4e}, {:.4e}]{} {:>9} bytes",

@@ -11,7 +11,7 @@ use cgv::mesh::Bounds;
 use cgv::mesh::FrameSource;
 use cgv::metrics::surface;
 use cgv::param::ParamOptions;
-use cgv::resample::SampleMap;
+use cgv::resample::{SampleMap, SourcePoints};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -53,22 +53,23 @@ pub struct Args {
 struct FrameError {
     frame: usize,
     diagonal: f32,
+    /// Symmetric surface distance between the frame and its grid mesh.
     rms: f64,
     max: f64,
+    /// The input's own vertices rebuilt from the grid (as a decoder of a
+    /// file carrying the source mesh does) against the input's.
+    vertex_rms: f64,
+    vertex_max: f64,
 }
 
 /// The resampling error of every `stride`-th frame, in parallel.
-fn measure(
-    src: &dyn FrameSource,
-    map: &SampleMap,
-    grid_faces: &[[u32; 3]],
-    stride: usize,
-    quiet: bool,
-) -> Result<Vec<FrameError>> {
+fn measure(src: &dyn FrameSource, image: &GeometryImage, stride: usize, quiet: bool) -> Result<Vec<FrameError>> {
     if stride == 0 {
         return Ok(Vec::new());
     }
-    let topology = src.topology();
+    let (topology, map) = (src.topology(), &image.map);
+    let grid_faces = map.grid.topology().faces;
+    let points = SourcePoints::build(map.grid, &image.param);
     let frames: Vec<usize> = (0..src.frame_count()).step_by(stride).collect();
     let pb = super::progress(frames.len(), "measuring", quiet);
     let results: Vec<cgv::Result<FrameError>> = frames
@@ -76,10 +77,18 @@ fn measure(
         .map(|&i| {
             let f = src.read_frame(i)?;
             let g = map.apply(&f);
-            let d = surface::symmetric(&f, &topology.faces, &g, grid_faces)?;
-            let diagonal = Bounds::of(&f).diagonal();
+            let d = surface::symmetric(&f, &topology.faces, &g, &grid_faces)?;
+            let (vertex_rms, vertex_max) = cgv::metrics::vertex_error(&points.apply(&g), &f);
+            let diagonal = Bounds::of(&f).diagonal() as f64;
             pb.inc(1);
-            Ok(FrameError { frame: i, diagonal, rms: d.rms / diagonal as f64, max: d.max / diagonal as f64 })
+            Ok(FrameError {
+                frame: i,
+                diagonal: diagonal as f32,
+                rms: d.rms / diagonal,
+                max: d.max / diagonal,
+                vertex_rms: vertex_rms / diagonal,
+                vertex_max: vertex_max / diagonal,
+            })
         })
         .collect();
     pb.finish_and_clear();
@@ -146,8 +155,7 @@ pub fn run(args: Args) -> Result<()> {
     let opts = ParamOptions { area_correction: args.area_correction, area_passes: args.area_passes, cones: None };
     let image = GeometryImage::build(src.label(), &topology, &reference, grid, &opts)
         .context("parameterizing the reference frame")?;
-    let grid_topo = grid.topology();
-    let errors = measure(src.as_ref(), &image.map, &grid_topo.faces, args.error_stride, args.json)?;
+    let errors = measure(src.as_ref(), &image, args.error_stride, args.json)?;
     let png = png_path(&args);
     let resample_s = write_output(src.as_ref(), &image.map, grid, &args.output, &png, args.json)?;
     let report = Report { args: &args, src: src.as_ref(), grid, image: &image, errors, resample_s, png };
@@ -179,6 +187,10 @@ impl Report<'_> {
         self.errors.iter().map(|e| e.max).fold(0.0, f64::max)
     }
 
+    fn vertex_max(&self) -> f64 {
+        self.errors.iter().map(|e| e.vertex_max).fold(0.0, f64::max)
+    }
+
     fn fps_resample(&self) -> f64 {
         self.src.frame_count() as f64 / self.resample_s.max(1e-9)
     }
@@ -201,6 +213,7 @@ impl Report<'_> {
                 "relative_to": "bounding-box diagonal of each original frame",
                 "frames_measured": self.errors.len(),
                 "rms_mean": self.mean(&|e| e.rms), "max_mean": self.mean(&|e| e.max), "max_max": self.max_max(),
+                "vertex_rms_mean": self.mean(&|e| e.vertex_rms), "vertex_max_max": self.vertex_max(),
                 "per_frame": self.errors,
             },
             "output": self.args.output, "png": self.png,
@@ -242,6 +255,11 @@ impl Report<'_> {
                 100.0 * self.mean(&|e| e.max),
                 self.errors.len(),
                 100.0 * self.max_max()
+            );
+            println!(
+                "  input vertices    rebuilt from the grid: RMS {:.4} % (mean over frames), max {:.4} % of the diagonal",
+                100.0 * self.mean(&|e| e.vertex_rms),
+                100.0 * self.vertex_max()
             );
         }
         println!("  wrote {} and {}", out.display(), self.png.display());

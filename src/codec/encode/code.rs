@@ -10,10 +10,11 @@ use crate::codec::h264::{Decoder as H264Decoder, Encoder as H264Encoder};
 use crate::codec::reconstruct::{frame_values, Predictive, Values};
 use crate::error::{Error, Result};
 use crate::format::stream::CORRECTION;
-use crate::format::{self, Coverage, FrameInfo, Header, StreamInfo, StreamName};
+use crate::format::{self, Coverage, FrameInfo, Header, SourceMesh, StreamInfo, StreamName};
+use crate::geometry_image::GeometryImage;
 use crate::grid::Stencils;
 use crate::mesh::FrameSource;
-use crate::resample::SampleMap;
+use crate::resample;
 use glam::Vec3;
 
 /// The coded file and what it is made of.
@@ -23,6 +24,8 @@ pub(super) struct Coded {
     pub stream_bytes: Vec<(String, usize)>,
     /// Frame chunk bytes besides the access units.
     pub side_bytes: usize,
+    /// The source mesh chunk's bytes.
+    pub source_mesh_bytes: usize,
     pub seconds_coding: f64,
 }
 
@@ -68,11 +71,21 @@ pub(super) fn code(
     opts: &EncodeOptions,
     plan: &Plan,
     header: &Header,
-    map: &SampleMap,
+    image: &GeometryImage,
     st: &Stencils,
     progress: &mut dyn FnMut(&str, usize, usize),
 ) -> Result<Coded> {
+    let map = &image.map;
     let mut out = format::write_header(header).map_err(|e| Error::Container { path: src.label().into(), source: e })?;
+    let source_mesh_bytes = match header.source_mesh {
+        Some(_) => {
+            let mesh = SourceMesh { faces: src.topology().faces.clone(), places: resample::places(&image.param) };
+            let chunk = format::write_source_mesh(&mesh);
+            out.extend_from_slice(&chunk);
+            chunk.len()
+        }
+        None => 0,
+    };
     let mut streams = open_streams(header, opts, plan)?;
     let mut predictive = Predictive::new(header, st.clone());
     let (mut seconds_coding, mut side_bytes) = (0.0, 0);
@@ -113,7 +126,7 @@ pub(super) fn code(
         .iter()
         .map(|s| (format!("{}{}", s.info.name, if s.info.layer == 2 { "/2" } else { "" }), s.bytes))
         .collect();
-    Ok(Coded { bytes: out, stream_bytes, side_bytes, seconds_coding })
+    Ok(Coded { bytes: out, stream_bytes, side_bytes, source_mesh_bytes, seconds_coding })
 }
 
 /// The closed loop at one frame: predict from the decoded past and what

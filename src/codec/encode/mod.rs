@@ -85,6 +85,9 @@ pub struct EncodeOptions {
     pub param: ParamOptions,
     /// The frame whose surface is parameterized.
     pub reference: usize,
+    /// Carry the input's own mesh (format version 6), so that a decoder
+    /// gives back the user's vertices and faces, not only the grid mesh.
+    pub source_mesh: bool,
 }
 
 impl Default for EncodeOptions {
@@ -106,6 +109,7 @@ impl Default for EncodeOptions {
             solver: SolverKind::Predictive,
             param: ParamOptions::default(),
             reference: 0,
+            source_mesh: true,
         }
     }
 }
@@ -160,6 +164,8 @@ pub struct EncodeReport {
     /// Bytes of the frame chunks besides the access units: framing, lengths,
     /// predictor, correction scale and anchors.
     pub side_bytes: usize,
+    /// Bytes of the source mesh chunk (0 without one).
+    pub source_mesh_bytes: usize,
     pub parameterization: Parameterization,
     pub seconds_parameterize: f64,
     pub seconds_coding: f64,
@@ -211,14 +217,15 @@ pub fn encode_prepared(
     let simulation = simulate::simulate(src, &plan, opts, &image.map, &st, &analysis.first_grid)?;
     let diagonal = Bounds::of(&src.read_frame(opts.reference)?).diagonal();
     let header = plan.header(src, opts, &analysis, &simulation, diagonal);
-    let code::Coded { bytes, stream_bytes, side_bytes, seconds_coding } =
-        code::code(src, opts, &plan, &header, &image.map, &st, progress)?;
+    let code::Coded { bytes, stream_bytes, side_bytes, source_mesh_bytes, seconds_coding } =
+        code::code(src, opts, &plan, &header, image, &st, progress)?;
     let seconds_parameterize = image.seconds();
     let report = EncodeReport {
         bytes: bytes.len(),
         frames: plan.frames,
         stream_bytes,
         side_bytes,
+        source_mesh_bytes,
         parameterization: image.param.clone(),
         seconds_parameterize,
         seconds_coding,

@@ -8,7 +8,9 @@ use super::EncodeOptions;
 use crate::error::Result;
 use crate::format::quant::Quantizer;
 use crate::format::stream::{CORRECTION, POSITION, SEED};
-use crate::format::{self, CodecKind, CorrectionMode, Coverage, Header, Settings, SourceInfo, StreamInfo, StreamName};
+use crate::format::{
+    self, CodecKind, CorrectionMode, Coverage, Header, Settings, SourceInfo, SourceMeshInfo, StreamInfo, StreamName,
+};
 use crate::grid::Grid;
 use crate::mesh::FrameSource;
 use crate::solve::predictor::{Extrapolation, ALL_EXTRAPOLATIONS, MOTION_EXTRAPOLATIONS};
@@ -168,6 +170,10 @@ impl Plan {
             },
             corrections: if self.motion { CorrectionMode::Motion } else { CorrectionMode::Scaled },
             max_lag: simulation.max_lag,
+            source_mesh: opts.source_mesh.then_some(SourceMeshInfo {
+                vertices: topology.vertex_count as u32,
+                faces: topology.faces.len() as u32,
+            }),
         }
     }
 }

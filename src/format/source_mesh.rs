@@ -1,0 +1,147 @@
+//! Version 6: the input's own mesh, once per file (the `SMSH` chunk after
+//! the header), so a decoder gives back the user's vertices and faces
+//! rather than the grid mesh: the connectivity, and each vertex's place in
+//! the parameterization, from which the decoder rebuilds the vertex on
+//! every decoded grid frame.
+//!
+//! Payload, deflated (RFC 1951, raw) as a whole: the faces' 3 x `faces`
+//! vertex indices, each as the zigzag-coded difference from the index
+//! before it in LEB128 (neighbouring faces share vertices, so most
+//! differences are small), then each vertex's place as two u32 (u, v in
+//! [-1, 1] on 2^32 - 1 steps; 16 bits were too coarse: on the built-in
+//! motion's map 115 of 6,274 vertices shared a place with another, and so a
+//! decoded position). The header's
+//! `source_mesh` gives the counts, so a reader knows the size before it
+//! inflates anything.
+
+use super::ContainerError;
+use serde::{Deserialize, Serialize};
+
+/// Most bytes one byte of the deflated payload may inflate to (a real
+/// mesh's is near 1: 1.14 on the built-in figure; deflate itself allows
+/// about 1,000), so that a file's source mesh costs a reader at most this
+/// many times the bytes the file really has.
+pub const MAX_INFLATION: usize = 64;
+
+/// Most vertices and faces a source mesh may have.
+pub const MAX_SOURCE_VERTICES: u32 = 1 << 24;
+pub const MAX_SOURCE_FACES: u32 = 1 << 25;
+
+/// The header's description of the `SMSH` chunk.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SourceMeshInfo {
+    pub vertices: u32,
+    pub faces: u32,
+}
+
+impl SourceMeshInfo {
+    pub fn validate(&self) -> Result<(), String> {
+        if !(3..=MAX_SOURCE_VERTICES).contains(&self.vertices) || !(1..=MAX_SOURCE_FACES).contains(&self.faces) {
+            return Err(format!(
+                "source mesh of {} vertices and {} faces (3..={MAX_SOURCE_VERTICES} and 1..={MAX_SOURCE_FACES} allowed)",
+                self.vertices, self.faces
+            ));
+        }
+        Ok(())
+    }
+
+    /// The most bytes the inflated payload can have.
+    fn max_inflated(&self) -> usize {
+        self.faces as usize * 3 * 5 + self.vertices as usize * 8
+    }
+}
+
+/// The input's mesh as a file carries it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SourceMesh {
+    pub faces: Vec<[u32; 3]>,
+    /// Each vertex's place in the parameterization, quantized ([`place`]).
+    pub places: Vec<[u32; 2]>,
+}
+
+const PLACE_STEPS: f64 = u32::MAX as f64;
+
+/// A coordinate in [-1, 1] on 2^32 - 1 steps.
+pub fn quantize_place(u: f64) -> u32 {
+    ((u.clamp(-1.0, 1.0) + 1.0) / 2.0 * PLACE_STEPS).round() as u32
+}
+
+/// The coordinate a quantized place stands for.
+pub fn place(q: u32) -> f64 {
+    q as f64 / PLACE_STEPS * 2.0 - 1.0
+}
+
+impl SourceMesh {
+    pub fn info(&self) -> SourceMeshInfo {
+        SourceMeshInfo { vertices: self.places.len() as u32, faces: self.faces.len() as u32 }
+    }
+
+    /// The chunk's payload.
+    pub fn to_bytes(&self) -> Vec<u8> {
+        let mut raw = Vec::with_capacity(self.faces.len() * 4 + self.places.len() * 8);
+        let mut prev = 0i64;
+        for &i in self.faces.iter().flatten() {
+            let d = i as i64 - prev;
+            prev = i as i64;
+            let mut z = ((d << 1) ^ (d >> 63)) as u64;
+            loop {
+                let byte = (z & 0x7f) as u8;
+                z >>= 7;
+                raw.push(if z > 0 { byte | 0x80 } else { byte });
+                if z == 0 {
+                    break;
+                }
+            }
+        }
+        for p in &self.places {
+            raw.extend_from_slice(&p[0].to_le_bytes());
+            raw.extend_from_slice(&p[1].to_le_bytes());
+        }
+        miniz_oxide::deflate::compress_to_vec(&raw, 9)
+    }
+
+    /// Reads the payload of the chunk at byte `offset` that `info` describes.
+    pub fn parse(payload: &[u8], info: &SourceMeshInfo, offset: usize) -> Result<SourceMesh, ContainerError> {
+        let bad = |msg: String| ContainerError::Chunk { offset, msg: format!("source mesh: {msg}") };
+        let limit = info.max_inflated().min(payload.len().saturating_mul(MAX_INFLATION));
+        let raw = miniz_oxide::inflate::decompress_to_vec_with_limit(payload, limit)
+            .map_err(|e| bad(format!("does not inflate within its size ({e:?})")))?;
+        let (mut at, mut prev) = (0usize, 0i64);
+        // At least a byte per index: the inflated bytes bound the faces.
+        let mut faces = Vec::with_capacity((info.faces as usize).min(raw.len() / 3));
+        for f in 0..info.faces {
+            let mut face = [0u32; 3];
+            for c in &mut face {
+                let z = read_varint(&raw, &mut at).ok_or_else(|| bad(format!("face {f} is cut short")))?;
+                let d = (z >> 1) as i64 ^ -((z & 1) as i64);
+                prev += d;
+                if !(0..info.vertices as i64).contains(&prev) {
+                    return Err(bad(format!("face {f} uses vertex {prev}, but there are {}", info.vertices)));
+                }
+                *c = prev as u32;
+            }
+            faces.push(face);
+        }
+        let rest = &raw[at..];
+        if rest.len() != info.vertices as usize * 8 {
+            return Err(bad(format!("{} bytes of vertex places, expected {}", rest.len(), info.vertices as u64 * 8)));
+        }
+        let u32_at = |c: &[u8]| u32::from_le_bytes([c[0], c[1], c[2], c[3]]);
+        let places = rest.chunks_exact(8).map(|c| [u32_at(&c[..4]), u32_at(&c[4..])]);
+        Ok(SourceMesh { faces, places: places.collect() })
+    }
+}
+
+/// A LEB128 number of at most 5 bytes (32 bits of zigzag) at `b[*at..]`.
+fn read_varint(b: &[u8], at: &mut usize) -> Option<u64> {
+    let mut n = 0u64;
+    for k in 0..5 {
+        let byte = *b.get(*at)?;
+        *at += 1;
+        n |= ((byte & 0x7f) as u64) << (7 * k);
+        if byte & 0x80 == 0 {
+            return Some(n);
+        }
+    }
+    None
+}
