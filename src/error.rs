@@ -69,7 +69,8 @@ pub enum Error {
     },
     /// Decoding a file would need more memory than the caller allows.
     #[error(
-        "decoding this file needs about {:.1} MiB, more than the limit of {:.1} MiB (the CLI's --memory-limit raises it)",
+        "decoding this file needs about {:.1} MiB, more than the limit of {:.1} MiB (the caller may raise it: \
+         --memory-limit in the CLI, set_memory_limit_mib in the web player)",
         *needed as f64 / 1048576.0,
         *limit as f64 / 1048576.0
     )]

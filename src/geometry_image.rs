@@ -23,6 +23,7 @@
 //! placement's passes instead of five times.
 
 use crate::error::{Error, Result};
+use crate::format::SourceMesh;
 use crate::grid::Grid;
 use crate::mesh::{analyze, Topology};
 use crate::metrics::surface;
@@ -63,6 +64,12 @@ impl GeometryImage {
         let t = std::time::Instant::now();
         let map = SampleMap::build(grid, &topology.faces, &param)?;
         Ok(GeometryImage { param, map, seconds_parameterize, seconds_locate: t.elapsed().as_secs_f64() })
+    }
+
+    /// The input's mesh as a version-6 file carries it: `topology`'s faces
+    /// and each vertex's place on this image.
+    pub fn source_mesh(&self, topology: &Topology) -> SourceMesh {
+        SourceMesh { faces: topology.faces.clone(), places: crate::resample::places(&self.param) }
     }
 
     /// Both times together.

@@ -361,3 +361,24 @@ fn auto_corrections_follow_the_measured_crossover() {
     assert_eq!(auto_corrections(&at(20, Some(400.0)), 128, 30.0), CorrectionMode::Scaled);
     assert_eq!(auto_corrections(&at(20, Some(400.0)), 256, 30.0), CorrectionMode::Motion);
 }
+
+#[test]
+fn the_memory_estimate_counts_what_a_decoder_of_the_header_holds() {
+    use cgv::codec::{reconstruct::decoder_memory, SequenceDecoder, DEFAULT_MEMORY_LIMIT};
+    let src = cgv::mesh::builtin::motion(3);
+    let header = |corrections| {
+        let opts = EncodeOptions { grid: 16, corrections, source_mesh: false, ..Default::default() };
+        let (bytes, _) = encode(&src, &opts, &mut |_, _, _| {}).unwrap();
+        format::Header { grid: 1600, max_lag: 0, ..format::read(&bytes).unwrap().header }
+    };
+    // A scaled file carries H, so its decoder may factor an H step's
+    // matrix: at N = 1600 that is past the default limit, refused before
+    // anything is allocated. A motion file has no H and no factorization.
+    let (scaled, motion) = (header(CorrectionMode::Scaled), header(CorrectionMode::Motion));
+    assert!(scaled.stream(StreamName::H).is_some() && motion.stream(StreamName::H).is_none());
+    let (a, b) = (decoder_memory(&scaled, SolverKind::Predictive), decoder_memory(&motion, SolverKind::Predictive));
+    assert!(a > DEFAULT_MEMORY_LIMIT && b < DEFAULT_MEMORY_LIMIT / 2, "{a} {b}");
+    let e = SequenceDecoder::new(scaled, SolverKind::Predictive, DEFAULT_MEMORY_LIMIT).err().expect("refused");
+    assert!(matches!(e, cgv::Error::Memory { .. }), "{e}");
+    assert!(SequenceDecoder::new(motion, SolverKind::Predictive, DEFAULT_MEMORY_LIMIT).is_ok());
+}

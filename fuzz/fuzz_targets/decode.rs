@@ -1,4 +1,5 @@
-//! The whole decoder (container, H.264, dequantization, solvers) on
+//! The whole decoder (container, H.264, dequantization, solvers, the
+//! source mesh's vertices) on
 //! arbitrary bytes. Small files only, so each input stays fast.
 #![no_main]
 
@@ -12,9 +13,11 @@ libfuzzer_sys::fuzz_target!(|data: &[u8]| {
     }
     for solver in [SolverKind::Predictive, SolverKind::Paper] {
         let Ok(mut dec) = FileDecoder::new(file.clone(), solver) else { return };
+        let source = dec.source_mesh();
         for _ in 0..dec.frame_count().min(3) {
-            if dec.next_frame().is_err() {
-                break;
+            let Ok((x, _)) = dec.next_frame() else { break };
+            if let Some(s) = &source {
+                let _ = s.vertices(&x);
             }
         }
     }

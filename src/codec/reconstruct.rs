@@ -369,6 +369,17 @@ impl SourceMeshDecoder {
     }
 }
 
+/// What an H step's factorization of `LᵀL + w PᵀP` holds for `n` grid
+/// samples, over-estimated rather than under (not measured): 25 entries a
+/// sample (16 bytes each) in the four copies the assembly makes, and a
+/// Cholesky factor of 31 n log₂ n entries (nested dissection's fill on a
+/// grid, for the 13-point stencil of the squared Laplacian; 12 bytes each).
+/// Files without H take no step and need none of it.
+fn factorization_bytes(n: u64) -> u64 {
+    let log2 = 64 - n.max(2).leading_zeros() as u64;
+    n.saturating_mul(25 * 16 * 4 + 12 * 31 * log2)
+}
+
 /// The default of [`SequenceDecoder::new`]'s memory limit: 1 GiB.
 pub const DEFAULT_MEMORY_LIMIT: u64 = 1 << 30;
 
@@ -384,7 +395,10 @@ pub fn decoder_memory(h: &Header, solver: SolverKind) -> u64 {
     let frame = 12 * n;
     let past = match (h.codec, solver) {
         (CodecKind::Gv, _) => 2 * frame,
-        (CodecKind::Cgv, SolverKind::Predictive) => (4 + u64::from(h.max_lag)) * frame + 8 * n + 25 * 8 * n,
+        (CodecKind::Cgv, SolverKind::Predictive) => {
+            let factor = if h.stream(StreamName::H).is_some() { factorization_bytes(n) } else { 0 };
+            (4 + u64::from(h.max_lag)) * frame + 8 * n + factor
+        }
         (CodecKind::Cgv, SolverKind::Paper) => (4 + 2 * 8) * 3 * 8 * n,
     };
     let source = h.source_mesh.map_or(0, |m| u64::from(m.vertices) * 40 + u64::from(m.faces) * 24);

@@ -355,11 +355,7 @@ pub fn run(src: &dyn FrameSource, opts: &EvalOptions, progress: &(dyn Fn(&str) +
         points: rate_points,
         bd_rates,
         source_floor: floor.finish(),
-        source_mesh_bytes: format::write_source_mesh(&format::SourceMesh {
-            faces: mem.topology.faces.clone(),
-            places: crate::resample::places(&prepared.param),
-        })
-        .len(),
+        source_mesh_bytes: format::write_source_mesh(&prepared.source_mesh(&mem.topology)).len(),
         seconds: t0.elapsed().as_secs_f64(),
     })
 }

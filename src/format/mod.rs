@@ -13,7 +13,7 @@
 //!
 //! ```text
 //! magic    8 bytes   89 43 47 56 0D 0A 1A 0A   ("\x89CGV\r\n\x1a\n")
-//! version  u16 LE    1 to 5
+//! version  u16 LE    1 to 6
 //! flags    u16 LE    0
 //! length   u32 LE    header length L (at most 1 MiB)
 //! header   L bytes   UTF-8 JSON (serde), see [`Header`]
@@ -26,10 +26,12 @@
 //! needs besides its video: predictor, correction scale, anchors, see
 //! [`FrameInfo`]; from version 2 followed by the frame's access units, each
 //! after its LEB128 length), `AUNT` (version 1: one H.264 access unit,
-//! Annex-B, of `stream` at `frame`), `CEND` (end of file). Chunks are
+//! Annex-B, of `stream` at `frame`), `SMSH` (version 6: the input's mesh,
+//! once, before frame 0), `CEND` (end of file). Chunks are
 //! ordered by frame, so a reader can start on frame 0 before the rest of the
 //! file has arrived.
 
+mod leb128;
 pub mod predictor;
 pub mod quant;
 pub mod source_mesh;
@@ -46,8 +48,9 @@ pub const MAGIC: [u8; 8] = [0x89, b'C', b'G', b'V', b'\r', b'\n', 0x1A, b'\n'];
 pub const VERSION: u16 = 6;
 /// Largest header accepted.
 pub const MAX_HEADER: usize = 1 << 20;
-/// Largest chunk payload accepted (an access unit of a 4096² frame at QP 0
-/// stays far below it).
+/// Largest chunk payload accepted (an access unit of a 2160² frame at QP 0
+/// stays far below it, and so does the largest source mesh that deflates
+/// at all).
 pub const MAX_CHUNK: usize = 64 << 20;
 pub const MAX_FRAMES: u32 = 10_000_000;
 pub const MAX_STREAMS: usize = 32;
@@ -457,15 +460,7 @@ pub fn write_chunk(tag: [u8; 4], stream: u16, frame: u32, payload: &[u8]) -> Vec
 pub fn write_frame(frame: u32, info: &FrameInfo, units: &[&[u8]]) -> Vec<u8> {
     let mut payload = info.to_bytes();
     for au in units {
-        let mut n = au.len();
-        loop {
-            let byte = (n & 0x7f) as u8;
-            n >>= 7;
-            payload.push(if n > 0 { byte | 0x80 } else { byte });
-            if n == 0 {
-                break;
-            }
-        }
+        leb128::write(&mut payload, au.len() as u64);
         payload.extend_from_slice(au);
     }
     write_chunk(TAG_FRAME, 0, frame, &payload)
@@ -473,16 +468,7 @@ pub fn write_frame(frame: u32, info: &FrameInfo, units: &[&[u8]]) -> Vec<u8> {
 
 /// Reads a LEB128 length of at most 4 bytes at `b[*at..]`, advancing `at`.
 fn read_len(b: &[u8], at: &mut usize) -> Option<usize> {
-    let mut n = 0usize;
-    for k in 0..4 {
-        let byte = *b.get(*at)?;
-        *at += 1;
-        n |= ((byte & 0x7f) as usize) << (7 * k);
-        if byte & 0x80 == 0 {
-            return Some(n);
-        }
-    }
-    None
+    leb128::read(b, at, 4).map(|n| n as usize)
 }
 
 fn u16_at(b: &[u8], o: usize) -> u16 {
@@ -522,10 +508,12 @@ pub fn parse_header(bytes: &[u8]) -> Result<Option<(Header, usize)>, ContainerEr
     header.validate()?;
     if header.min_version() > version {
         return Err(ContainerError::Header(format!(
-            "a version {version} file cannot hold what version {} added (corrections: {:?}, max_lag: {}, streams: {})",
+            "a version {version} file cannot hold what version {} added (corrections: {:?}, max_lag: {}, source mesh: {}, \
+             streams: {})",
             header.min_version(),
             header.corrections,
             header.max_lag,
+            header.source_mesh.is_some(),
             header.streams.iter().map(|s| s.name.as_str()).collect::<Vec<_>>().join(" ")
         )));
     }

@@ -14,18 +14,21 @@
 //! `source_mesh` gives the counts, so a reader knows the size before it
 //! inflates anything.
 
-use super::ContainerError;
+use super::{leb128, ContainerError};
 use serde::{Deserialize, Serialize};
 
 /// Most bytes one byte of the deflated payload may inflate to (a real
 /// mesh's is near 1: 1.14 on the built-in figure; deflate itself allows
-/// about 1,000), so that a file's source mesh costs a reader at most this
-/// many times the bytes the file really has.
+/// about 1,000), so that inflating a file's source mesh takes at most this
+/// many times the bytes the file really has (the parsed faces take up to
+/// four times the inflated bytes on top).
 pub const MAX_INFLATION: usize = 64;
 
-/// Most vertices and faces a source mesh may have.
-pub const MAX_SOURCE_VERTICES: u32 = 1 << 24;
-pub const MAX_SOURCE_FACES: u32 = 1 << 25;
+/// Most vertices and faces a source mesh may have: a reader inflates at
+/// most 15 bytes a face and 8 a vertex (152 MB here) and holds 12 bytes a
+/// face and 8 a vertex parsed, whatever the file says.
+pub const MAX_SOURCE_VERTICES: u32 = 1 << 22;
+pub const MAX_SOURCE_FACES: u32 = 1 << 23;
 
 /// The header's description of the `SMSH` chunk.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -83,15 +86,7 @@ impl SourceMesh {
         for &i in self.faces.iter().flatten() {
             let d = i as i64 - prev;
             prev = i as i64;
-            let mut z = ((d << 1) ^ (d >> 63)) as u64;
-            loop {
-                let byte = (z & 0x7f) as u8;
-                z >>= 7;
-                raw.push(if z > 0 { byte | 0x80 } else { byte });
-                if z == 0 {
-                    break;
-                }
-            }
+            leb128::write(&mut raw, ((d << 1) ^ (d >> 63)) as u64);
         }
         for p in &self.places {
             raw.extend_from_slice(&p[0].to_le_bytes());
@@ -105,14 +100,15 @@ impl SourceMesh {
         let bad = |msg: String| ContainerError::Chunk { offset, msg: format!("source mesh: {msg}") };
         let limit = info.max_inflated().min(payload.len().saturating_mul(MAX_INFLATION));
         let raw = miniz_oxide::inflate::decompress_to_vec_with_limit(payload, limit)
-            .map_err(|e| bad(format!("does not inflate within its size ({e:?})")))?;
+            // Only the status: the error also holds the output buffer.
+            .map_err(|e| bad(format!("does not inflate within its size ({:?})", e.status)))?;
         let (mut at, mut prev) = (0usize, 0i64);
         // At least a byte per index: the inflated bytes bound the faces.
         let mut faces = Vec::with_capacity((info.faces as usize).min(raw.len() / 3));
         for f in 0..info.faces {
             let mut face = [0u32; 3];
             for c in &mut face {
-                let z = read_varint(&raw, &mut at).ok_or_else(|| bad(format!("face {f} is cut short")))?;
+                let z = leb128::read(&raw, &mut at, 5).ok_or_else(|| bad(format!("face {f} is cut short")))?;
                 let d = (z >> 1) as i64 ^ -((z & 1) as i64);
                 prev += d;
                 if !(0..info.vertices as i64).contains(&prev) {
@@ -130,18 +126,4 @@ impl SourceMesh {
         let places = rest.chunks_exact(8).map(|c| [u32_at(&c[..4]), u32_at(&c[4..])]);
         Ok(SourceMesh { faces, places: places.collect() })
     }
-}
-
-/// A LEB128 number of at most 5 bytes (32 bits of zigzag) at `b[*at..]`.
-fn read_varint(b: &[u8], at: &mut usize) -> Option<u64> {
-    let mut n = 0u64;
-    for k in 0..5 {
-        let byte = *b.get(*at)?;
-        *at += 1;
-        n |= ((byte & 0x7f) as u64) << (7 * k);
-        if byte & 0x80 == 0 {
-            return Some(n);
-        }
-    }
-    None
 }

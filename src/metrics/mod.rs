@@ -37,32 +37,36 @@ pub fn smoothness(st: &crate::grid::stencil::Stencils, v: &[Vec3], decoded: &[Ve
 /// its vertices ([`value`](Self::value), Karni & Gotsman's own, which the
 /// dynamic-mesh-compression literature reports), and each vertex's mean
 /// position over the sequence ([`temporal`](Self::temporal)). Fed one frame
-/// at a time; the second keeps a sum per vertex.
+/// at a time; the second keeps each vertex's running mean and squared
+/// spread (Welford's update, which does not cancel far from the origin).
 #[derive(Debug, Clone, Default)]
 pub struct KgError {
     diff: f64,
     spread: f64,
     frames: usize,
-    /// Per vertex: the sum of its positions and of their squared lengths.
-    sum: Vec<glam::DVec3>,
-    sum_squares: f64,
+    /// Per vertex: the mean of its positions so far.
+    mean: Vec<glam::DVec3>,
+    /// The sum over vertices of squared distances to their running means.
+    temporal_spread: f64,
 }
 
 impl KgError {
     pub fn add_frame(&mut self, original: &[Vec3], decoded: &[Vec3]) {
         assert_eq!(original.len(), decoded.len(), "KG error needs corresponding points");
         let c = original.iter().map(|p| p.as_dvec3()).sum::<glam::DVec3>() / original.len().max(1) as f64;
-        if self.sum.is_empty() {
-            self.sum = vec![glam::DVec3::ZERO; original.len()];
+        if self.mean.is_empty() {
+            self.mean = vec![glam::DVec3::ZERO; original.len()];
         }
+        let k = (self.frames + 1) as f64;
         for (v, (p, q)) in original.iter().zip(decoded).enumerate() {
             let p = p.as_dvec3();
             self.diff += (p - q.as_dvec3()).length_squared();
             self.spread += (p - c).length_squared();
-            if let Some(s) = self.sum.get_mut(v) {
-                *s += p;
+            if let Some(m) = self.mean.get_mut(v) {
+                let delta = p - *m;
+                *m += delta / k;
+                self.temporal_spread += delta.dot(p - *m);
             }
-            self.sum_squares += p.length_squared();
         }
         self.frames += 1;
     }
@@ -75,9 +79,7 @@ impl KgError {
 
     /// The error in percent against each vertex's mean over time.
     pub fn temporal(&self) -> f64 {
-        let f = self.frames.max(1) as f64;
-        let spread = self.sum_squares - self.sum.iter().map(|s| s.length_squared() / f).sum::<f64>();
-        Self::percent(self.diff, spread)
+        Self::percent(self.diff, self.temporal_spread)
     }
 
     fn percent(diff: f64, spread: f64) -> f64 {

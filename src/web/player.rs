@@ -34,7 +34,10 @@ impl Player {
     }
 
     /// The most memory, in MiB, the decoder may need for a file (1024 by
-    /// default); a file asking for more is refused when its header arrives.
+    /// default); a file asking for more is refused with the push that
+    /// brings its header, before any frame is decoded. (The reader has then
+    /// taken the chunks that came in the same push; the format's own limits
+    /// bound those.)
     pub fn set_memory_limit_mib(&mut self, mib: f64) {
         self.memory_limit = (mib.max(0.0) * 1048576.0) as u64;
     }

@@ -58,7 +58,7 @@ pub fn open_decoder(
 ) -> Result<(FileDecoder, SolverKind)> {
     let file = read_cgv(path)?;
     let solver = solver.unwrap_or(file.header.solver);
-    let dec = FileDecoder::with_memory_limit(file, solver, memory.memory_limit << 20)
+    let dec = FileDecoder::with_memory_limit(file, solver, memory.memory_limit.saturating_mul(1 << 20))
         .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
     Ok((dec, solver))
 }

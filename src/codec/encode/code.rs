@@ -10,11 +10,10 @@ use crate::codec::h264::{Decoder as H264Decoder, Encoder as H264Encoder};
 use crate::codec::reconstruct::{frame_values, Predictive, Values};
 use crate::error::{Error, Result};
 use crate::format::stream::CORRECTION;
-use crate::format::{self, Coverage, FrameInfo, Header, SourceMesh, StreamInfo, StreamName};
+use crate::format::{self, Coverage, FrameInfo, Header, StreamInfo, StreamName};
 use crate::geometry_image::GeometryImage;
 use crate::grid::Stencils;
 use crate::mesh::FrameSource;
-use crate::resample;
 use glam::Vec3;
 
 /// The coded file and what it is made of.
@@ -71,21 +70,14 @@ pub(super) fn code(
     opts: &EncodeOptions,
     plan: &Plan,
     header: &Header,
-    image: &GeometryImage,
+    (image, source_chunk): (&GeometryImage, Option<&[u8]>),
     st: &Stencils,
     progress: &mut dyn FnMut(&str, usize, usize),
 ) -> Result<Coded> {
     let map = &image.map;
     let mut out = format::write_header(header).map_err(|e| Error::Container { path: src.label().into(), source: e })?;
-    let source_mesh_bytes = match header.source_mesh {
-        Some(_) => {
-            let mesh = SourceMesh { faces: src.topology().faces.clone(), places: resample::places(&image.param) };
-            let chunk = format::write_source_mesh(&mesh);
-            out.extend_from_slice(&chunk);
-            chunk.len()
-        }
-        None => 0,
-    };
+    let source_mesh_bytes = source_chunk.map_or(0, <[u8]>::len);
+    out.extend_from_slice(source_chunk.unwrap_or_default());
     let mut streams = open_streams(header, opts, plan)?;
     let mut predictive = Predictive::new(header, st.clone());
     let (mut seconds_coding, mut side_bytes) = (0.0, 0);

@@ -212,13 +212,15 @@ pub fn encode_prepared(
     if image.map.grid != plan.grid {
         return Err(Error::Argument("the geometry image is for another grid size".into()));
     }
+    // The source mesh first: an input too large for a file fails before the passes.
+    let source_chunk = if opts.source_mesh { Some(source_mesh_chunk(src, image)?) } else { None };
     let st = Stencils::new(plan.grid);
     let analysis = analyse::analyse(src, &plan, &image.map, &st, progress)?;
     let simulation = simulate::simulate(src, &plan, opts, &image.map, &st, &analysis.first_grid)?;
     let diagonal = Bounds::of(&src.read_frame(opts.reference)?).diagonal();
     let header = plan.header(src, opts, &analysis, &simulation, diagonal);
     let code::Coded { bytes, stream_bytes, side_bytes, source_mesh_bytes, seconds_coding } =
-        code::code(src, opts, &plan, &header, image, &st, progress)?;
+        code::code(src, opts, &plan, &header, (image, source_chunk.as_deref()), &st, progress)?;
     let seconds_parameterize = image.seconds();
     let report = EncodeReport {
         bytes: bytes.len(),
@@ -232,6 +234,22 @@ pub fn encode_prepared(
         seconds_total: seconds_parameterize + t_start.elapsed().as_secs_f64(),
     };
     Ok((bytes, report))
+}
+
+/// The `SMSH` chunk of the input's mesh, or an error naming the way out
+/// when the mesh is more than a file may carry.
+fn source_mesh_chunk(src: &dyn FrameSource, image: &GeometryImage) -> Result<Vec<u8>> {
+    let mesh = image.source_mesh(src.topology());
+    mesh.info().validate().map_err(|m| Error::Argument(format!("{m}: encode with --no-source-mesh")))?;
+    let chunk = format::write_source_mesh(&mesh);
+    if chunk.len() > format::MAX_CHUNK {
+        return Err(Error::Argument(format!(
+            "the source mesh takes {} bytes, more than a chunk may ({}): encode with --no-source-mesh",
+            chunk.len(),
+            format::MAX_CHUNK
+        )));
+    }
+    Ok(chunk)
 }
 
 /// The correction mode that measured better for these settings (cgv eval
