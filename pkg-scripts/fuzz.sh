@@ -55,18 +55,30 @@ seed $(find tests/fuzz-regressions -type f ! -name '*.md')
 export RUSTC_BOOTSTRAP=1
 # Fuzz builds go to their own folder (sanitizer flags rebuild everything).
 export CARGO_TARGET_DIR="$HOME/.cache/cgv/fuzz-target-$sanitizer"
+# Both targets at once, one core each (libFuzzer runs one process here):
+# built first, so the two runs do not wait on each other's build.
+(cd fuzz && cargo fuzz build --sanitizer "$sanitizer")
+pids=()
 for target in read decode; do
   say "$target for $seconds s"
   rm -rf "fuzz/artifacts/$target"
-  status=0
   (cd fuzz && cargo fuzz run --sanitizer "$sanitizer" "$target" "corpus/$target" -- \
-    -max_total_time="$seconds" -rss_limit_mb=2048 -max_len=65536 -print_final_stats=1) || status=$?
+    -max_total_time="$seconds" -rss_limit_mb=2048 -max_len=65536 -print_final_stats=1) > "fuzz/$target.log" 2>&1 &
+  pids+=($!)
+done
+failed=0
+for i in 0 1; do
+  target=$([ $i = 0 ] && echo read || echo decode)
+  status=0
+  wait "${pids[$i]}" || status=$?
+  tail -n 12 "fuzz/$target.log" >&2
   found=$(find "fuzz/artifacts/$target" -type f 2>/dev/null || true)
   if [ -n "$found" ] || [ "$status" -ne 0 ]; then
     mkdir -p tests/fuzz-regressions
     for f in $found; do cp "$f" "tests/fuzz-regressions/$target-$(basename "$f")"; done
-    say "$target failed (exit $status); inputs kept in tests/fuzz-regressions: ${found:-none}"
-    exit 1
+    say "$target failed (exit $status; log fuzz/$target.log); inputs kept in tests/fuzz-regressions: ${found:-none}"
+    failed=1
   fi
 done
+[ "$failed" = 0 ] || exit 1
 say "no crash in ${seconds} s per target"

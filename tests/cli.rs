@@ -412,6 +412,9 @@ fn every_glb_we_write_passes_the_khronos_validator() {
     let json_len = u32::from_le_bytes([glb[12], glb[13], glb[14], glb[15]]) as usize;
     let mut doc: serde_json::Value = serde_json::from_slice(&glb[20..20 + json_len]).unwrap();
     assert_eq!(doc["bufferViews"][1]["byteStride"], 12);
+    // Recomputed normals, unit length (the validator checks that), as morph targets too.
+    let prim = &doc["meshes"][0]["primitives"][0];
+    assert!(prim["attributes"]["NORMAL"].is_u64() && prim["targets"][0]["NORMAL"].is_u64(), "{prim}");
     doc["bufferViews"][1].as_object_mut().unwrap().remove("byteStride");
     let mut json = serde_json::to_vec(&doc).unwrap();
     while json.len() % 4 != 0 {

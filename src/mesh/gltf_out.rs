@@ -1,7 +1,8 @@
 //! Output of mesh sequences: glTF 2.0 binary (`.glb`) with the motion as a
 //! morph-target animation that any glTF viewer plays (frame 0 is the base
 //! mesh, frame k > 0 is morph target k - 1, and a LINEAR weights animation
-//! blends from each frame to the next), and folders of numbered OBJ files.
+//! blends from each frame to the next; each frame has its vertex normals,
+//! recomputed, as morph targets too), and folders of numbered OBJ files.
 //! Both are written frame by frame and appear only once complete.
 
 use super::{Frame, Topology};
@@ -25,9 +26,10 @@ impl Drop for Scratch {
     }
 }
 
-/// What the binary chunk holds, in order: the indices, every frame's
-/// positions (frame 0 as is, later frames as displacements from it), and
-/// with more than one frame the animation's times and weights.
+/// What the binary chunk holds, in order: the indices; for every frame its
+/// positions and then its vertex normals (frame 0 as they are, later
+/// frames as displacements from frame 0's: morph targets); and with more
+/// than one frame the animation's times and weights.
 struct BinLayout {
     faces: usize,
     vertices: usize,
@@ -41,16 +43,39 @@ impl BinLayout {
     fn index_bytes(&self) -> usize {
         self.faces * 12
     }
-    fn positions_bytes(&self) -> usize {
-        self.frames * self.vertices * 12
+    /// Positions and normals of every frame.
+    fn frames_bytes(&self) -> usize {
+        self.frames * self.vertices * 24
     }
     fn targets(&self) -> usize {
         self.frames - 1
     }
     fn len(&self) -> usize {
         let animation = if self.targets() > 0 { self.frames * 4 + self.frames * self.targets() * 4 } else { 0 };
-        self.index_bytes() + self.positions_bytes() + animation
+        self.index_bytes() + self.frames_bytes() + animation
     }
+}
+
+fn write_vec3(bin: &mut impl Write, v: Vec3) -> std::io::Result<()> {
+    for c in v.to_array() {
+        bin.write_all(&c.to_le_bytes())?;
+    }
+    Ok(())
+}
+
+/// Unit vertex normals: the area-weighted mean of the faces' normals
+/// around each vertex (+z where they cancel or there is no face, so that
+/// every normal is a unit vector, as glTF requires).
+pub fn vertex_normals(positions: &[Vec3], faces: &[[u32; 3]]) -> Vec<Vec3> {
+    let mut n = vec![Vec3::ZERO; positions.len()];
+    for f in faces {
+        let [a, b, c] = f.map(|i| positions[i as usize]);
+        let area = super::triangle_area_vector(a, b, c);
+        for &i in f {
+            n[i as usize] += area;
+        }
+    }
+    n.iter().map(|v| v.try_normalize().unwrap_or(Vec3::Z)).collect()
 }
 
 /// Writes the binary chunk to `bin`, reading the frames one at a time.
@@ -67,24 +92,27 @@ fn write_bin(
         bin.write_all(&i.to_le_bytes()).map_err(werr)?;
     }
     let mut bounds: Vec<(Vec3, Vec3)> = Vec::with_capacity(frame_count);
-    let mut base: Vec<Vec3> = Vec::new();
+    // Frame 0's positions and normals, which the targets are relative to.
+    let mut base: Vec<(Vec3, Vec3)> = Vec::new();
     for k in 0..frame_count {
         let positions = frame(k)?;
         if positions.len() != nv {
             return Err(Error::Argument(format!("frame {k} has {} vertices, expected {nv}", positions.len())));
         }
+        let normals = vertex_normals(&positions, &topology.faces);
         let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
         for (i, p) in positions.iter().enumerate() {
-            let v = if k == 0 { *p } else { *p - base[i] };
+            let v = if k == 0 { *p } else { *p - base[i].0 };
             lo = lo.min(v);
             hi = hi.max(v);
-            for c in v.to_array() {
-                bin.write_all(&c.to_le_bytes()).map_err(werr)?;
-            }
+            write_vec3(bin, v).map_err(werr)?;
+        }
+        for (i, n) in normals.iter().enumerate() {
+            write_vec3(bin, if k == 0 { *n } else { *n - base[i].1 }).map_err(werr)?;
         }
         bounds.push((lo, hi));
         if k == 0 {
-            base = positions;
+            base = positions.into_iter().zip(normals).collect();
         }
     }
     let layout = BinLayout { faces: topology.faces.len(), vertices: nv, frames: frame_count, bounds, fps };
@@ -106,24 +134,28 @@ fn write_bin(
 
 /// The glTF document for a binary chunk laid out as `l`. The frames'
 /// accessors share one buffer view, which therefore states its stride (as
-/// glTF requires of a view that several vertex accessors read).
+/// glTF requires of a view that several vertex accessors read). Accessor
+/// 1 + 2k is frame k's positions, 2 + 2k its normals.
 fn gltf_json(l: &BinLayout, name: &str) -> serde_json::Value {
-    let (index_bytes, positions_bytes, targets, nv) = (l.index_bytes(), l.positions_bytes(), l.targets(), l.vertices);
+    let (index_bytes, frames_bytes, targets, nv) = (l.index_bytes(), l.frames_bytes(), l.targets(), l.vertices);
     let mut accessors = vec![json!({
         "bufferView": 0, "componentType": UNSIGNED_INT, "count": l.faces * 3, "type": "SCALAR"
     })];
     for (k, (lo, hi)) in l.bounds.iter().enumerate() {
         accessors.push(json!({
-            "bufferView": 1, "byteOffset": k * nv * 12, "componentType": FLOAT, "count": nv, "type": "VEC3",
+            "bufferView": 1, "byteOffset": k * nv * 24, "componentType": FLOAT, "count": nv, "type": "VEC3",
             "min": lo.to_array(), "max": hi.to_array()
+        }));
+        accessors.push(json!({
+            "bufferView": 1, "byteOffset": k * nv * 24 + nv * 12, "componentType": FLOAT, "count": nv, "type": "VEC3"
         }));
     }
     let mut buffer_views = vec![
         json!({"buffer": 0, "byteOffset": 0, "byteLength": index_bytes, "target": ELEMENT_ARRAY_BUFFER}),
-        json!({"buffer": 0, "byteOffset": index_bytes, "byteLength": positions_bytes, "byteStride": 12,
+        json!({"buffer": 0, "byteOffset": index_bytes, "byteLength": frames_bytes, "byteStride": 12,
             "target": ARRAY_BUFFER}),
     ];
-    let mut primitive = json!({"attributes": {"POSITION": 1}, "indices": 0, "mode": 4});
+    let mut primitive = json!({"attributes": {"POSITION": 1, "NORMAL": 2}, "indices": 0, "mode": 4});
     let mut mesh = json!({"name": name});
     let mut doc = json!({
         "asset": {"version": "2.0", "generator": concat!("cgv ", env!("CARGO_PKG_VERSION"))},
@@ -133,10 +165,10 @@ fn gltf_json(l: &BinLayout, name: &str) -> serde_json::Value {
         "buffers": [{"byteLength": l.len()}],
     });
     if targets > 0 {
-        primitive["targets"] = (0..targets).map(|j| json!({"POSITION": j + 2})).collect();
+        primitive["targets"] = (1..=targets).map(|k| json!({"POSITION": 1 + 2 * k, "NORMAL": 2 + 2 * k})).collect();
         mesh["weights"] = vec![0.0; targets].into();
         mesh["extras"] = json!({"targetNames": (1..l.frames).map(|k| format!("frame {k}")).collect::<Vec<_>>()});
-        let t_off = index_bytes + positions_bytes;
+        let t_off = index_bytes + frames_bytes;
         buffer_views.push(json!({"buffer": 0, "byteOffset": t_off, "byteLength": l.frames * 4}));
         buffer_views
             .push(json!({"buffer": 0, "byteOffset": t_off + l.frames * 4, "byteLength": l.frames * targets * 4}));
