@@ -60,6 +60,13 @@ fn bad_input_fails_clearly_and_leaves_nothing() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("grid size 33"));
 }
 
+/// `cgv encode builtin:walk --codec gv --grid 16 EXTRA -o OUT`.
+fn encode_walk_gv16(extra: &[&str], out: &std::path::Path) -> std::process::Output {
+    let args =
+        [&["encode", "builtin:walk", "--codec", "gv", "--grid", "16"][..], extra, &["-o", out.to_str().unwrap()]];
+    cgv(&args.concat())
+}
+
 #[test]
 fn encode_info_and_decode_a_gv_file() {
     let dir = common::temp_dir("cli-codec");
@@ -71,18 +78,7 @@ fn encode_info_and_decode_a_gv_file() {
     assert_eq!(v["report"]["frames"], 72);
     // --area-passes caps the passes, and the text report names the grid's error.
     let capped = dir.join("capped.cgv");
-    let out = cgv(&[
-        "encode",
-        "builtin:walk",
-        "--codec",
-        "gv",
-        "--grid",
-        "16",
-        "--area-passes",
-        "10",
-        "-o",
-        capped.to_str().unwrap(),
-    ]);
+    let out = encode_walk_gv16(&["--area-passes", "10"], &capped);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(text.contains("grid: resamples the reference frame to"), "{text}");
@@ -124,17 +120,7 @@ fn encode_info_and_decode_a_gv_file() {
     assert_eq!((back.frame_count(), back.topology().vertex_count), (72, 256));
     // Without the source mesh the file is smaller, and --mesh source is refused by name.
     let plain = dir.join("plain.cgv");
-    let out = cgv(&[
-        "encode",
-        "builtin:walk",
-        "--codec",
-        "gv",
-        "--grid",
-        "16",
-        "--no-source-mesh",
-        "-o",
-        plain.to_str().unwrap(),
-    ]);
+    let out = encode_walk_gv16(&["--no-source-mesh"], &plain);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     assert!(std::fs::metadata(&plain).unwrap().len() < std::fs::metadata(&cgv_file).unwrap().len());
     let dec = cgv(&["decode", plain.to_str().unwrap(), "-o", dir.join("p.glb").to_str().unwrap(), "--mesh", "source"]);
