@@ -30,6 +30,7 @@ const FILTER5: &[u8] = include_bytes!("fixtures/v5/walk-cgv-filter.cgv");
 const FILTER5_POS: &[u8] = include_bytes!("fixtures/v5/walk-cgv-filter.cgv.cgv.positions");
 const SOURCE6: &[u8] = include_bytes!("fixtures/v6/walk-cgv-source.cgv");
 const SOURCE6_POS: &[u8] = include_bytes!("fixtures/v6/walk-cgv-source.cgv.cgv.positions");
+const SOURCE6_VERTICES: &[u8] = include_bytes!("fixtures/v6/walk-cgv-source.cgv.source.positions");
 
 #[wasm_bindgen(inline_js = r#"
 const decoders = new Map();
@@ -184,4 +185,26 @@ fn a_file_asking_for_more_memory_than_allowed_is_refused() {
     assert!(msg.contains("more than the limit of 0.0 MiB"), "{msg}");
     // The default limit takes it.
     Player::new("").unwrap().push(FILTER5).unwrap();
+}
+
+#[wasm_bindgen_test]
+fn the_player_gives_back_the_input_mesh_of_a_version_six_file() {
+    // The v6 fixture's grid frames (its frozen positions) through the
+    // player's source mesh give the frozen input vertices, as natively.
+    let mut p = Player::new("").unwrap();
+    assert!(p.source_faces().is_empty());
+    p.push(SOURCE6).unwrap();
+    let h = cgv::format::read(SOURCE6).unwrap().header;
+    assert_eq!(p.source_faces().len(), 3 * 12544);
+    let (grid, want) = (floats(SOURCE6_POS), floats(SOURCE6_VERTICES));
+    let n = 3 * (h.grid * h.grid) as usize;
+    let got: Vec<f32> = grid.chunks(n).flat_map(|g| p.source_vertices(g).unwrap()).collect();
+    assert_eq!(got.len(), want.len());
+    let worst = got.iter().zip(&want).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max);
+    assert!(worst <= 1e-5 * h.source.diagonal, "{worst}");
+    assert!(p.source_vertices(&grid[..9]).is_err());
+    // A file without one says so.
+    let mut q = Player::new("").unwrap();
+    q.push(FILTER5).unwrap();
+    assert!(q.source_faces().is_empty() && q.source_vertices(&grid[..n]).is_err());
 }

@@ -1,7 +1,7 @@
 //! The decoder at the wasm edge: bytes in, positions out.
 
 use super::js;
-use crate::codec::{SequenceDecoder, DEFAULT_MEMORY_LIMIT};
+use crate::codec::{SequenceDecoder, SourceMeshDecoder, DEFAULT_MEMORY_LIMIT};
 use crate::format::{SolverKind, StreamReader};
 use wasm_bindgen::prelude::*;
 
@@ -16,6 +16,8 @@ pub struct Player {
     lumas: Vec<Option<Vec<u8>>>,
     solver: Option<SolverKind>,
     memory_limit: u64,
+    /// The input's own mesh, once its chunk has arrived (format version 6).
+    source: Option<SourceMeshDecoder>,
 }
 
 #[wasm_bindgen]
@@ -30,6 +32,7 @@ impl Player {
             lumas: Vec::new(),
             solver,
             memory_limit: DEFAULT_MEMORY_LIMIT,
+            source: None,
         })
     }
 
@@ -50,7 +53,32 @@ impl Player {
             self.lumas = vec![None; header.streams.len()];
             self.dec = Some(SequenceDecoder::new(header.clone(), solver, self.memory_limit).map_err(js)?);
         }
+        if let (None, Some(dec), Some(mesh)) =
+            (&self.source, &self.dec, self.reader.file().and_then(|f| f.source_mesh.as_ref()))
+        {
+            self.source = Some(SourceMeshDecoder::new(dec.grid(), mesh));
+        }
         Ok(())
+    }
+
+    /// The input's own faces (three vertex indices each) when the file
+    /// carries its mesh (format version 6), else empty: draw these with
+    /// [`source_vertices`](Self::source_vertices) to show the user's mesh
+    /// rather than the grid's.
+    pub fn source_faces(&self) -> Vec<u32> {
+        self.source.as_ref().map_or_else(Vec::new, |s| s.topology.faces.iter().flatten().copied().collect())
+    }
+
+    /// The input's vertices (x, y, z each) on a decoded grid frame (x, y,
+    /// z per grid sample, as [`decode_next`](Self::decode_next) returns it).
+    pub fn source_vertices(&self, grid_frame: &[f32]) -> std::result::Result<Vec<f32>, JsError> {
+        let source = self.source.as_ref().ok_or_else(|| JsError::new("the file carries no source mesh"))?;
+        let n = self.dec.as_ref().map_or(0, |d| d.grid().len());
+        if grid_frame.len() != 3 * n {
+            return Err(JsError::new(&format!("{} values for a grid of {n} samples", grid_frame.len())));
+        }
+        let x: Vec<glam::Vec3> = grid_frame.chunks_exact(3).map(|c| glam::Vec3::new(c[0], c[1], c[2])).collect();
+        Ok(source.vertices(&x).iter().flat_map(|p| p.to_array()).collect())
     }
 
     /// The header as JSON, once it has arrived.
