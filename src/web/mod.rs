@@ -23,6 +23,11 @@ pub fn start() {
     console_error_panic_hook::set_once();
 }
 
+/// Points from JavaScript's flat x, y, z arrays.
+pub(crate) fn positions(flat: &[f32]) -> Vec<glam::Vec3> {
+    flat.chunks_exact(3).map(|c| glam::Vec3::new(c[0], c[1], c[2])).collect()
+}
+
 pub(crate) fn js(e: impl std::fmt::Display) -> JsError {
     JsError::new(&e.to_string())
 }

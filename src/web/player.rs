@@ -1,6 +1,6 @@
 //! The decoder at the wasm edge: bytes in, positions out.
 
-use super::js;
+use super::{js, positions};
 use crate::codec::{SequenceDecoder, SourceMeshDecoder, DEFAULT_MEMORY_LIMIT};
 use crate::format::{SolverKind, StreamReader};
 use wasm_bindgen::prelude::*;
@@ -77,8 +77,7 @@ impl Player {
         if grid_frame.len() != 3 * n {
             return Err(JsError::new(&format!("{} values for a grid of {n} samples", grid_frame.len())));
         }
-        let x: Vec<glam::Vec3> = grid_frame.chunks_exact(3).map(|c| glam::Vec3::new(c[0], c[1], c[2])).collect();
-        Ok(source.vertices(&x).iter().flat_map(|p| p.to_array()).collect())
+        Ok(source.vertices(&positions(grid_frame)).iter().flat_map(|p| p.to_array()).collect())
     }
 
     /// The header as JSON, once it has arrived.

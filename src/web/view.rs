@@ -1,14 +1,10 @@
 //! A canvas drawing one decoded grid with the shared renderer.
 
-use super::js;
+use super::{js, positions};
 use crate::grid::Grid;
 use crate::render::{camera::OrbitCamera, ColorMode, Renderer};
 use glam::Vec3;
 use wasm_bindgen::prelude::*;
-
-fn positions(flat: &[f32]) -> Vec<Vec3> {
-    flat.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect()
-}
 
 /// A canvas showing one decoded grid, with an orbit camera.
 #[wasm_bindgen]
