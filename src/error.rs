@@ -33,11 +33,11 @@ pub enum MeshProblem {
     NonManifoldVertex { vertex: u32, fans: usize },
     #[error("vertex {vertex} is not used by any face")]
     UnusedVertex { vertex: u32 },
-    #[error("has {count} connected components (a single connected surface is required)")]
+    #[error("has {count} connected components")]
     Components { count: usize },
-    #[error("has {loops} boundary loop(s) made of {edges} boundary edges: the surface has holes (pass --fill-holes to close them)")]
+    #[error("has {loops} boundary loop(s) made of {edges} boundary edges (the surface is open)")]
     Holes { loops: usize, edges: usize },
-    #[error("has genus {genus} (a closed surface of genus 0, like a sphere, is required)")]
+    #[error("has genus {genus}")]
     Genus { genus: i64 },
 }
 

@@ -25,10 +25,11 @@
 use crate::error::{Error, Result};
 use crate::format::SourceMesh;
 use crate::grid::Grid;
-use crate::mesh::{analyze, Topology};
+use crate::mesh::carrier::Carrier;
+use crate::mesh::Topology;
 use crate::metrics::surface;
 use crate::param::area::AreaPasses;
-use crate::param::{cut, parameterize_scored, ParamOptions, Parameterization, SCORED_PASSES};
+use crate::param::{cut, ParamOptions, Parameterization, SCORED_PASSES};
 use crate::resample::SampleMap;
 use glam::Vec3;
 use std::path::Path;
@@ -37,6 +38,9 @@ use std::path::Path;
 /// every encode of one motion at one grid size shares.
 #[derive(Debug, Clone)]
 pub struct GeometryImage {
+    /// The closed genus-0 surface parameterized: the input itself when it
+    /// is one, else the input closed up ([`Carrier`]).
+    pub carrier: Carrier,
     pub param: Parameterization,
     pub map: SampleMap,
     /// Time spent parameterizing (the cone race and the area passes).
@@ -55,21 +59,27 @@ impl GeometryImage {
         grid: Grid,
         opts: &ParamOptions,
     ) -> Result<GeometryImage> {
-        if let Err(problem) = analyze(topology, reference).require_sphere() {
-            return Err(Error::mesh(label, problem));
-        }
         let t = std::time::Instant::now();
-        let param = parameterize_for_grid(topology, reference, grid, opts)?;
+        let carrier = Carrier::build(label, topology, reference)?;
+        let param = parameterize_carrier(&carrier, topology, reference, grid, opts)?;
         let seconds_parameterize = t.elapsed().as_secs_f64();
         let t = std::time::Instant::now();
-        let map = SampleMap::build(grid, &topology.faces, &param)?;
-        Ok(GeometryImage { param, map, seconds_parameterize, seconds_locate: t.elapsed().as_secs_f64() })
+        let map = SampleMap::on_carrier(grid, &carrier, &param)?;
+        Ok(GeometryImage { carrier, param, map, seconds_parameterize, seconds_locate: t.elapsed().as_secs_f64() })
     }
 
     /// The input's mesh as a version-6 file carries it: `topology`'s faces
     /// and each vertex's place on this image.
     pub fn source_mesh(&self, topology: &Topology) -> SourceMesh {
-        SourceMesh { faces: topology.faces.clone(), places: crate::resample::places(&self.param) }
+        SourceMesh {
+            faces: topology.faces.clone(),
+            places: crate::resample::carrier_places(&self.carrier, &self.param),
+        }
+    }
+
+    /// Where each input vertex lies on the grid mesh.
+    pub fn source_points(&self) -> crate::resample::SourcePoints {
+        crate::resample::SourcePoints::on_carrier(self.map.grid, &self.carrier, &self.param)
     }
 
     /// Both times together.
@@ -78,31 +88,45 @@ impl GeometryImage {
     }
 }
 
-/// [`crate::param::parameterize`] of `reference`, keeping of the area-correction
-/// passes the map whose `grid` resamples `reference` with the lowest
-/// symmetric RMS surface distance (reported in
-/// [`Parameterization::score`], in the mesh's units).
+/// [`parameterize_carrier`] of a closed genus-0 input, its own carrier.
 pub fn parameterize_for_grid(
     topology: &Topology,
     reference: &[Vec3],
     grid: Grid,
     opts: &ParamOptions,
 ) -> Result<Parameterization> {
-    let grid_faces = grid.topology().faces;
-    let target = surface::Target::new(reference, &topology.faces)?;
+    let carrier = Carrier::build(Path::new("input"), topology, reference)?;
+    parameterize_carrier(&carrier, topology, reference, grid, opts)
+}
+
+/// [`crate::param::parameterize`] of the carrier of `source` (whose first
+/// frame is `reference`), keeping of the area-correction passes the map
+/// whose `grid` resamples the input's surface with the lowest symmetric
+/// RMS surface distance (reported in [`Parameterization::score`], in the
+/// mesh's units).
+pub fn parameterize_carrier(
+    carrier: &Carrier,
+    source: &Topology,
+    reference: &[Vec3],
+    grid: Grid,
+    opts: &ParamOptions,
+) -> Result<Parameterization> {
+    let target = surface::Target::new(reference, &source.faces)?;
     let mut score = |p: &Parameterization| -> Result<f64> {
         // A map whose samples cannot all be located (it cannot happen for a
         // map without folds, which is all the passes keep) is no candidate.
-        let Ok(map) = SampleMap::build(grid, &topology.faces, p) else {
+        let Ok(map) = SampleMap::on_carrier(grid, carrier, p) else {
             return Ok(f64::INFINITY);
         };
         let g = map.apply(reference);
-        Ok(surface::symmetric_to(&g, &grid_faces, reference, &topology.faces, &target)?.rms)
+        Ok(surface::symmetric_to(&g, &map.surface_faces(), reference, &source.faces, &target)?.rms)
     };
+    let positions = carrier.positions(reference);
+    let (topology, reference) = (&carrier.topology, &positions[..]);
     let nv = topology.vertex_count;
     if opts.cones.is_some() || nv < 5 || reference.len() != nv {
         // Given cones, or a mesh that parameterize_scored rejects with the reason.
-        return parameterize_scored(topology, reference, opts, Some(&mut score));
+        return AreaPasses::start_with(topology, reference, Some(&carrier.real), opts)?.finish(Some(&mut score));
     }
     // The racers: each four of the first CONE_CANDIDATES extremities (the
     // first four are what `cut::choose_cones` picks, and start first, so
@@ -118,7 +142,7 @@ pub fn parameterize_for_grid(
         let cones = [c[0], c[1], c[2], c[3]];
         let corner = cut::corner_for(&graph, nv, &cones);
         let o = ParamOptions { cones: Some((cones, corner)), ..opts.clone() };
-        match AreaPasses::start(topology, reference, &o) {
+        match AreaPasses::start_with(topology, reference, Some(&carrier.real), &o) {
             Ok(r) => racers.push(r),
             Err(err) => {
                 first_error.get_or_insert(err);

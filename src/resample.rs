@@ -7,6 +7,7 @@
 use crate::error::{Error, Result};
 use crate::format::source_mesh::{place, quantize_place};
 use crate::grid::Grid;
+use crate::mesh::carrier::Carrier;
 use crate::param::Parameterization;
 use glam::{DVec2, Vec3};
 
@@ -15,19 +16,38 @@ use glam::{DVec2, Vec3};
 /// most deeply.
 const INSIDE_EPS: f64 = 1e-9;
 
-/// Where each grid sample lies on the input surface.
+/// Where each grid sample lies on the input surface (on its carrier,
+/// [`Carrier`], where the input is not a closed genus-0 manifold).
 #[derive(Debug, Clone)]
 pub struct SampleMap {
     pub grid: Grid,
-    /// The input face containing each sample.
+    /// The carrier face containing each sample.
     pub face: Vec<u32>,
-    /// The face's three vertices, repeated here for speed.
+    /// The face's three vertices as entries of the extended frame
+    /// ([`Carrier::extend`]: input vertices, then the carrier's added ones).
     pub corners: Vec<[u32; 3]>,
     pub bary: Vec<[f32; 3]>,
+    /// The carrier's added vertices (empty for a closed genus-0 input).
+    pub means: Vec<Vec<u32>>,
+    /// Whether each sample lies on one of the input's faces (not on a face
+    /// the carrier added).
+    pub on_input: Vec<bool>,
 }
 
 impl SampleMap {
-    /// Locates every grid sample in the parameterization of `faces`.
+    /// Locates every grid sample in the parameterization of the carrier.
+    pub fn on_carrier(grid: Grid, carrier: &Carrier, param: &Parameterization) -> Result<SampleMap> {
+        let mut map = SampleMap::build(grid, &carrier.topology.faces, param)?;
+        for (c, &f) in map.corners.iter_mut().zip(&map.face) {
+            *c = carrier.topology.faces[f as usize].map(|v| carrier.ext[v as usize]);
+        }
+        map.on_input = map.face.iter().map(|&f| carrier.real[f as usize]).collect();
+        map.means = carrier.means.clone();
+        Ok(map)
+    }
+
+    /// Locates every grid sample in the parameterization of `faces` (a
+    /// closed genus-0 input, its own carrier).
     pub fn build(grid: Grid, faces: &[[u32; 3]], param: &Parameterization) -> Result<SampleMap> {
         let n = grid.n as f64;
         let mut best: Vec<(f64, u32, [f64; 3])> = vec![(f64::NEG_INFINITY, u32::MAX, [0.0; 3]); grid.len()];
@@ -64,7 +84,14 @@ impl SampleMap {
                 "{count} grid samples (first: {missing}) fall in no triangle of the parameterization"
             )));
         }
-        let mut map = SampleMap { grid, face: Vec::new(), corners: Vec::new(), bary: Vec::new() };
+        let mut map = SampleMap {
+            grid,
+            face: Vec::new(),
+            corners: Vec::new(),
+            bary: Vec::new(),
+            means: Vec::new(),
+            on_input: vec![true; best.len()],
+        };
         for (_, f, w) in best {
             let w = w.map(|x| x.max(0.0));
             let s = w[0] + w[1] + w[2];
@@ -73,6 +100,17 @@ impl SampleMap {
             map.bary.push(w.map(|x| (x / s) as f32));
         }
         Ok(map)
+    }
+
+    /// The grid mesh's triangles whose three samples lie on the input's
+    /// faces: the decoded surface that the surface-error metrics compare
+    /// with the input (all of them for a closed genus-0 input).
+    pub fn surface_faces(&self) -> Vec<[u32; 3]> {
+        let faces = self.grid.topology().faces;
+        if self.on_input.iter().all(|&x| x) {
+            return faces;
+        }
+        faces.into_iter().filter(|f| f.iter().all(|&s| self.on_input[s as usize])).collect()
     }
 
     /// Resamples one frame of the input sequence onto the grid.
@@ -84,6 +122,18 @@ impl SampleMap {
 
     /// Like [`SampleMap::apply`], reusing `out`'s allocation.
     pub fn apply_into(&self, frame: &[Vec3], out: &mut Vec<Vec3>) {
+        let extended;
+        let frame = if self.means.is_empty() {
+            frame
+        } else {
+            let mut ext = frame.to_vec();
+            for m in &self.means {
+                let sum: Vec3 = m.iter().map(|&i| ext[i as usize]).sum();
+                ext.push(sum / m.len().max(1) as f32);
+            }
+            extended = ext;
+            &extended
+        };
         out.clear();
         out.extend(
             self.corners
@@ -94,14 +144,25 @@ impl SampleMap {
     }
 }
 
-/// Each vertex's place in the parameterization, folded into the square
-/// and quantized as format version 6 stores it (so the rebuilt vertices
-/// are the decoder's).
+/// Each input vertex's place in the parameterization of its carrier (its
+/// first copy's), folded into the square and quantized as format version
+/// 6 stores it (so the rebuilt vertices are the decoder's). A vertex that
+/// no face uses takes the first carrier vertex's place.
+pub fn carrier_places(carrier: &Carrier, param: &Parameterization) -> Vec<[u32; 2]> {
+    let at = |c: &u32| param.uv.get(*c as usize).or(param.uv.first()).copied().unwrap_or_default();
+    carrier.carrier_of.iter().map(at).map(quantized_place).collect()
+}
+
+/// [`carrier_places`] of a closed genus-0 input, its own carrier.
 pub fn places(param: &Parameterization) -> Vec<[u32; 2]> {
+    param.uv.iter().copied().map(quantized_place).collect()
+}
+
+fn quantized_place(uv: DVec2) -> [u32; 2] {
     // Any copy of a vertex on the extended lattice is the same place; the
     // one inside the square is what fits the quantizer's range.
-    let square = |uv: &DVec2| Grid::canonical_uv(*uv);
-    param.uv.iter().map(square).map(|uv| [quantize_place(uv.x), quantize_place(uv.y)]).collect()
+    let uv = Grid::canonical_uv(uv);
+    [quantize_place(uv.x), quantize_place(uv.y)]
 }
 
 /// Where each input vertex lies on the grid mesh: the inverse direction of
@@ -119,8 +180,13 @@ pub struct SourcePoints {
 }
 
 impl SourcePoints {
-    /// The place of every vertex of the parameterized mesh on `grid`, as
-    /// a file carries it (quantized: see [`places`]).
+    /// The place of every input vertex on `grid`, as a file carries it
+    /// (quantized: see [`carrier_places`]).
+    pub fn on_carrier(grid: Grid, carrier: &Carrier, param: &Parameterization) -> SourcePoints {
+        SourcePoints::from_places(grid, &carrier_places(carrier, param))
+    }
+
+    /// [`SourcePoints::on_carrier`] of a closed genus-0 input.
     pub fn build(grid: Grid, param: &Parameterization) -> SourcePoints {
         SourcePoints::from_places(grid, &places(param))
     }

@@ -333,7 +333,7 @@ pub fn run(src: &dyn FrameSource, opts: &EvalOptions, progress: &(dyn Fn(&str) +
     progress(&format!("parameterized in {:.1} s", prepared.seconds()));
 
     let grid = Grid::new(opts.base.grid)?;
-    let points = SourcePoints::build(grid, &prepared.param);
+    let points = prepared.source_points();
     let mut floor = SourceMeasure::new(&points, diagonal);
     for (input, g) in mem.frames.iter().zip(&truth) {
         floor.add_frame(input, g);
@@ -640,7 +640,7 @@ impl Ctx<'_> {
                 _ => 1,
             });
         let st = Stencils::new(self.grid);
-        let grid_faces = self.grid.topology().faces;
+        let grid_faces = self.prepared.map.surface_faces();
         let n = self.mem.frames.len();
         let (mut video, mut solve) = (0.0, 0.0);
         let mut kg = metrics::KgError::default();

@@ -3,6 +3,7 @@
 
 pub mod adjacency;
 pub mod builtin;
+pub mod carrier;
 pub mod gltf_in;
 pub mod gltf_out;
 pub mod obj;

@@ -60,12 +60,13 @@ impl TopologyReport {
     }
 }
 
-struct Dsu(Vec<u32>);
+/// Disjoint sets over 0..n (union by smaller root, path halving).
+pub(crate) struct Dsu(Vec<u32>);
 impl Dsu {
-    fn new(n: usize) -> Self {
+    pub(crate) fn new(n: usize) -> Self {
         Dsu((0..n as u32).collect())
     }
-    fn find(&mut self, mut x: u32) -> u32 {
+    pub(crate) fn find(&mut self, mut x: u32) -> u32 {
         while self.0[x as usize] != x {
             let p = self.0[self.0[x as usize] as usize];
             self.0[x as usize] = p;
@@ -73,7 +74,7 @@ impl Dsu {
         }
         x
     }
-    fn union(&mut self, a: u32, b: u32) {
+    pub(crate) fn union(&mut self, a: u32, b: u32) {
         let (a, b) = (self.find(a), self.find(b));
         if a != b {
             self.0[a.max(b) as usize] = a.min(b);

@@ -194,3 +194,94 @@ pub fn decode_png(bytes: &[u8]) -> (Vec<u8>, usize) {
     buf.truncate(info.buffer_size());
     (buf, info.color_type.samples())
 }
+
+/// An open square sheet of (k + 1)² vertices in the z = 0 plane, side 2.
+pub fn sheet(k: usize) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let mut p = Vec::new();
+    for j in 0..=k {
+        for i in 0..=k {
+            p.push(Vec3::new(2.0 * i as f32 / k as f32 - 1.0, 2.0 * j as f32 / k as f32 - 1.0, 0.0));
+        }
+    }
+    let at = |i: usize, j: usize| (j * (k + 1) + i) as u32;
+    let mut f = Vec::new();
+    for j in 0..k {
+        for i in 0..k {
+            f.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+            f.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+        }
+    }
+    (p, f)
+}
+
+/// A tube (`closed`: false, an annulus) or torus (`closed`: true) of
+/// `around` x `along` vertices: radius 0.3 around a circle of radius 1 for
+/// the torus, a straight tube of radius 0.5 and length 2 otherwise.
+pub fn tube(around: usize, along: usize, closed: bool) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let mut p = Vec::new();
+    let rows = if closed { along } else { along + 1 };
+    for j in 0..rows {
+        for i in 0..around {
+            let a = std::f32::consts::TAU * i as f32 / around as f32;
+            if closed {
+                let b = std::f32::consts::TAU * j as f32 / along as f32;
+                let r = 1.0 + 0.3 * a.cos();
+                p.push(Vec3::new(r * b.cos(), r * b.sin(), 0.3 * a.sin()));
+            } else {
+                p.push(Vec3::new(0.5 * a.cos(), 0.5 * a.sin(), 2.0 * j as f32 / along as f32 - 1.0));
+            }
+        }
+    }
+    let at = |i: usize, j: usize| ((j % rows) * around + i % around) as u32;
+    let mut f = Vec::new();
+    for j in 0..along {
+        for i in 0..around {
+            f.push([at(i, j), at(i + 1, j), at(i + 1, j + 1)]);
+            f.push([at(i, j), at(i + 1, j + 1), at(i, j + 1)]);
+        }
+    }
+    (p, f)
+}
+
+/// A subdivided cube (6 k² quads, split) of side 2 centred at `c`.
+pub fn cube(k: usize, c: Vec3) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    // An icosphere-free closed box: weld the six sheets' shared border vertices.
+    let (sp, sf) = sheet(k);
+    let mut p: Vec<Vec3> = Vec::new();
+    let mut f = Vec::new();
+    let mut index = std::collections::HashMap::new();
+    let faces: [fn(Vec3) -> Vec3; 6] = [
+        |v| Vec3::new(v.x, v.y, 1.0),
+        |v| Vec3::new(v.y, v.x, -1.0),
+        |v| Vec3::new(1.0, v.x, v.y),
+        |v| Vec3::new(-1.0, v.y, v.x),
+        |v| Vec3::new(v.y, 1.0, v.x),
+        |v| Vec3::new(v.x, -1.0, v.y),
+    ];
+    for map in faces {
+        let ids: Vec<u32> = sp
+            .iter()
+            .map(|&v| {
+                let q = map(v);
+                let key = (q * 1000.0).round().as_ivec3().to_array();
+                *index.entry(key).or_insert_with(|| {
+                    p.push(q + c);
+                    (p.len() - 1) as u32
+                })
+            })
+            .collect();
+        f.extend(sf.iter().map(|t| t.map(|i| ids[i as usize])));
+    }
+    (p, f)
+}
+
+/// Concatenates meshes (the parts of a multi-part mesh).
+pub fn parts(meshes: &[(Vec<Vec3>, Vec<[u32; 3]>)]) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let (mut p, mut f) = (Vec::new(), Vec::new());
+    for (mp, mf) in meshes {
+        let base = p.len() as u32;
+        p.extend_from_slice(mp);
+        f.extend(mf.iter().map(|t| t.map(|i| i + base)));
+    }
+    (p, f)
+}

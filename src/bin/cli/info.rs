@@ -3,6 +3,7 @@
 use super::InputArgs;
 use anyhow::Result;
 use cgv::format::StreamName;
+use cgv::mesh::carrier::CarrierReport;
 use cgv::mesh::{analyze, Bounds};
 use rayon::prelude::*;
 
@@ -50,7 +51,9 @@ pub fn run(args: Args) -> Result<()> {
             }
         }
     }
-    let usable = topo.is_sphere() && frame_error.is_none();
+    let carrier = cgv::mesh::carrier::Carrier::build(src.label(), src.topology(), &first);
+    let usable = carrier.is_ok() && frame_error.is_none();
+    let closing = carrier.as_ref().ok().map(|c| c.report.clone());
     if args.json {
         let report = serde_json::json!({
             "input": src.label(),
@@ -66,6 +69,7 @@ pub fn run(args: Args) -> Result<()> {
             "frames_checked": !args.quick,
             "frame_error": frame_error,
             "usable": usable,
+            "closing": closing,
         });
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
@@ -90,24 +94,34 @@ pub fn run(args: Args) -> Result<()> {
             Some(g) => println!("  genus         {g}"),
             None => println!("  genus         undefined (not a connected manifold)"),
         }
+        // What the encoder closes up is a note; the rest stops it.
+        let label = if carrier.is_ok() { "note" } else { "problem" };
         for p in &topo.problems {
-            println!("  problem: {p}");
+            println!("  {label}: {p}");
         }
         if let Some(e) = &frame_error {
             println!("  problem: {e}");
         }
-        println!(
-            "  verdict: {}",
-            if usable {
-                "closed genus-0 manifold, all frames consistent: ready for a geometry image"
-            } else if topo.problems_except_holes().next().is_none() && frame_error.is_none() {
-                "usable with --fill-holes"
-            } else {
-                "not usable as is"
-            }
-        );
+        if let Err(e) = &carrier {
+            println!("  problem: {e}");
+        }
+        println!("  verdict: {}", verdict(usable, &topo, closing.as_ref()));
     }
     Ok(())
+}
+
+/// One line on whether and how the motion can be encoded.
+fn verdict(usable: bool, topo: &cgv::mesh::TopologyReport, closing: Option<&CarrierReport>) -> String {
+    match closing {
+        _ if !usable => "not usable as is".into(),
+        _ if topo.is_sphere() => "closed genus-0 manifold, all frames consistent: ready for a geometry image".into(),
+        Some(c) => format!(
+            "usable: the encoder closes it up for the grid ({} loops closed, {} handles cut, {} part(s) joined, \
+             {} vertex copies, {} faces flipped, {} repeated faces left out) and gives its own mesh back",
+            c.closed_loops, c.handles, c.parts, c.split_vertices, c.flipped_faces, c.dropped_faces
+        ),
+        None => "not usable as is".into(),
+    }
 }
 
 /// `cgv info FILE.cgv`: the header and the size of each stream.

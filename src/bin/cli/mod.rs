@@ -22,10 +22,11 @@ use std::process::ExitCode;
     long_about = "Conformal geometry videos: compact 3D motion, stored as video.\n\n\
         An INPUT is a folder of OBJ files (one frame each, ordered by the number in the name), \
         a single .obj, a glTF 2.0 animation (.gltf/.glb, baked at --fps), or `builtin:walk`, \
-        the embedded default motion.",
+        the embedded default motion. Any triangle mesh is accepted: parts, open edges, handles and \
+        non-manifold joints are closed up for the grid, and decoding gives the input's own mesh back.",
     after_help = "Examples:\n  cgv info builtin:walk\n  cgv info data/samba --json\n  \
         cgv remesh data/samba -o samba.glb --grid 256 --png samba.png\n  \
-        cgv remesh horse.glb --fill-holes -o horse-frames/"
+        cgv encode data/wolf -o wolf.cgv && cgv decode wolf.cgv -o wolf.glb"
 )]
 struct Cli {
     #[command(subcommand)]
@@ -56,7 +57,9 @@ enum Command {
 pub struct InputArgs {
     /// Folder of OBJ frames, .obj, .gltf, .glb, or builtin:walk.
     pub input: String,
-    /// Close holes (boundary loops) by adding a vertex at each hole's centre.
+    /// Make the holes part of the mesh: each boundary loop gets a vertex at its centre and
+    /// faces that decoding gives back (without it, holes are closed for the grid only and
+    /// stay open in the decoded mesh).
     #[arg(long)]
     pub fill_holes: bool,
     /// Frame rate: given to OBJ sequences, and the rate at which glTF animations are baked.

@@ -11,7 +11,7 @@ use cgv::mesh::Bounds;
 use cgv::mesh::FrameSource;
 use cgv::metrics::surface;
 use cgv::param::ParamOptions;
-use cgv::resample::{SampleMap, SourcePoints};
+use cgv::resample::SampleMap;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -68,8 +68,8 @@ fn measure(src: &dyn FrameSource, image: &GeometryImage, stride: usize, quiet: b
         return Ok(Vec::new());
     }
     let (topology, map) = (src.topology(), &image.map);
-    let grid_faces = map.grid.topology().faces;
-    let points = SourcePoints::build(map.grid, &image.param);
+    let grid_faces = map.surface_faces();
+    let points = image.source_points();
     let frames: Vec<usize> = (0..src.frame_count()).step_by(stride).collect();
     let pb = super::progress(frames.len(), "measuring", quiet);
     let results: Vec<cgv::Result<FrameError>> = frames
