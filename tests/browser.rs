@@ -209,6 +209,7 @@ fn site() -> (PathBuf, Guard, u16) {
     for f in ["walk-cgv.cgv", "walk-gv.cgv", "walk-cgv.cgv.cgv.positions", "walk-gv.cgv.cgv.positions"] {
         std::fs::copy(root.join("tests/fixtures/v1").join(f), dir.join(f)).unwrap();
     }
+    std::fs::copy(root.join("tests/fixtures/v6/walk-cgv-source.cgv"), dir.join("walk-source.cgv")).unwrap();
     // A corrupt copy: one flipped byte in the middle.
     let mut bad = std::fs::read(dir.join("walk-cgv.cgv")).unwrap();
     let k = bad.len() / 2;
@@ -313,6 +314,21 @@ fn viewer_plays_renders_and_recovers_in_headless_chromium() {
     // The fixture's tolerance for the cgv decoder (tests/fixtures.rs): 1e-5 of the diagonal.
     let diag = 2.2151663f64;
     assert!(r["worst"].as_f64().unwrap() <= 1e-5 * diag, "wasm vs native reconstruction: {r}");
+
+    // A version-6 file: the input's own mesh drawn when shaded, the grid for λ.
+    browser.js("document.getElementById('a').load('walk-source.cgv'); return true;", json!([]));
+    browser.wait("the v6 fixture's 3 frames", "return (document.getElementById('a').frames || []).length === 3;", 60);
+    browser.js("const p = document.getElementById('a'); p.pause(); p.show(2); return true;", json!([]));
+    std::thread::sleep(Duration::from_millis(300));
+    let surface = "return document.getElementById('a').dataset.surface;";
+    assert_eq!(browser.js(surface, json!([])), json!("source"), "{}", browser.js(STATE, json!([])));
+    let (fig, _) = figure_pixels(&browser.screenshot(&art.join("source-mesh.png")));
+    assert!(fig > 2000, "the source mesh shows {fig} figure pixels");
+    browser.js(
+        "const p = document.getElementById('a'); p.setAttribute('mode', 'lambda'); p.show(2); return true;",
+        json!([]),
+    );
+    assert_eq!(browser.js(surface, json!([])), json!("grid"));
 
     // A corrupt file dropped on the page: a clear error; then a good file plays.
     browser.go(&format!("{base}/"));

@@ -257,10 +257,18 @@ export class CgvPlayer extends HTMLElement {
       // (el.reference = otherPlayer), e.g. GV against CGV of one motion.
       const ref = this.mode === 'error' ? this.reference?.frames?.[f] : undefined;
       const s = this.shown;
-      if (!s || s.frame !== this.frames[f] || s.mode !== this.mode || s.ref !== ref) {
+      // The input's own mesh (a version-6 file carries it) when shaded;
+      // λ, H and the error map are the grid's. mesh="grid" keeps the grid.
+      const sm = this.header?.source_mesh;
+      const mesh = !!sm && this.mode === 'shaded' && this.getAttribute('mesh') !== 'grid';
+      if (!s || s.frame !== this.frames[f] || s.mode !== this.mode || s.ref !== ref || s.mesh !== mesh) {
+        if (!s || s.mesh !== mesh) {
+          this.view.set_mesh(mesh ? this.player.source_faces() : new Uint32Array(0), mesh ? sm.vertices : 0);
+        }
         this.view.set_reference(ref || new Float32Array(0));
-        this.view.set_frame(this.frames[f], this.mode);
-        this.shown = { frame: this.frames[f], mode: this.mode, ref };
+        this.view.set_frame(mesh ? this.player.source_vertices(this.frames[f]) : this.frames[f], this.mode);
+        this.shown = { frame: this.frames[f], mode: this.mode, ref, mesh };
+        this.dataset.surface = mesh ? 'source' : 'grid';
         this.view.draw();
       }
     } catch (e) {

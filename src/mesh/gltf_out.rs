@@ -5,7 +5,7 @@
 //! recomputed, as morph targets too), and folders of numbered OBJ files.
 //! Both are written frame by frame and appear only once complete.
 
-use super::{Frame, Topology};
+use super::{vertex_normals, Frame, Topology};
 use crate::error::{Error, Result};
 use crate::fsutil::AtomicFile;
 use glam::Vec3;
@@ -61,21 +61,6 @@ fn write_vec3(bin: &mut impl Write, v: Vec3) -> std::io::Result<()> {
         bin.write_all(&c.to_le_bytes())?;
     }
     Ok(())
-}
-
-/// Unit vertex normals: the area-weighted mean of the faces' normals
-/// around each vertex (+z where they cancel or there is no face, so that
-/// every normal is a unit vector, as glTF requires).
-pub fn vertex_normals(positions: &[Vec3], faces: &[[u32; 3]]) -> Vec<Vec3> {
-    let mut n = vec![Vec3::ZERO; positions.len()];
-    for f in faces {
-        let [a, b, c] = f.map(|i| positions[i as usize]);
-        let area = super::triangle_area_vector(a, b, c);
-        for &i in f {
-            n[i as usize] += area;
-        }
-    }
-    n.iter().map(|v| v.try_normalize().unwrap_or(Vec3::Z)).collect()
 }
 
 /// Writes the binary chunk to `bin`, reading the frames one at a time.

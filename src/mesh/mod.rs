@@ -58,3 +58,18 @@ impl Bounds {
 pub fn triangle_area_vector(a: Vec3, b: Vec3, c: Vec3) -> Vec3 {
     (b - a).cross(c - a)
 }
+
+/// Unit vertex normals: the area-weighted mean of the faces' normals
+/// around each vertex (+z where they cancel or there is no face, so that
+/// every normal is a unit vector, as glTF requires).
+pub fn vertex_normals(positions: &[Vec3], faces: &[[u32; 3]]) -> Vec<Vec3> {
+    let mut n = vec![Vec3::ZERO; positions.len()];
+    for f in faces {
+        let [a, b, c] = f.map(|i| positions[i as usize]);
+        let area = triangle_area_vector(a, b, c);
+        for &i in f {
+            n[i as usize] += area;
+        }
+    }
+    n.iter().map(|v| v.try_normalize().unwrap_or(Vec3::Z)).collect()
+}

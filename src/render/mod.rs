@@ -64,9 +64,12 @@ struct Uniforms {
 /// The depth format; every backend, WebGL2 included, has it.
 const DEPTH: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
-/// Draws one grid surface.
+/// Draws one grid surface, or a mesh of its own (the input's, rebuilt from
+/// the grid: [`Renderer::set_mesh`]).
 pub struct Renderer {
     st: Stencils,
+    /// The mesh drawn instead of the grid, when there is one.
+    mesh: Option<crate::mesh::Topology>,
     pipeline: wgpu::RenderPipeline,
     uniforms: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
@@ -160,6 +163,7 @@ impl Renderer {
         });
         Renderer {
             st: Stencils::new(grid),
+            mesh: None,
             pipeline,
             uniforms,
             bind_group,
@@ -172,7 +176,35 @@ impl Renderer {
         }
     }
 
-    /// Uploads a frame: grid positions, and for [`ColorMode::Error`] the
+    /// Draws `mesh` (its vertices given to [`set_frame`](Self::set_frame))
+    /// instead of the grid, or the grid again with `None`.
+    pub fn set_mesh(&mut self, device: &wgpu::Device, mesh: Option<crate::mesh::Topology>) -> Result<()> {
+        let (faces, count) = match &mesh {
+            Some(m) => (m.faces.clone(), m.vertex_count),
+            None => (self.st.grid.topology().faces, self.st.grid.len()),
+        };
+        if let Some(bad) = faces.iter().flatten().find(|&&v| v as usize >= count) {
+            return Err(Error::Render(format!("a face uses vertex {bad} of a mesh of {count}")));
+        }
+        let index_data: Vec<u32> = faces.iter().flatten().copied().collect();
+        self.indices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("cgv indices"),
+            contents: bytemuck::cast_slice(&index_data),
+            usage: wgpu::BufferUsages::INDEX,
+        });
+        self.vertices = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("cgv vertices"),
+            size: (count.max(1) * std::mem::size_of::<Vertex>()) as u64,
+            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        self.index_count = index_data.len() as u32;
+        self.mesh = mesh;
+        Ok(())
+    }
+
+    /// Uploads a frame: grid positions (or the mesh's vertices, after
+    /// [`set_mesh`](Self::set_mesh)), and for [`ColorMode::Error`] the
     /// reference positions to measure against.
     pub fn set_frame(
         &mut self,
@@ -181,9 +213,16 @@ impl Renderer {
         mode: ColorMode,
         reference: Option<&[Vec3]>,
     ) -> Result<()> {
-        let n = self.st.grid.len();
+        let n = self.mesh.as_ref().map_or(self.st.grid.len(), |m| m.vertex_count);
         if x.len() != n || reference.is_some_and(|r| r.len() != n) {
-            return Err(Error::Render(format!("a frame of {} samples for a grid of {n}", x.len())));
+            return Err(Error::Render(format!("a frame of {} points for a surface of {n}", x.len())));
+        }
+        let normals = match &self.mesh {
+            Some(m) => crate::mesh::vertex_normals(x, &m.faces),
+            None => (0..n).map(|v| normal(&self.st, x, v)).collect(),
+        };
+        if self.mesh.is_some() && matches!(mode, ColorMode::Lambda | ColorMode::H) {
+            return Err(Error::Render("λ and H are the grid's: draw the grid to see them".into()));
         }
         let values: Vec<f32> = match (mode, reference) {
             (ColorMode::Shaded, _) => vec![0.0; n],
@@ -193,7 +232,7 @@ impl Renderer {
             (ColorMode::Error, None) => return Err(Error::Render("the error map needs a reference".into())),
         };
         let vertices: Vec<Vertex> = (0..n)
-            .map(|v| Vertex { position: x[v].to_array(), normal: normal(&self.st, x, v).to_array(), value: values[v] })
+            .map(|v| Vertex { position: x[v].to_array(), normal: normals[v].to_array(), value: values[v] })
             .collect();
         queue.write_buffer(&self.vertices, 0, bytemuck::cast_slice(&vertices));
         self.bounds = x

@@ -1,4 +1,5 @@
-//! A canvas drawing one decoded grid with the shared renderer.
+//! A canvas drawing one decoded grid, or the input's mesh rebuilt from it,
+//! with the shared renderer.
 
 use super::{js, positions};
 use crate::grid::Grid;
@@ -123,6 +124,22 @@ impl View {
         }
         self.last = Some((x, mode));
         Ok(())
+    }
+
+    /// Draws a mesh of its own instead of the grid: `faces` (three vertex
+    /// indices each, as `Player.source_faces()` gives them) over
+    /// `vertex_count` vertices, whose positions `set_frame` then takes
+    /// (`Player.source_vertices(gridFrame)`). Empty `faces` draws the grid
+    /// again.
+    pub fn set_mesh(&mut self, faces: &[u32], vertex_count: u32) -> std::result::Result<(), JsError> {
+        if faces.len() % 3 != 0 {
+            return Err(JsError::new(&format!("{} face indices: not a multiple of 3", faces.len())));
+        }
+        let mesh = (!faces.is_empty()).then(|| crate::mesh::Topology {
+            vertex_count: vertex_count as usize,
+            faces: faces.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+        });
+        self.renderer.set_mesh(&self.device, mesh).map_err(js)
     }
 
     /// The frame the error map measures against (empty to clear).

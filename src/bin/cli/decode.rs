@@ -29,8 +29,8 @@ pub struct Args {
     json: bool,
 }
 
-#[derive(Clone, Copy, PartialEq, clap::ValueEnum)]
-enum MeshChoice {
+#[derive(Clone, Copy, PartialEq, Debug, clap::ValueEnum)]
+pub enum MeshChoice {
     Auto,
     Source,
     Grid,
@@ -63,19 +63,28 @@ pub fn open_decoder(
     Ok((dec, solver))
 }
 
-pub fn run(args: Args) -> Result<()> {
-    let (mut dec, solver) = open_decoder(&args.input, args.solver, args.memory)?;
-    let source = match (args.mesh, dec.source_mesh()) {
+/// The input's mesh to rebuild, as `choice` asks: None for the grid.
+pub fn source_mesh(
+    path: &std::path::Path,
+    dec: &FileDecoder,
+    choice: MeshChoice,
+) -> Result<Option<cgv::codec::SourceMeshDecoder>> {
+    Ok(match (choice, dec.source_mesh()) {
         (MeshChoice::Grid, _) => None,
         (_, Some(s)) => Some(s),
         (MeshChoice::Source, None) => anyhow::bail!(
             "{}: the file carries no source mesh (format version {}; only version 6 files written with it do): \
              use --mesh grid",
-            args.input.display(),
+            path.display(),
             dec.file.version
         ),
         (MeshChoice::Auto, None) => None,
-    };
+    })
+}
+
+pub fn run(args: Args) -> Result<()> {
+    let (mut dec, solver) = open_decoder(&args.input, args.solver, args.memory)?;
+    let source = source_mesh(&args.input, &dec, args.mesh)?;
     let topo = source.as_ref().map_or_else(|| dec.grid.topology(), |s| s.topology.clone());
     let mesh_name = if source.is_some() { "source" } else { "grid" };
     let frames = dec.frame_count();

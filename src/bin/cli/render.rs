@@ -36,18 +36,27 @@ pub struct Args {
     /// Decoder for CGV files (default: the one recorded in the file).
     #[arg(long)]
     solver: Option<SolverKind>,
+    /// The surface drawn: `source` (the input's own mesh, rebuilt from the
+    /// grid; version-6 files carry it), `grid`, or `auto` (source when the
+    /// file carries it and --mode is shaded, else grid: λ, H and the error
+    /// map are the grid's).
+    #[arg(long, value_enum, default_value = "auto")]
+    mesh: super::decode::MeshChoice,
     #[command(flatten)]
     memory: super::decode::MemoryArgs,
 }
 
-/// Decodes frames 0..=`frame` of `path` and returns the last.
+/// Decodes frames 0..=`frame` of `path` and returns the grid size, the
+/// last frame, and the input's mesh when `mesh` asks for it.
 fn decode_frame(
     path: &Path,
     frame: usize,
     solver: Option<SolverKind>,
     memory: super::decode::MemoryArgs,
-) -> Result<(usize, Vec<glam::Vec3>)> {
+    mesh: super::decode::MeshChoice,
+) -> Result<(usize, Vec<glam::Vec3>, Option<cgv::codec::SourceMeshDecoder>)> {
     let (mut dec, _) = super::decode::open_decoder(path, solver, memory)?;
+    let source = super::decode::source_mesh(path, &dec, mesh)?;
     let frames = dec.frame_count();
     if frame >= frames {
         bail!("{}: frame {frame} asked for, but the file has {frames} (0..={})", path.display(), frames - 1);
@@ -60,7 +69,7 @@ fn decode_frame(
         pb.inc(1);
     }
     pb.finish_and_clear();
-    Ok((grid, x))
+    Ok((grid, x, source))
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -76,10 +85,15 @@ pub fn run(args: Args) -> Result<()> {
     if args.mode == ColorMode::Error && args.reference.is_none() {
         bail!("--mode error needs --reference OTHER.cgv (the same motion and grid)");
     }
-    let (n, x) = decode_frame(&args.input, args.frame, args.solver, args.memory)?;
+    use super::decode::MeshChoice;
+    let mesh = match args.mesh {
+        MeshChoice::Auto if args.mode != ColorMode::Shaded => MeshChoice::Grid,
+        m => m,
+    };
+    let (n, x, source) = decode_frame(&args.input, args.frame, args.solver, args.memory, mesh)?;
     let reference = match &args.reference {
         Some(r) => {
-            let (rn, rx) = decode_frame(r, args.frame, None, args.memory)?;
+            let (rn, rx, _) = decode_frame(r, args.frame, None, args.memory, MeshChoice::Grid)?;
             if rn != n {
                 bail!("{}: grid {rn} differs from {}'s grid {n}", r.display(), args.input.display());
             }
@@ -89,6 +103,15 @@ pub fn run(args: Args) -> Result<()> {
     };
     let gpu = Offscreen::new()?;
     let mut renderer = Renderer::new(&gpu.device, cgv::render::offscreen::FORMAT, cgv::grid::Grid::new(n)?);
+    let surface = if source.is_some() { "source mesh" } else { "grid" };
+    let x = match source {
+        Some(s) if reference.is_none() => {
+            renderer.set_mesh(&gpu.device, Some(s.topology.clone()))?;
+            s.vertices(&x)
+        }
+        Some(_) => bail!("--mode error compares grids: draw it with --mesh grid"),
+        None => x,
+    };
     renderer.set_frame(&gpu.queue, &x, args.mode, reference.as_deref())?;
     let (lo, hi) = renderer.bounds();
     let mut camera = OrbitCamera::framing(lo, hi);
@@ -105,7 +128,7 @@ pub fn run(args: Args) -> Result<()> {
     }
     cgv::fsutil::write_atomic(&args.output, &png_bytes)?;
     println!(
-        "{} frame {} -> {} ({w}x{h}, {:?}, {})",
+        "{} frame {} -> {} ({w}x{h}, the {surface}, {:?}, {})",
         args.input.display(),
         args.frame,
         args.output.display(),
