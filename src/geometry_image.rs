@@ -23,14 +23,14 @@
 //! placement's passes instead of five times.
 
 use crate::error::{Error, Result};
-use crate::format::SourceMesh;
+use crate::format::{Offsets, SourceMesh};
 use crate::grid::Grid;
 use crate::mesh::carrier::Carrier;
 use crate::mesh::Topology;
 use crate::metrics::surface;
 use crate::param::area::AreaPasses;
 use crate::param::{cut, ParamOptions, Parameterization, SCORED_PASSES};
-use crate::resample::SampleMap;
+use crate::resample::{SampleMap, SourcePoints};
 use glam::Vec3;
 use std::path::Path;
 
@@ -43,6 +43,9 @@ pub struct GeometryImage {
     pub carrier: Carrier,
     pub param: Parameterization,
     pub map: SampleMap,
+    /// Each input vertex's offset from the grid mesh of the reference
+    /// frame (format version 7), quantized as a file carries it.
+    pub offsets: Option<Offsets>,
     /// Time spent parameterizing (the cone race and the area passes).
     pub seconds_parameterize: f64,
     /// Time spent locating the samples.
@@ -65,21 +68,26 @@ impl GeometryImage {
         let seconds_parameterize = t.elapsed().as_secs_f64();
         let t = std::time::Instant::now();
         let map = SampleMap::on_carrier(grid, &carrier, &param)?;
-        Ok(GeometryImage { carrier, param, map, seconds_parameterize, seconds_locate: t.elapsed().as_secs_f64() })
+        let points = SourcePoints::on_carrier(grid, &carrier, &param);
+        let offsets = Offsets::quantize(&points.offsets_to(&map.apply(reference), reference));
+        let seconds_locate = t.elapsed().as_secs_f64();
+        Ok(GeometryImage { carrier, param, map, offsets, seconds_parameterize, seconds_locate })
     }
 
-    /// The input's mesh as a version-6 file carries it: `topology`'s faces
-    /// and each vertex's place on this image.
+    /// The input's mesh as a version-7 file carries it: `topology`'s faces,
+    /// each vertex's place on this image and its offset from there.
     pub fn source_mesh(&self, topology: &Topology) -> SourceMesh {
         SourceMesh {
             faces: topology.faces.clone(),
             places: crate::resample::carrier_places(&self.carrier, &self.param),
+            offsets: self.offsets.clone(),
         }
     }
 
-    /// Where each input vertex lies on the grid mesh.
-    pub fn source_points(&self) -> crate::resample::SourcePoints {
-        crate::resample::SourcePoints::on_carrier(self.map.grid, &self.carrier, &self.param)
+    /// Where each input vertex lies on the grid mesh, and its offset: the
+    /// decoder's rule.
+    pub fn source_points(&self) -> SourcePoints {
+        SourcePoints::on_carrier(self.map.grid, &self.carrier, &self.param).with_offsets(self.offsets.as_ref())
     }
 
     /// Both times together.

@@ -173,10 +173,29 @@ fn quantized_place(uv: DVec2) -> [u32; 2] {
 /// triangle's barycentric combination of three grid samples. So the
 /// vertices rebuilt from a grid frame lie on its grid mesh, the surface
 /// the decoder shows.
+///
+/// Format version 7 adds each vertex's offset from that point, in the
+/// frame of its grid triangle ([`triangle_frame`]), so that what the grid
+/// cut off comes back and turns with the surface.
 #[derive(Debug, Clone)]
 pub struct SourcePoints {
     pub corners: Vec<[u32; 3]>,
     pub bary: Vec<[f32; 3]>,
+    /// Each vertex's offset (tangent, bitangent, normal), or empty.
+    pub offsets: Vec<Vec3>,
+}
+
+/// The frame of a grid triangle: the unit direction of its first edge,
+/// the unit normal crossed with it, and the unit normal (the identity for
+/// a triangle without area).
+pub fn triangle_frame(p: [Vec3; 3]) -> [Vec3; 3] {
+    let e = p[1] - p[0];
+    let n = e.cross(p[2] - p[0]).normalize_or_zero();
+    let t = e.normalize_or_zero();
+    if n == Vec3::ZERO || t == Vec3::ZERO {
+        return [Vec3::X, Vec3::Y, Vec3::Z];
+    }
+    [t, n.cross(t), n]
 }
 
 impl SourcePoints {
@@ -194,7 +213,8 @@ impl SourcePoints {
     /// The vertices at quantized `places` (format version 6's source mesh).
     pub fn from_places(grid: Grid, places: &[[u32; 2]]) -> SourcePoints {
         let n = grid.n as f64;
-        let mut points = SourcePoints { corners: Vec::with_capacity(places.len()), bary: Vec::new() };
+        let mut points =
+            SourcePoints { corners: Vec::with_capacity(places.len()), bary: Vec::new(), offsets: Vec::new() };
         for q in places {
             let (u, v) = (place(q[0]), place(q[1]));
             // Lattice coordinates: sample (a, b) sits at a = (u + 1) N / 2 - 1/2.
@@ -213,15 +233,43 @@ impl SourcePoints {
         points
     }
 
+    /// The same points with version 7's offsets (`offsets.get(v)`).
+    pub fn with_offsets(mut self, offsets: Option<&crate::format::Offsets>) -> SourcePoints {
+        self.offsets = match offsets {
+            Some(o) => (0..self.corners.len()).map(|v| Vec3::from(o.get(v))).collect(),
+            None => Vec::new(),
+        };
+        self
+    }
+
+    /// Vertex `v`'s point on the grid mesh and its triangle's frame.
+    fn point(&self, grid_positions: &[Vec3], v: usize) -> (Vec3, [Vec3; 3]) {
+        let (c, w) = (self.corners[v], self.bary[v]);
+        let p = c.map(|i| grid_positions[i as usize]);
+        (p[0] * w[0] + p[1] * w[1] + p[2] * w[2], triangle_frame(p))
+    }
+
     /// The input's vertices rebuilt from one grid frame.
     pub fn apply(&self, grid_positions: &[Vec3]) -> Vec<Vec3> {
-        self.corners
-            .iter()
-            .zip(&self.bary)
-            .map(|(c, w)| {
-                grid_positions[c[0] as usize] * w[0]
-                    + grid_positions[c[1] as usize] * w[1]
-                    + grid_positions[c[2] as usize] * w[2]
+        (0..self.corners.len())
+            .map(|v| {
+                let (p, f) = self.point(grid_positions, v);
+                match self.offsets.get(v) {
+                    Some(o) => p + f[0] * o.x + f[1] * o.y + f[2] * o.z,
+                    None => p,
+                }
+            })
+            .collect()
+    }
+
+    /// The offsets (in each triangle's frame) that take the points on the
+    /// grid frame `grid_positions` to `vertices`.
+    pub fn offsets_to(&self, grid_positions: &[Vec3], vertices: &[Vec3]) -> Vec<[f32; 3]> {
+        (0..self.corners.len())
+            .map(|v| {
+                let (p, f) = self.point(grid_positions, v);
+                let d = vertices.get(v).map_or(Vec3::ZERO, |x| *x - p);
+                [d.dot(f[0]), d.dot(f[1]), d.dot(f[2])]
             })
             .collect()
     }

@@ -90,7 +90,7 @@ fn encode_info_and_decode_a_gv_file() {
     let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
     assert_eq!(v["header"]["codec"], "gv");
     assert_eq!(v["header"]["grid"], 16);
-    // The file carries the input's mesh (format version 6): decode gives
+    // The file carries the input's mesh (format version 6, offsets from 7): decode gives
     // back its 6274 vertices and 12544 faces, or the grid mesh when asked.
     let glb = dir.join("decoded.glb");
     let dec = cgv(&["decode", cgv_file.to_str().unwrap(), "-o", glb.to_str().unwrap(), "--json"]);
@@ -155,10 +155,10 @@ fn encode_info_and_decode_motion_corrections() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let info = cgv(&["info", f.to_str().unwrap()]);
     let text = String::from_utf8_lossy(&info.stdout);
-    assert!(text.contains("format version 6") && text.contains("corrections   motion"), "{text}");
+    assert!(text.contains("format version 7") && text.contains("corrections   motion"), "{text}");
     let info = cgv(&["info", f.to_str().unwrap(), "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
-    assert_eq!((v["version"].as_u64(), v["header"]["corrections"].as_str()), (Some(6), Some("motion")));
+    assert_eq!((v["version"].as_u64(), v["header"]["corrections"].as_str()), (Some(7), Some("motion")));
     assert_eq!(v["filters"].as_array().map(Vec::len), Some(8));
     // At a coarse QP the encoder filters corrections, and info says so;
     // --no-correction-filter leaves every frame's filter at 0.

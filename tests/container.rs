@@ -107,7 +107,7 @@ fn reads_what_it_writes_in_both_layouts() {
     assert_eq!(v1.len() - v2.len(), (h.expected_chunks() as usize - 3) * 20 - 8);
     let a = format::read(&v1).unwrap();
     let f = format::read(&v2).unwrap();
-    assert_eq!((a.version, f.version), (1, 6));
+    assert_eq!((a.version, f.version), (1, format::VERSION));
     for version in 2..=5 {
         assert_eq!(format::read(&with_version(v2.clone(), version)).unwrap().header, h);
     }
@@ -128,9 +128,9 @@ fn bad_magic_and_versions() {
     assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::BadMagic);
     assert_eq!(format::read(b"GIF89a").unwrap_err(), ContainerError::BadMagic);
     let mut bytes = file(&header());
-    bytes[8] = 7;
-    assert_eq!(format::VERSION, 6);
-    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 7 });
+    bytes[8] = 8;
+    assert_eq!(format::VERSION, 7);
+    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 8 });
     bytes[8] = 0;
     assert!(matches!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 0 }));
 }
@@ -279,7 +279,7 @@ fn correction_filters_from_version_five() {
     let h = motion_header();
     let bytes = filtered_file(&h, |f| [0, 1, format::MAX_FILTER][f as usize % 3]);
     let f = format::read(&bytes).unwrap();
-    assert_eq!(f.version, 6);
+    assert_eq!(f.version, format::VERSION);
     assert_eq!(format::read(&with_version(bytes.clone(), 5)).unwrap().frames, f.frames);
     assert_eq!(f.frames.iter().map(|i| i.filter).collect::<Vec<_>>(), [0, 1, format::MAX_FILTER]);
     // A version-4 reader's file had the byte reserved: a filter there is
@@ -483,6 +483,7 @@ fn source_mesh() -> format::SourceMesh {
     format::SourceMesh {
         faces: vec![[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]],
         places: vec![[0, 0], [u32::MAX, 0], [0, u32::MAX], [1 << 31, 3 << 30]],
+        offsets: None,
     }
 }
 
@@ -500,7 +501,7 @@ fn version_six_carries_the_source_mesh() {
     let (h, mesh) = (header(), source_mesh());
     let bytes = file_with_source(&h, mesh.info(), format::write_source_mesh(&mesh));
     let f = format::read(&bytes).unwrap();
-    assert_eq!((f.version, f.header.min_version()), (6, 6));
+    assert_eq!((f.version, f.header.min_version()), (format::VERSION, 6));
     assert_eq!(f.source_mesh.as_ref(), Some(&mesh));
     assert_eq!(f.frames.len(), h.frames as usize);
     // Byte by byte, as a stream: the same file.
@@ -546,8 +547,41 @@ fn bad_source_meshes_are_errors() {
         assert!(matches!(&e, ContainerError::Chunk { msg, .. } if msg.contains(want)), "{want}: {e}");
     }
     // Counts past the limits, in the header itself.
-    for info in [format::SourceMeshInfo { vertices: 2, faces: 1 }, format::SourceMeshInfo { vertices: 3, faces: 0 }] {
+    for info in [
+        format::SourceMeshInfo { vertices: 2, faces: 1, offset_step: None },
+        format::SourceMeshInfo { vertices: 3, faces: 0, offset_step: None },
+        format::SourceMeshInfo { vertices: 3, faces: 1, offset_step: Some(0.0) },
+        format::SourceMeshInfo { vertices: 3, faces: 1, offset_step: Some(f32::NAN) },
+    ] {
         let e = format::write_header(&Header { source_mesh: Some(info), ..h.clone() }).unwrap_err();
         assert!(matches!(&e, ContainerError::Header(m) if m.contains("source mesh")), "{e}");
     }
+}
+
+#[test]
+fn version_seven_carries_vertex_offsets() {
+    let h = header();
+    let mesh = format::SourceMesh {
+        offsets: format::Offsets::quantize(&[[0.5, -0.25, 0.0], [0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0; 3]]),
+        ..source_mesh()
+    };
+    let offsets = mesh.offsets.as_ref().unwrap();
+    assert_eq!(offsets.values[2], [-32767, 0, 0]);
+    assert!((offsets.get(0)[0] - 0.5).abs() < 1e-4);
+    let bytes = file_with_source(&h, mesh.info(), format::write_source_mesh(&mesh));
+    let f = format::read(&bytes).unwrap();
+    assert_eq!((f.version, f.header.min_version()), (7, 7));
+    assert_eq!(f.source_mesh.as_ref(), Some(&mesh));
+    // A version-6 file cannot hold them.
+    let e = format::read(&with_version(bytes, 6)).unwrap_err();
+    assert!(matches!(&e, ContainerError::Header(m) if m.contains("version 6")), "{e}");
+    // The header saying offsets that the chunk lacks (or the other way round).
+    let plain = source_mesh();
+    let with_step = format::SourceMeshInfo { offset_step: Some(1.0), ..plain.info() };
+    for (info, m) in [(with_step, &plain), (plain.info(), &mesh)] {
+        let e = format::read(&file_with_source(&h, info, format::write_source_mesh(m))).unwrap_err();
+        assert!(matches!(&e, ContainerError::Chunk { msg, .. } if msg.contains("offsets")), "{e}");
+    }
+    // No offsets to keep: none written.
+    assert!(format::Offsets::quantize(&[[0.0; 3]; 4]).is_none());
 }

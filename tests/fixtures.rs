@@ -156,3 +156,21 @@ fn v6_source_mesh_fixture_decodes_as_frozen() {
     }
     compare("v6/walk-cgv-source.cgv.source.positions", &got, 1e-5 * diag);
 }
+
+#[test]
+fn v7_source_offsets_fixture_decodes_as_frozen() {
+    let f = open("v7/walk-cgv-offsets.cgv");
+    assert_eq!(f.version, 7);
+    let mesh = f.source_mesh.as_ref().expect("the file carries its input's mesh");
+    assert!(mesh.offsets.is_some(), "and the vertices' offsets");
+    check("v7/walk-cgv-offsets.cgv", SolverKind::Predictive, 1e-5);
+    let diag = f.header.source.diagonal as f64;
+    let mut dec = FileDecoder::new(f, SolverKind::Predictive).unwrap();
+    let source = dec.source_mesh().unwrap();
+    let mut got = Vec::new();
+    for _ in 0..dec.frame_count() {
+        let (x, _) = dec.next_frame().unwrap();
+        got.extend(source.vertices(&x).iter().flat_map(|p| p.to_array()));
+    }
+    compare("v7/walk-cgv-offsets.cgv.source.positions", &got, 1e-5 * diag);
+}

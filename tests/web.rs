@@ -31,6 +31,9 @@ const FILTER5_POS: &[u8] = include_bytes!("fixtures/v5/walk-cgv-filter.cgv.cgv.p
 const SOURCE6: &[u8] = include_bytes!("fixtures/v6/walk-cgv-source.cgv");
 const SOURCE6_POS: &[u8] = include_bytes!("fixtures/v6/walk-cgv-source.cgv.cgv.positions");
 const SOURCE6_VERTICES: &[u8] = include_bytes!("fixtures/v6/walk-cgv-source.cgv.source.positions");
+const OFFSETS7: &[u8] = include_bytes!("fixtures/v7/walk-cgv-offsets.cgv");
+const OFFSETS7_POS: &[u8] = include_bytes!("fixtures/v7/walk-cgv-offsets.cgv.cgv.positions");
+const OFFSETS7_VERTICES: &[u8] = include_bytes!("fixtures/v7/walk-cgv-offsets.cgv.source.positions");
 
 #[wasm_bindgen(inline_js = r#"
 const decoders = new Map();
@@ -147,6 +150,7 @@ async fn wasm_reconstruction_equals_native() {
         ("cycle4", CYCLE4, CYCLE4_POS, 1e-5),
         ("filter5", FILTER5, FILTER5_POS, 1e-5),
         ("source6", SOURCE6, SOURCE6_POS, 1e-5),
+        ("offsets7", OFFSETS7, OFFSETS7_POS, 1e-5),
     ] {
         let diag = cgv::format::read(bytes).unwrap().header.source.diagonal;
         let (got, _) = decode(name, bytes).await;
@@ -188,14 +192,26 @@ fn a_file_asking_for_more_memory_than_allowed_is_refused() {
 }
 
 #[wasm_bindgen_test]
-fn the_player_gives_back_the_input_mesh_of_a_version_six_file() {
-    // The v6 fixture's grid frames (its frozen positions) through the
-    // player's source mesh give the frozen input vertices, as natively.
+fn the_player_gives_back_the_input_mesh_of_version_six_and_seven_files() {
+    // The v6 and v7 fixtures' grid frames (their frozen positions) through
+    // the player's source mesh give the frozen input vertices, as natively.
+    for (file, pos, vertices) in [(OFFSETS7, OFFSETS7_POS, OFFSETS7_VERTICES), (SOURCE6, SOURCE6_POS, SOURCE6_VERTICES)]
+    {
+        let mut p = Player::new("").unwrap();
+        assert!(p.source_faces().is_empty());
+        p.push(file).unwrap();
+        let h = cgv::format::read(file).unwrap().header;
+        assert_eq!(p.source_faces().len(), 3 * 12544);
+        let (grid, want) = (floats(pos), floats(vertices));
+        let n = 3 * (h.grid * h.grid) as usize;
+        let got: Vec<f32> = grid.chunks(n).flat_map(|g| p.source_vertices(g).unwrap()).collect();
+        assert_eq!(got.len(), want.len());
+        let worst = got.iter().zip(&want).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max);
+        assert!(worst <= 1e-5 * h.source.diagonal, "{worst}");
+    }
     let mut p = Player::new("").unwrap();
-    assert!(p.source_faces().is_empty());
     p.push(SOURCE6).unwrap();
     let h = cgv::format::read(SOURCE6).unwrap().header;
-    assert_eq!(p.source_faces().len(), 3 * 12544);
     let (grid, want) = (floats(SOURCE6_POS), floats(SOURCE6_VERTICES));
     let n = 3 * (h.grid * h.grid) as usize;
     let got: Vec<f32> = grid.chunks(n).flat_map(|g| p.source_vertices(g).unwrap()).collect();

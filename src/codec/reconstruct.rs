@@ -360,7 +360,10 @@ pub struct SourceMeshDecoder {
 impl SourceMeshDecoder {
     pub fn new(grid: Grid, mesh: &SourceMesh) -> SourceMeshDecoder {
         let topology = Topology { vertex_count: mesh.places.len(), faces: mesh.faces.clone() };
-        SourceMeshDecoder { topology, points: SourcePoints::from_places(grid, &mesh.places) }
+        SourceMeshDecoder {
+            topology,
+            points: SourcePoints::from_places(grid, &mesh.places).with_offsets(mesh.offsets.as_ref()),
+        }
     }
 
     /// The input's vertices on one decoded grid frame.

@@ -1,4 +1,4 @@
-//! The `.cgv` file format, versions 1 to 6 (documented in `docs/FORMAT.md`).
+//! The `.cgv` file format, versions 1 to 7 (documented in `docs/FORMAT.md`).
 //! Version 2 puts each frame in one chunk (version 1: one chunk per access
 //! unit, 20 bytes each, a quarter of a low-bitrate file) and adds one
 //! header field, `corrections` (see [`CorrectionMode`]). Version 3 has the
@@ -8,12 +8,13 @@
 //! filter byte to the frame chunk: the averaging passes the decoder applies
 //! to the frame's correction. Version 6 may carry the input's own mesh
 //! ([`source_mesh`]: the `SMSH` chunk after the header, and the header
-//! field `source_mesh`). This writer writes version 6; the reader reads
-//! all six.
+//! field `source_mesh`); version 7 its vertices' offsets from the grid mesh.
+//! This writer writes version 7; the reader reads
+//! all seven.
 //!
 //! ```text
 //! magic    8 bytes   89 43 47 56 0D 0A 1A 0A   ("\x89CGV\r\n\x1a\n")
-//! version  u16 LE    1 to 6
+//! version  u16 LE    1 to 7
 //! flags    u16 LE    0
 //! length   u32 LE    header length L (at most 1 MiB)
 //! header   L bytes   UTF-8 JSON (serde), see [`Header`]
@@ -40,12 +41,12 @@ pub mod stream;
 pub use predictor::{Extrapolation, PredictorCode, SolverKind, MAX_PREDICTOR, MAX_STEPS};
 pub use quant::Quantizer;
 use serde::{Deserialize, Serialize};
-pub use source_mesh::{SourceMesh, SourceMeshInfo};
+pub use source_mesh::{Offsets, SourceMesh, SourceMeshInfo};
 pub use stream::StreamName;
 
 pub const MAGIC: [u8; 8] = [0x89, b'C', b'G', b'V', b'\r', b'\n', 0x1A, b'\n'];
 /// The newest version this reader reads and this writer writes.
-pub const VERSION: u16 = 6;
+pub const VERSION: u16 = 7;
 /// Largest header accepted.
 pub const MAX_HEADER: usize = 1 << 20;
 /// Largest chunk payload accepted (an access unit of a 2160² frame at QP 0
@@ -369,12 +370,14 @@ impl Header {
         Ok(())
     }
 
-    /// The oldest format version that can hold this header: 6 for the
-    /// source mesh, 4 for cycle
+    /// The oldest format version that can hold this header: 7 for the
+    /// source mesh's vertex offsets, 6 for the source mesh, 4 for cycle
     /// predictions, 3 for a CGV file without H, 2 for motion corrections,
     /// else 1.
     pub fn min_version(&self) -> u16 {
-        if self.source_mesh.is_some() {
+        if self.source_mesh.is_some_and(|m| m.offset_step.is_some()) {
+            7
+        } else if self.source_mesh.is_some() {
             6
         } else if self.max_lag > 0 {
             4

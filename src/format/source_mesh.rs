@@ -13,6 +13,13 @@
 //! decoded position). The header's
 //! `source_mesh` gives the counts, so a reader knows the size before it
 //! inflates anything.
+//!
+//! Version 7 may add, after the places, each vertex's offset from the grid
+//! mesh as three i16 (little-endian) times the header's `offset_step`, in
+//! the frame of the grid triangle the vertex lies in (see
+//! `crate::resample::SourcePoints`): what resampling cut off (a sharp
+//! corner, a low-poly figure's own vertices) comes back on every frame,
+//! turning with the surface.
 
 use super::{leb128, ContainerError};
 use serde::{Deserialize, Serialize};
@@ -31,10 +38,13 @@ pub const MAX_SOURCE_VERTICES: u32 = 1 << 22;
 pub const MAX_SOURCE_FACES: u32 = 1 << 23;
 
 /// The header's description of the `SMSH` chunk.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct SourceMeshInfo {
     pub vertices: u32,
     pub faces: u32,
+    /// Version 7: the step of the vertex offsets (absent: no offsets).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub offset_step: Option<f32>,
 }
 
 impl SourceMeshInfo {
@@ -45,12 +55,26 @@ impl SourceMeshInfo {
                 self.vertices, self.faces
             ));
         }
+        if let Some(step) = self.offset_step {
+            if !(step.is_finite() && step > 0.0) {
+                return Err(format!("source mesh offset step {step} is not a positive number"));
+            }
+        }
         Ok(())
+    }
+
+    /// Bytes a vertex takes after the faces.
+    fn vertex_bytes(&self) -> usize {
+        if self.offset_step.is_some() {
+            14
+        } else {
+            8
+        }
     }
 
     /// The most bytes the inflated payload can have.
     fn max_inflated(&self) -> usize {
-        self.faces as usize * 3 * 5 + self.vertices as usize * 8
+        self.faces as usize * 3 * 5 + self.vertices as usize * self.vertex_bytes()
     }
 }
 
@@ -60,6 +84,35 @@ pub struct SourceMesh {
     pub faces: Vec<[u32; 3]>,
     /// Each vertex's place in the parameterization, quantized ([`place`]).
     pub places: Vec<[u32; 2]>,
+    /// Version 7: each vertex's offset from the grid mesh, quantized.
+    pub offsets: Option<Offsets>,
+}
+
+/// Vertex offsets: `values` times `step` (mesh units) in each vertex's
+/// grid-triangle frame (tangent, bitangent, normal).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Offsets {
+    pub step: f32,
+    pub values: Vec<[i16; 3]>,
+}
+
+impl Offsets {
+    /// Quantizes offsets on the step their largest component needs; None
+    /// when they are all zero (or not finite).
+    pub fn quantize(offsets: &[[f32; 3]]) -> Option<Offsets> {
+        let largest = offsets.iter().flatten().fold(0f32, |m, x| m.max(x.abs()));
+        if !(largest.is_finite() && largest > 0.0) {
+            return None;
+        }
+        let step = largest / i16::MAX as f32;
+        let values = offsets.iter().map(|o| o.map(|x| (x / step).round().clamp(-32767.0, 32767.0) as i16)).collect();
+        Some(Offsets { step, values })
+    }
+
+    /// The offset of vertex `v`, in mesh units.
+    pub fn get(&self, v: usize) -> [f32; 3] {
+        self.values.get(v).map_or([0.0; 3], |o| o.map(|x| x as f32 * self.step))
+    }
 }
 
 const PLACE_STEPS: f64 = u32::MAX as f64;
@@ -76,7 +129,11 @@ pub fn place(q: u32) -> f64 {
 
 impl SourceMesh {
     pub fn info(&self) -> SourceMeshInfo {
-        SourceMeshInfo { vertices: self.places.len() as u32, faces: self.faces.len() as u32 }
+        SourceMeshInfo {
+            vertices: self.places.len() as u32,
+            faces: self.faces.len() as u32,
+            offset_step: self.offsets.as_ref().map(|o| o.step),
+        }
     }
 
     /// The chunk's payload.
@@ -91,6 +148,9 @@ impl SourceMesh {
         for p in &self.places {
             raw.extend_from_slice(&p[0].to_le_bytes());
             raw.extend_from_slice(&p[1].to_le_bytes());
+        }
+        for o in self.offsets.iter().flat_map(|o| &o.values) {
+            o.iter().for_each(|x| raw.extend_from_slice(&x.to_le_bytes()));
         }
         miniz_oxide::deflate::compress_to_vec(&raw, 9)
     }
@@ -119,11 +179,18 @@ impl SourceMesh {
             faces.push(face);
         }
         let rest = &raw[at..];
-        if rest.len() != info.vertices as usize * 8 {
-            return Err(bad(format!("{} bytes of vertex places, expected {}", rest.len(), info.vertices as u64 * 8)));
+        let expected = info.vertices as usize * info.vertex_bytes();
+        if rest.len() != expected {
+            return Err(bad(format!("{} bytes of vertex places and offsets, expected {expected}", rest.len())));
         }
+        let (places, offsets) = rest.split_at(info.vertices as usize * 8);
         let u32_at = |c: &[u8]| u32::from_le_bytes([c[0], c[1], c[2], c[3]]);
-        let places = rest.chunks_exact(8).map(|c| [u32_at(&c[..4]), u32_at(&c[4..])]);
-        Ok(SourceMesh { faces, places: places.collect() })
+        let places = places.chunks_exact(8).map(|c| [u32_at(&c[..4]), u32_at(&c[4..])]).collect();
+        let i16_at = |c: &[u8]| i16::from_le_bytes([c[0], c[1]]);
+        let offsets = info.offset_step.map(|step| Offsets {
+            step,
+            values: offsets.chunks_exact(6).map(|c| [i16_at(&c[..2]), i16_at(&c[2..4]), i16_at(&c[4..])]).collect(),
+        });
+        Ok(SourceMesh { faces, places, offsets })
     }
 }

@@ -171,7 +171,12 @@ fn cgv_info(args: &Args) -> Result<()> {
     );
     println!("  source        {} ({} vertices, diagonal {})", h.source.label, h.source.vertices, h.source.diagonal);
     match &h.source_mesh {
-        Some(m) => println!("  source mesh   {} vertices, {} faces (decoders give them back)", m.vertices, m.faces),
+        Some(m) => println!(
+            "  source mesh   {} vertices, {} faces{} (decoders give them back)",
+            m.vertices,
+            m.faces,
+            if m.offset_step.is_some() { ", with their offsets from the grid" } else { "" }
+        ),
         None => println!("  source mesh   none (decoders give back the grid mesh)"),
     }
     for (s, b) in h.streams.iter().zip(&stream_bytes) {

@@ -218,7 +218,8 @@ pub fn encode_prepared(
     let analysis = analyse::analyse(src, &plan, &image.map, &st, progress)?;
     let simulation = simulate::simulate(src, &plan, opts, &image.map, &st, &analysis.first_grid)?;
     let diagonal = Bounds::of(&src.read_frame(opts.reference)?).diagonal();
-    let header = plan.header(src, opts, &analysis, &simulation, diagonal);
+    let source_info = opts.source_mesh.then(|| image.source_mesh(src.topology()).info());
+    let header = plan.header(src, opts, &analysis, &simulation, diagonal, source_info);
     let code::Coded { bytes, stream_bytes, side_bytes, source_mesh_bytes, seconds_coding } =
         code::code(src, opts, &plan, &header, (image, source_chunk.as_deref()), &st, progress)?;
     let seconds_parameterize = image.seconds();

@@ -142,6 +142,7 @@ impl Plan {
         analysis: &Analysis,
         simulation: &Simulation,
         diagonal: f32,
+        source_mesh: Option<SourceMeshInfo>,
     ) -> Header {
         let topology = src.topology();
         Header {
@@ -170,10 +171,7 @@ impl Plan {
             },
             corrections: if self.motion { CorrectionMode::Motion } else { CorrectionMode::Scaled },
             max_lag: simulation.max_lag,
-            source_mesh: opts.source_mesh.then_some(SourceMeshInfo {
-                vertices: topology.vertex_count as u32,
-                faces: topology.faces.len() as u32,
-            }),
+            source_mesh,
         }
     }
 }
