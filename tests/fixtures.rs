@@ -136,16 +136,10 @@ fn v5_filter_fixture_decodes_as_frozen() {
     check("v5/walk-cgv-filter.cgv", SolverKind::Predictive, 1e-5);
 }
 
-#[test]
-fn v6_source_mesh_fixture_decodes_as_frozen() {
-    let f = open("v6/walk-cgv-source.cgv");
-    assert_eq!((f.version, f.header.corrections), (6, CorrectionMode::Motion));
-    let walk = cgv::mesh::builtin::motion(1);
-    let mesh = f.source_mesh.as_ref().expect("the file carries its input's mesh");
-    assert_eq!((&mesh.faces, mesh.places.len()), (&walk.topology.faces, walk.topology.vertex_count));
-    check("v6/walk-cgv-source.cgv", SolverKind::Predictive, 1e-5);
-    // The input's vertices rebuilt on every frame are frozen too: turning
-    // the stored places into vertices is part of what the file means.
+/// The input's vertices rebuilt on every frame of `name` against the
+/// frozen ones: turning the stored places (and offsets) into vertices is
+/// part of what the file means.
+fn check_source(name: &str, f: CgvFile) {
     let diag = f.header.source.diagonal as f64;
     let mut dec = FileDecoder::new(f, SolverKind::Predictive).unwrap();
     let source = dec.source_mesh().unwrap();
@@ -154,7 +148,18 @@ fn v6_source_mesh_fixture_decodes_as_frozen() {
         let (x, _) = dec.next_frame().unwrap();
         got.extend(source.vertices(&x).iter().flat_map(|p| p.to_array()));
     }
-    compare("v6/walk-cgv-source.cgv.source.positions", &got, 1e-5 * diag);
+    compare(&format!("{name}.source.positions"), &got, 1e-5 * diag);
+}
+
+#[test]
+fn v6_source_mesh_fixture_decodes_as_frozen() {
+    let f = open("v6/walk-cgv-source.cgv");
+    assert_eq!((f.version, f.header.corrections), (6, CorrectionMode::Motion));
+    let walk = cgv::mesh::builtin::motion(1);
+    let mesh = f.source_mesh.as_ref().expect("the file carries its input's mesh");
+    assert_eq!((&mesh.faces, mesh.places.len()), (&walk.topology.faces, walk.topology.vertex_count));
+    check("v6/walk-cgv-source.cgv", SolverKind::Predictive, 1e-5);
+    check_source("v6/walk-cgv-source.cgv", f);
 }
 
 #[test]
@@ -164,13 +169,5 @@ fn v7_source_offsets_fixture_decodes_as_frozen() {
     let mesh = f.source_mesh.as_ref().expect("the file carries its input's mesh");
     assert!(mesh.offsets.is_some(), "and the vertices' offsets");
     check("v7/walk-cgv-offsets.cgv", SolverKind::Predictive, 1e-5);
-    let diag = f.header.source.diagonal as f64;
-    let mut dec = FileDecoder::new(f, SolverKind::Predictive).unwrap();
-    let source = dec.source_mesh().unwrap();
-    let mut got = Vec::new();
-    for _ in 0..dec.frame_count() {
-        let (x, _) = dec.next_frame().unwrap();
-        got.extend(source.vertices(&x).iter().flat_map(|p| p.to_array()));
-    }
-    compare("v7/walk-cgv-offsets.cgv.source.positions", &got, 1e-5 * diag);
+    check_source("v7/walk-cgv-offsets.cgv", f);
 }
