@@ -69,7 +69,8 @@ impl GeometryImage {
         let t = std::time::Instant::now();
         let map = SampleMap::on_carrier(grid, &carrier, &param)?;
         let points = SourcePoints::on_carrier(grid, &carrier, &param);
-        let offsets = Offsets::quantize(&points.offsets_to(&map.apply(reference), reference));
+        let finest = crate::mesh::Bounds::of(reference).diagonal() * 1e-5;
+        let offsets = Offsets::quantize(&points.offsets_to(&map.apply(reference), reference), finest);
         let seconds_locate = t.elapsed().as_secs_f64();
         Ok(GeometryImage { carrier, param, map, offsets, seconds_parameterize, seconds_locate })
     }

@@ -562,7 +562,7 @@ fn bad_source_meshes_are_errors() {
 fn version_seven_carries_vertex_offsets() {
     let h = header();
     let mesh = format::SourceMesh {
-        offsets: format::Offsets::quantize(&[[0.5, -0.25, 0.0], [0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0; 3]]),
+        offsets: format::Offsets::quantize(&[[0.5, -0.25, 0.0], [0.0, 0.0, 1.0], [-1.0, 0.0, 0.0], [0.0; 3]], 1e-6),
         ..source_mesh()
     };
     let offsets = mesh.offsets.as_ref().unwrap();
@@ -583,5 +583,7 @@ fn version_seven_carries_vertex_offsets() {
         assert!(matches!(&e, ContainerError::Chunk { msg, .. } if msg.contains("offsets")), "{e}");
     }
     // No offsets to keep: none written.
-    assert!(format::Offsets::quantize(&[[0.0; 3]; 4]).is_none());
+    assert!(format::Offsets::quantize(&[[0.0; 3]; 4], 1e-6).is_none());
+    // A coarse finest step wins over the largest offset's.
+    assert_eq!(format::Offsets::quantize(&[[1.0, 0.0, 0.0]], 0.01).unwrap().values[0], [100, 0, 0]);
 }

@@ -15,7 +15,9 @@
 //! inflates anything.
 //!
 //! Version 7 may add, after the places, each vertex's offset from the grid
-//! mesh as three i16 (little-endian) times the header's `offset_step`, in
+//! mesh as three integers in [-32767, 32767], zigzag-coded in LEB128 (most
+//! offsets are small: one or two bytes each), times the header's
+//! `offset_step`, in
 //! the frame of the grid triangle the vertex lies in (see
 //! `crate::resample::SourcePoints`): what resampling cut off (a sharp
 //! corner, a low-poly figure's own vertices) comes back on every frame,
@@ -63,10 +65,10 @@ impl SourceMeshInfo {
         Ok(())
     }
 
-    /// Bytes a vertex takes after the faces.
+    /// The most bytes a vertex takes after the faces.
     fn vertex_bytes(&self) -> usize {
         if self.offset_step.is_some() {
-            14
+            8 + 3 * 3
         } else {
             8
         }
@@ -97,14 +99,16 @@ pub struct Offsets {
 }
 
 impl Offsets {
-    /// Quantizes offsets on the step their largest component needs; None
+    /// Quantizes offsets on the step their largest component needs, and
+    /// no finer than `finest` (a step of 1e-5 of the diagonal is far below
+    /// any grid's floor, and keeps most values in one or two bytes); None
     /// when they are all zero (or not finite).
-    pub fn quantize(offsets: &[[f32; 3]]) -> Option<Offsets> {
+    pub fn quantize(offsets: &[[f32; 3]], finest: f32) -> Option<Offsets> {
         let largest = offsets.iter().flatten().fold(0f32, |m, x| m.max(x.abs()));
         if !(largest.is_finite() && largest > 0.0) {
             return None;
         }
-        let step = largest / i16::MAX as f32;
+        let step = (largest / i16::MAX as f32).max(finest);
         let values = offsets.iter().map(|o| o.map(|x| (x / step).round().clamp(-32767.0, 32767.0) as i16)).collect();
         Some(Offsets { step, values })
     }
@@ -149,8 +153,9 @@ impl SourceMesh {
             raw.extend_from_slice(&p[0].to_le_bytes());
             raw.extend_from_slice(&p[1].to_le_bytes());
         }
-        for o in self.offsets.iter().flat_map(|o| &o.values) {
-            o.iter().for_each(|x| raw.extend_from_slice(&x.to_le_bytes()));
+        for &x in self.offsets.iter().flat_map(|o| &o.values).flatten() {
+            let x = x as i64;
+            leb128::write(&mut raw, ((x << 1) ^ (x >> 63)) as u64);
         }
         miniz_oxide::deflate::compress_to_vec(&raw, 9)
     }
@@ -179,18 +184,45 @@ impl SourceMesh {
             faces.push(face);
         }
         let rest = &raw[at..];
-        let expected = info.vertices as usize * info.vertex_bytes();
-        if rest.len() != expected {
-            return Err(bad(format!("{} bytes of vertex places and offsets, expected {expected}", rest.len())));
+        let place_bytes = info.vertices as usize * 8;
+        if rest.len() < place_bytes || (info.offset_step.is_none() && rest.len() != place_bytes) {
+            let what = if info.offset_step.is_some() { "" } else { " (no offsets: the header has no offset_step)" };
+            return Err(bad(format!("{} bytes of vertex places, expected {place_bytes}{what}", rest.len())));
         }
-        let (places, offsets) = rest.split_at(info.vertices as usize * 8);
         let u32_at = |c: &[u8]| u32::from_le_bytes([c[0], c[1], c[2], c[3]]);
-        let places = places.chunks_exact(8).map(|c| [u32_at(&c[..4]), u32_at(&c[4..])]).collect();
-        let i16_at = |c: &[u8]| i16::from_le_bytes([c[0], c[1]]);
-        let offsets = info.offset_step.map(|step| Offsets {
-            step,
-            values: offsets.chunks_exact(6).map(|c| [i16_at(&c[..2]), i16_at(&c[2..4]), i16_at(&c[4..])]).collect(),
-        });
+        let places = rest[..place_bytes].chunks_exact(8).map(|c| [u32_at(&c[..4]), u32_at(&c[4..])]).collect();
+        at += place_bytes;
+        let offsets = match info.offset_step {
+            Some(step) => Some(Offsets { step, values: parse_offsets(&raw, &mut at, info.vertices, &bad)? }),
+            None => None,
+        };
+        if at != raw.len() {
+            return Err(bad(format!("{} bytes after the vertex offsets", raw.len() - at)));
+        }
         Ok(SourceMesh { faces, places, offsets })
     }
+}
+
+/// `vertices` offsets (three zigzag LEB128 integers each, in i16's range)
+/// from `raw` at `at`.
+fn parse_offsets(
+    raw: &[u8],
+    at: &mut usize,
+    vertices: u32,
+    bad: &dyn Fn(String) -> ContainerError,
+) -> Result<Vec<[i16; 3]>, ContainerError> {
+    let mut values = Vec::with_capacity((vertices as usize).min(raw.len().saturating_sub(*at) / 3));
+    for v in 0..vertices {
+        let mut o = [0i16; 3];
+        for c in &mut o {
+            let z = leb128::read(raw, at, 3).ok_or_else(|| bad(format!("the offsets stop at vertex {v}")))?;
+            let x = (z >> 1) as i64 ^ -((z & 1) as i64);
+            *c = i16::try_from(x)
+                .ok()
+                .filter(|x| *x != i16::MIN)
+                .ok_or_else(|| bad(format!("vertex {v}'s offset is out of range")))?;
+        }
+        values.push(o);
+    }
+    Ok(values)
 }

@@ -39,6 +39,8 @@ pub struct AreaPasses<'a> {
     w: Vec<f64>,
     /// The map after the passes so far.
     p: Parameterization,
+    /// The conformal map (no passes), the fallback.
+    conformal_uv: Vec<DVec2>,
     /// Mean |ln area ratio| of `p`: a pass must lower it.
     area_log_mean: f64,
     /// The best-scored map so far: (score, map, passes).
@@ -120,6 +122,7 @@ impl<'a> AreaPasses<'a> {
             let area3 = faces.iter().map(|f| distortion::surface_area(&pos, f)).collect();
             let area_log_mean = distortion::measure(faces, &pos, |f| p.face_uv(faces, f)).area_log_mean;
             return Ok(AreaPasses {
+                conformal_uv: p.uv.clone(),
                 faces,
                 pos,
                 real_faces,
@@ -204,9 +207,16 @@ impl<'a> AreaPasses<'a> {
             (p.uv, p.area_passes, p.score) = (uv, passes, Some(s));
         }
         p.distortion = self.measure(&p);
+        if p.distortion.flipped_faces > 0 && p.area_passes > 0 {
+            // The passes keep no folded map, so this is rounding on a
+            // degenerate mesh: fall back on the conformal map.
+            (p.uv, p.area_passes, p.score) = (self.conformal_uv.clone(), 0, None);
+            p.distortion = self.measure(&p);
+        }
         if p.distortion.flipped_faces > 0 {
             return Err(Error::Numerical(format!(
-                "the parameterization folds over ({} faces reversed); try another --area-correction",
+                "the parameterization folds over ({} faces reversed) although its weights are positive: \
+                 rounding on near-degenerate triangles (please report the mesh)",
                 p.distortion.flipped_faces
             )));
         }
