@@ -110,6 +110,19 @@ pub fn run(args: Args) -> Result<()> {
     Ok(())
 }
 
+/// What `cgv info` says of a file's source mesh.
+fn source_mesh_line(m: Option<&cgv::format::SourceMeshInfo>) -> String {
+    match m {
+        Some(m) => format!(
+            "{} vertices, {} faces{} (decoders give them back)",
+            m.vertices,
+            m.faces,
+            if m.offset_step.is_some() { ", with their offsets from the grid" } else { "" }
+        ),
+        None => "none (decoders give back the grid mesh)".into(),
+    }
+}
+
 /// One line on whether and how the motion can be encoded.
 fn verdict(usable: bool, topo: &cgv::mesh::TopologyReport, closing: Option<&CarrierReport>) -> String {
     match closing {
@@ -170,15 +183,7 @@ fn cgv_info(args: &Args) -> Result<()> {
         h.settings.layers
     );
     println!("  source        {} ({} vertices, diagonal {})", h.source.label, h.source.vertices, h.source.diagonal);
-    match &h.source_mesh {
-        Some(m) => println!(
-            "  source mesh   {} vertices, {} faces{} (decoders give them back)",
-            m.vertices,
-            m.faces,
-            if m.offset_step.is_some() { ", with their offsets from the grid" } else { "" }
-        ),
-        None => println!("  source mesh   none (decoders give back the grid mesh)"),
-    }
+    println!("  source mesh   {}", source_mesh_line(h.source_mesh.as_ref()));
     for (s, b) in h.streams.iter().zip(&stream_bytes) {
         println!(
             "  stream {:<7} layer {} {:?} range [{:.4e}, {:.4e}]{} {:>9} bytes",
