@@ -85,6 +85,20 @@ impl GeometryImage {
         }
     }
 
+    /// [`source_mesh`](Self::source_mesh) over the input's stored vertices
+    /// when it has an appearance (each with its welded vertex's place and
+    /// offset), so that the decoded mesh keeps its UV seams.
+    pub fn source_mesh_as_stored(&self, topology: &Topology, look: Option<&crate::mesh::Appearance>) -> SourceMesh {
+        let mesh = self.source_mesh(topology);
+        let Some(a) = look else { return mesh };
+        let at = |w: &u32| mesh.places.get(*w as usize).copied().unwrap_or_default();
+        let offsets = mesh.offsets.as_ref().map(|o| Offsets {
+            step: o.step,
+            values: a.welded.iter().map(|w| o.values.get(*w as usize).copied().unwrap_or_default()).collect(),
+        });
+        SourceMesh { faces: a.faces.clone(), places: a.welded.iter().map(at).collect(), offsets }
+    }
+
     /// Where each input vertex lies on the grid mesh, and its offset: the
     /// decoder's rule.
     pub fn source_points(&self) -> SourcePoints {

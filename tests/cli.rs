@@ -3,6 +3,7 @@
 
 mod common;
 
+use std::path::Path;
 use std::process::Command;
 
 fn cgv(args: &[&str]) -> std::process::Output {
@@ -155,10 +156,10 @@ fn encode_info_and_decode_motion_corrections() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let info = cgv(&["info", f.to_str().unwrap()]);
     let text = String::from_utf8_lossy(&info.stdout);
-    assert!(text.contains("format version 7") && text.contains("corrections   motion"), "{text}");
+    assert!(text.contains("format version 8") && text.contains("corrections   motion"), "{text}");
     let info = cgv(&["info", f.to_str().unwrap(), "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
-    assert_eq!((v["version"].as_u64(), v["header"]["corrections"].as_str()), (Some(7), Some("motion")));
+    assert_eq!((v["version"].as_u64(), v["header"]["corrections"].as_str()), (Some(8), Some("motion")));
     assert_eq!(v["filters"].as_array().map(Vec::len), Some(8));
     // At a coarse QP the encoder filters corrections, and info says so;
     // --no-correction-filter leaves every frame's filter at 0.
@@ -345,6 +346,7 @@ fn greedy_file() -> Vec<u8> {
         corrections: format::CorrectionMode::Motion,
         max_lag: 255,
         source_mesh: None,
+        appearance: None,
     };
     let mut bytes = format::write_header(&header).unwrap();
     bytes.extend(format::write_frame(0, &FrameInfo::default(), &[&[1u8][..]; 6]));
@@ -418,4 +420,37 @@ fn every_glb_we_write_passes_the_khronos_validator() {
     let r = &validate_gltf(&[bad.as_path()])[0];
     assert!(r["errors"].as_u64().unwrap() > 0, "{r}");
     assert!(r["messages"].to_string().contains("MESH_PRIMITIVE_ACCESSOR_WITHOUT_BYTESTRIDE"), "{r}");
+}
+
+#[test]
+fn a_textured_gltf_comes_back_with_its_uvs_and_texture() {
+    // Fox.gltf: skinned, a 1024 x 1024 PNG, 1728 stored vertices split at
+    // UV seams (290 welded, which the grid is made of).
+    let fox = Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data/gltf/Fox.gltf");
+    let dir = common::temp_dir("cli-textured");
+    let (cgv_file, glb) = (dir.join("fox.cgv"), dir.join("fox.glb"));
+    let fox_arg = fox.to_str().unwrap();
+    let out = cgv(&["encode", fox_arg, "--frames", "0..3", "--grid", "32", "-o", cgv_file.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let info = String::from_utf8_lossy(&cgv(&["info", cgv_file.to_str().unwrap()]).stdout).to_string();
+    assert!(info.contains("format version 8") && info.contains("1728 vertices"), "{info}");
+    let out = cgv(&["decode", cgv_file.to_str().unwrap(), "-o", glb.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert_eq!(validate_gltf(&[glb.as_path()])[0]["errors"], 0);
+    // Read back with the gltf crate: the input's UVs, material and image.
+    let input = cgv::mesh::open_sequence(fox_arg, &Default::default()).unwrap();
+    let look = &input.appearance().expect("Fox has UVs and a texture").look;
+    let g = gltf::Gltf::from_slice(&std::fs::read(&glb).unwrap()).unwrap();
+    let blob = g.blob.as_deref().unwrap();
+    let prim = g.document.meshes().next().unwrap().primitives().next().unwrap();
+    let uvs: Vec<[f32; 2]> = prim.reader(|_| Some(blob)).read_tex_coords(0).unwrap().into_f32().collect();
+    assert_eq!(uvs, look.uvs);
+    let material = prim.material();
+    let texture = material.pbr_metallic_roughness().base_color_texture().expect("a base colour texture");
+    let gltf::image::Source::View { view, mime_type } = texture.texture().source().source() else {
+        panic!("the image is not embedded")
+    };
+    let (mime, png) = look.texture.as_ref().unwrap();
+    assert_eq!((mime_type, &blob[view.offset()..view.offset() + view.length()]), (mime.as_str(), &png[..]));
+    assert_eq!(&png[1..4], b"PNG");
 }

@@ -48,6 +48,7 @@ fn header() -> Header {
         corrections: CorrectionMode::Scaled,
         max_lag: 0,
         source_mesh: None,
+        appearance: None,
     }
 }
 
@@ -128,9 +129,9 @@ fn bad_magic_and_versions() {
     assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::BadMagic);
     assert_eq!(format::read(b"GIF89a").unwrap_err(), ContainerError::BadMagic);
     let mut bytes = file(&header());
-    bytes[8] = 8;
-    assert_eq!(format::VERSION, 7);
-    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 8 });
+    bytes[8] = 9;
+    assert_eq!(format::VERSION, 8);
+    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 9 });
     bytes[8] = 0;
     assert!(matches!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 0 }));
 }
@@ -570,7 +571,7 @@ fn version_seven_carries_vertex_offsets() {
     assert!((offsets.get(0)[0] - 0.5).abs() < 1e-4);
     let bytes = file_with_source(&h, mesh.info(), format::write_source_mesh(&mesh));
     let f = format::read(&bytes).unwrap();
-    assert_eq!((f.version, f.header.min_version()), (7, 7));
+    assert_eq!((f.version, f.header.min_version()), (format::VERSION, 7));
     assert_eq!(f.source_mesh.as_ref(), Some(&mesh));
     // A version-6 file cannot hold them.
     let e = format::read(&with_version(bytes, 6)).unwrap_err();
@@ -586,4 +587,77 @@ fn version_seven_carries_vertex_offsets() {
     assert!(format::Offsets::quantize(&[[0.0; 3]; 4], 1e-6).is_none());
     // A coarse finest step wins over the largest offset's.
     assert_eq!(format::Offsets::quantize(&[[1.0, 0.0, 0.0]], 0.01).unwrap().values[0], [100, 0, 0]);
+}
+
+/// The tetrahedron's look: a UV per vertex and a (not decoded) PNG.
+fn look() -> format::Appearance {
+    format::Appearance {
+        uvs: vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [0.5, 0.5]],
+        base_color: [1.0, 0.5, 0.25, 1.0],
+        texture: Some(("image/png".into(), b"\x89PNG\r\n\x1a\n-not-decoded".to_vec())),
+    }
+}
+
+/// `h`'s file with the tetrahedron and `chunk` as its appearance chunk.
+fn file_with_look(h: &Header, info: format::AppearanceInfo, chunk: Vec<u8>) -> Vec<u8> {
+    let mesh = source_mesh();
+    let h = Header { appearance: Some(info), ..h.clone() };
+    file_with_source(&h, mesh.info(), [format::write_source_mesh(&mesh), chunk].concat())
+}
+
+#[test]
+fn version_eight_carries_the_look() {
+    let (h, look) = (header(), look());
+    let bytes = file_with_look(&h, look.info(), format::write_appearance(&look));
+    let f = format::read(&bytes).unwrap();
+    assert_eq!((f.version, f.header.min_version()), (8, 8));
+    assert_eq!(f.appearance.as_ref(), Some(&look));
+    let mut r = format::StreamReader::default();
+    for c in bytes.chunks(7) {
+        r.push(c).unwrap();
+    }
+    assert_eq!(r.finish().unwrap().appearance, Some(look.clone()));
+    let e = format::read(&with_version(bytes, 7)).unwrap_err();
+    assert!(matches!(&e, ContainerError::Header(m) if m.contains("version 7")), "{e}");
+    // Without a texture, too.
+    let plain = format::Appearance { texture: None, ..look };
+    let f = format::read(&file_with_look(&h, plain.info(), format::write_appearance(&plain))).unwrap();
+    assert_eq!(f.appearance, Some(plain));
+}
+
+#[test]
+fn bad_looks_are_errors() {
+    let (h, look) = (header(), look());
+    let info = look.info();
+    let chunk = |payload: &[u8]| format::write_chunk(format::TAG_APPEARANCE, 0, 0, payload);
+    let good = look.to_bytes();
+    let mut nan = look.clone();
+    nan.uvs[2][1] = f32::NAN;
+    let three = format::Appearance { uvs: look.uvs[..3].to_vec(), ..look.clone() };
+    let cases: Vec<(&str, Vec<u8>)> = vec![
+        ("expected the appearance", file_with_look(&h, info.clone(), Vec::new())),
+        ("texture image", file_with_look(&h, info.clone(), chunk(&good[..good.len() - 1]))),
+        ("texture image", file_with_look(&h, info.clone(), chunk(&[&good[..], b"x"].concat()))),
+        ("not finite", file_with_look(&h, info.clone(), format::write_appearance(&nan))),
+        ("texture coordinates", file_with_look(&h, info.clone(), format::write_appearance(&three))),
+        ("cut short", file_with_look(&h, info.clone(), chunk(&[0x80]))),
+    ];
+    for (want, bytes) in cases {
+        let e = format::read(&bytes).unwrap_err();
+        assert!(matches!(&e, ContainerError::Chunk { msg, .. } if msg.contains(want)), "{want}: {e}");
+    }
+    // What the header itself may not say.
+    let gif = format::AppearanceInfo {
+        texture: Some(format::TextureInfo { mime: "image/gif".into(), bytes: 3 }),
+        ..info.clone()
+    };
+    let bright = format::AppearanceInfo { base_color: [2.0, 0.0, 0.0, 1.0], ..info.clone() };
+    for (want, h) in [
+        ("image/gif", Header { appearance: Some(gif), source_mesh: Some(source_mesh().info()), ..h.clone() }),
+        ("base colour", Header { appearance: Some(bright), source_mesh: Some(source_mesh().info()), ..h.clone() }),
+        ("needs a source mesh", Header { appearance: Some(info), ..h.clone() }),
+    ] {
+        let e = format::write_header(&h).unwrap_err();
+        assert!(matches!(&e, ContainerError::Header(m) if m.contains(want)), "{want}: {e}");
+    }
 }

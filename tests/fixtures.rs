@@ -171,3 +171,15 @@ fn v7_source_offsets_fixture_decodes_as_frozen() {
     check("v7/walk-cgv-offsets.cgv", SolverKind::Predictive, 1e-5);
     check_source("v7/walk-cgv-offsets.cgv", f);
 }
+
+#[test]
+fn v8_appearance_fixture_decodes_as_frozen() {
+    let f = open("v8/fox-textured.cgv");
+    assert_eq!(f.version, 8);
+    let look = f.appearance.as_ref().expect("the file carries its input's look");
+    assert_eq!(look.uvs.len(), 1728);
+    let (mime, png) = look.texture.as_ref().expect("and its texture");
+    assert_eq!((mime.as_str(), &png[1..4]), ("image/png", &b"PNG"[..]));
+    check("v8/fox-textured.cgv", SolverKind::Predictive, 1e-5);
+    check_source("v8/fox-textured.cgv", f);
+}

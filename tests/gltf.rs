@@ -124,3 +124,37 @@ fn animations_are_chosen_by_name_or_index_and_bad_files_are_errors() {
     std::fs::write(&glb, b"glTF\x02\0\0\0\x10\0\0\0").unwrap();
     assert!(open_sequence(glb.to_str().unwrap(), &OpenOptions::default()).is_err());
 }
+
+#[test]
+fn uvs_split_vertices_and_the_base_colour_are_kept_beside_the_welded_mesh() {
+    // A tetrahedron whose vertex 0 is stored twice (a UV seam): 5 stored
+    // vertices, 4 welded; a material with a base colour factor.
+    let (mut p, mut f) = tetrahedron();
+    p.push(p[0]);
+    f[2][0] = 4;
+    let uvs: Vec<f32> = vec![0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.25, 0.75];
+    let mut b = GltfBuilder::default();
+    let (pos, idx, uv) = (b.vec3(&p), b.indices(&f), b.floats(&uvs, "VEC2", 2));
+    let doc = json!({
+        "scene": 0, "scenes": [{"nodes": [0]}], "nodes": [{"mesh": 0}],
+        "materials": [{"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.25, 1.0, 1.0]}}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": pos, "TEXCOORD_0": uv}, "indices": idx, "material": 0}]}]
+    });
+    let path = temp_dir("gltf-uvs").join("seam.gltf");
+    b.write(doc, &path);
+    let src = open(&path, 30.0);
+    assert_eq!(src.topology().vertex_count, 4);
+    let a = src.appearance().expect("UVs and a material");
+    assert_eq!(a.welded, vec![0, 1, 2, 3, 0]);
+    assert_eq!(a.faces, f);
+    assert_eq!(a.look.uvs[4], [0.25, 0.75]);
+    assert_eq!(a.look.base_color, [0.5, 0.25, 1.0, 1.0]);
+    assert!(a.look.texture.is_none());
+    // The encoded file's own mesh is the stored one, seam and all.
+    let opts = cgv::codec::EncodeOptions { grid: 16, ..Default::default() };
+    let (bytes, _) = cgv::codec::encode(src.as_ref(), &opts, &mut |_, _, _| {}).unwrap();
+    let file = cgv::format::read(&bytes).unwrap();
+    assert_eq!(file.source_mesh.as_ref().map(|m| m.places.len()), Some(5));
+    assert_eq!(file.source_mesh.as_ref().map(|m| m.places[4]), file.source_mesh.as_ref().map(|m| m.places[0]));
+    assert_eq!(file.appearance.map(|l| l.uvs), Some(a.look.uvs.clone()));
+}

@@ -89,7 +89,7 @@ fn glb_and_obj_output_round_trip() {
     let src = cgv::mesh::builtin::motion(5);
     let dir = temp_dir("roundtrip");
     let glb = dir.join("walk.glb");
-    cgv::mesh::gltf_out::write_glb(&glb, &src.topology, 5, 30.0, "walk", |i| Ok(src.frames[i].clone())).unwrap();
+    cgv::mesh::gltf_out::write_glb(&glb, &src.topology, 5, 30.0, "walk", None, |i| Ok(src.frames[i].clone())).unwrap();
     let back = open(&glb).unwrap();
     assert_eq!(back.frame_count(), 5);
     assert_eq!(back.topology().faces, src.topology.faces);
@@ -105,7 +105,7 @@ fn glb_and_obj_output_round_trip() {
     assert_eq!(back.read_frame(3).unwrap(), src.frames[3]);
     // A failing writer leaves neither the file nor a partial one behind.
     let bad = dir.join("bad.glb");
-    let r = cgv::mesh::gltf_out::write_glb(&bad, &src.topology, 5, 30.0, "walk", |i| {
+    let r = cgv::mesh::gltf_out::write_glb(&bad, &src.topology, 5, 30.0, "walk", None, |i| {
         if i < 3 {
             Ok(src.frames[i].clone())
         } else {

@@ -391,7 +391,8 @@ pub const DEFAULT_MEMORY_LIMIT: u64 = 1 << 30;
 /// the decoded past (two frames, `max_lag` smoothed velocities, the motion
 /// corrections' previous picture, the tangential coefficients) and, for H
 /// steps and the paper's solver, their factorization or L-BFGS history;
-/// and a version-6 source mesh with its rebuilt vertices.
+/// a version-6 source mesh with its rebuilt vertices, and a version-8
+/// appearance (texture coordinates and the texture image's bytes).
 pub fn decoder_memory(h: &Header, solver: SolverKind) -> u64 {
     let n = u64::from(h.grid) * u64::from(h.grid);
     let streams = h.streams.len() as u64 * n * (1 + 4);
@@ -405,5 +406,9 @@ pub fn decoder_memory(h: &Header, solver: SolverKind) -> u64 {
         (CodecKind::Cgv, SolverKind::Paper) => (4 + 2 * 8) * 3 * 8 * n,
     };
     let source = h.source_mesh.map_or(0, |m| u64::from(m.vertices) * 40 + u64::from(m.faces) * 24);
-    streams + past + source
+    let look = h.appearance.as_ref().map_or(0, |a| {
+        let vertices = h.source_mesh.map_or(0, |m| u64::from(m.vertices));
+        vertices * 8 + a.texture.as_ref().map_or(0, |t| u64::from(t.bytes))
+    });
+    streams + past + source + look
 }

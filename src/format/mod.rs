@@ -1,4 +1,4 @@
-//! The `.cgv` file format, versions 1 to 7 (documented in `docs/FORMAT.md`).
+//! The `.cgv` file format, versions 1 to 8 (documented in `docs/FORMAT.md`).
 //! Version 2 puts each frame in one chunk (version 1: one chunk per access
 //! unit, 20 bytes each, a quarter of a low-bitrate file) and adds one
 //! header field, `corrections` (see [`CorrectionMode`]). Version 3 has the
@@ -8,13 +8,13 @@
 //! filter byte to the frame chunk: the averaging passes the decoder applies
 //! to the frame's correction. Version 6 may carry the input's own mesh
 //! ([`source_mesh`]: the `SMSH` chunk after the header, and the header
-//! field `source_mesh`); version 7 its vertices' offsets from the grid mesh.
-//! This writer writes version 7; the reader reads
-//! all seven.
+//! field `source_mesh`); version 7 its vertices' offsets from the grid mesh;
+//! version 8 how it looks ([`appearance`]: UVs, base colour, texture).
+//! This writer writes version 8; the reader reads all eight.
 //!
 //! ```text
 //! magic    8 bytes   89 43 47 56 0D 0A 1A 0A   ("\x89CGV\r\n\x1a\n")
-//! version  u16 LE    1 to 7
+//! version  u16 LE    1 to 8
 //! flags    u16 LE    0
 //! length   u32 LE    header length L (at most 1 MiB)
 //! header   L bytes   UTF-8 JSON (serde), see [`Header`]
@@ -32,12 +32,14 @@
 //! ordered by frame, so a reader can start on frame 0 before the rest of the
 //! file has arrived.
 
+pub mod appearance;
 mod leb128;
 pub mod predictor;
 pub mod quant;
 pub mod source_mesh;
 pub mod stream;
 
+pub use appearance::{Appearance, AppearanceInfo, TextureInfo};
 pub use predictor::{Extrapolation, PredictorCode, SolverKind, MAX_PREDICTOR, MAX_STEPS};
 pub use quant::Quantizer;
 use serde::{Deserialize, Serialize};
@@ -46,7 +48,7 @@ pub use stream::StreamName;
 
 pub const MAGIC: [u8; 8] = [0x89, b'C', b'G', b'V', b'\r', b'\n', 0x1A, b'\n'];
 /// The newest version this reader reads and this writer writes.
-pub const VERSION: u16 = 7;
+pub const VERSION: u16 = 8;
 /// Largest header accepted.
 pub const MAX_HEADER: usize = 1 << 20;
 /// Largest chunk payload accepted (an access unit of a 2160² frame at QP 0
@@ -77,6 +79,8 @@ pub const TAG_FRAME: [u8; 4] = *b"FRAM";
 pub const TAG_END: [u8; 4] = *b"CEND";
 /// Version 6: the input's mesh, once, before frame 0's chunk.
 pub const TAG_SOURCE_MESH: [u8; 4] = *b"SMSH";
+/// Version 8: how the source mesh looks, right after it.
+pub const TAG_APPEARANCE: [u8; 4] = *b"APPR";
 
 /// What is wrong with a `.cgv` file, with the byte offset where it was found.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -291,6 +295,10 @@ pub struct Header {
     /// Version 6: the input's mesh is in the `SMSH` chunk (absent: it is not).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub source_mesh: Option<SourceMeshInfo>,
+    /// Version 8: the source mesh's texture coordinates and base colour
+    /// are in the `APPR` chunk (absent: they are not).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub appearance: Option<AppearanceInfo>,
 }
 
 fn is_scaled(m: &CorrectionMode) -> bool {
@@ -367,15 +375,24 @@ impl Header {
         if let Some(m) = &self.source_mesh {
             m.validate().map_err(ContainerError::Header)?;
         }
+        if let Some(a) = &self.appearance {
+            if self.source_mesh.is_none() {
+                return bad("an appearance needs a source mesh".into());
+            }
+            a.validate().map_err(ContainerError::Header)?;
+        }
         Ok(())
     }
 
-    /// The oldest format version that can hold this header: 7 for the
+    /// The oldest format version that can hold this header: 8 for an
+    /// appearance, 7 for the
     /// source mesh's vertex offsets, 6 for the source mesh, 4 for cycle
     /// predictions, 3 for a CGV file without H, 2 for motion corrections,
     /// else 1.
     pub fn min_version(&self) -> u16 {
-        if self.source_mesh.is_some_and(|m| m.offset_step.is_some()) {
+        if self.appearance.is_some() {
+            8
+        } else if self.source_mesh.is_some_and(|m| m.offset_step.is_some()) {
             7
         } else if self.source_mesh.is_some() {
             6
@@ -442,6 +459,11 @@ pub fn write_header(header: &Header) -> Result<Vec<u8>, ContainerError> {
 /// Version 6: the chunk carrying the input's mesh, written right after the header.
 pub fn write_source_mesh(mesh: &SourceMesh) -> Vec<u8> {
     write_chunk(TAG_SOURCE_MESH, 0, 0, &mesh.to_bytes())
+}
+
+/// Version 8: the chunk of the source mesh's appearance, right after it.
+pub fn write_appearance(look: &Appearance) -> Vec<u8> {
+    write_chunk(TAG_APPEARANCE, 0, 0, &look.to_bytes())
 }
 
 /// Encodes one chunk.
@@ -550,7 +572,7 @@ pub fn parse_chunk(bytes: &[u8], offset: usize) -> Result<Option<(Chunk<'_>, usi
         return Err(ContainerError::BadCrc { offset, what: "a chunk" });
     }
     let tag = [b[0], b[1], b[2], b[3]];
-    if ![TAG_ACCESS_UNIT, TAG_FRAME, TAG_END, TAG_SOURCE_MESH].contains(&tag) {
+    if ![TAG_ACCESS_UNIT, TAG_FRAME, TAG_END, TAG_SOURCE_MESH, TAG_APPEARANCE].contains(&tag) {
         return Err(ContainerError::Chunk {
             offset,
             msg: format!("unknown chunk tag {:?}", String::from_utf8_lossy(&tag)),
@@ -573,6 +595,8 @@ pub struct CgvFile {
     pub frames: Vec<FrameInfo>,
     /// Version 6: the input's mesh, when the file carries it.
     pub source_mesh: Option<SourceMesh>,
+    /// Version 8: how it looks, when the file says.
+    pub appearance: Option<Appearance>,
     /// Size of the file in bytes.
     pub bytes: usize,
 }
@@ -651,6 +675,7 @@ impl StreamReader {
                         units: vec![Vec::new(); n],
                         frames: Vec::new(),
                         source_mesh: None,
+                        appearance: None,
                         bytes: 0,
                     });
                     at = len;
@@ -699,6 +724,16 @@ impl StreamReader {
                 return Err(unexpected(&chunk, offset, "the source mesh", 0));
             }
             file.source_mesh = Some(SourceMesh::parse(chunk.payload, &info, offset)?);
+            return Ok(());
+        }
+        if let (Some(look), Some(info), None, 0, 0) =
+            (&file.header.appearance, file.header.source_mesh, &file.appearance, self.frame, self.slot)
+        {
+            // Version 8: the appearance comes right after the source mesh.
+            if chunk.tag != TAG_APPEARANCE || chunk.frame != 0 {
+                return Err(unexpected(&chunk, offset, "the appearance", 0));
+            }
+            file.appearance = Some(Appearance::parse(chunk.payload, look, &info, offset)?);
             return Ok(());
         }
         let header = &file.header;

@@ -39,6 +39,9 @@ struct Primitive {
     skin: Option<(Vec<usize>, Vec<Mat4>)>,
     joints: Vec<[u16; 4]>,
     weights: Vec<[f32; 4]>,
+    /// TEXCOORD_0 (None where the primitive has none).
+    uvs: Option<Vec<[f32; 2]>>,
+    material: Option<usize>,
 }
 
 /// A glTF animation baked frame by frame.
@@ -55,6 +58,8 @@ pub struct GltfSource {
     frames: usize,
     /// For each output vertex, the raw (unwelded) vertex it copies.
     weld: Vec<u32>,
+    /// The raw vertices, their UVs and the material's base colour.
+    appearance: Option<super::Appearance>,
 }
 
 fn err(path: &Path, msg: impl Into<String>) -> Error {
@@ -263,7 +268,70 @@ fn read_primitive(
     if indices.len() % 3 != 0 || indices.iter().any(|&i| i as usize >= positions.len()) {
         return Err(err(path, format!("mesh {mesh} has bad triangle indices")));
     }
-    Ok((Primitive { node, positions, targets, skin: skin.clone(), joints, weights }, indices))
+    let uvs: Option<Vec<[f32; 2]>> = reader.read_tex_coords(0).map(|t| t.into_f32().collect());
+    if uvs.as_ref().is_some_and(|u| u.len() != positions.len() || u.iter().flatten().any(|x| !x.is_finite())) {
+        return Err(err(path, format!("mesh {mesh} has bad TEXCOORD_0 (length or a non-finite value)")));
+    }
+    let material = prim.material().index();
+    Ok((Primitive { node, positions, targets, skin: skin.clone(), joints, weights, uvs, material }, indices))
+}
+
+/// The stored vertices' UVs and the first material's base colour, when a
+/// primitive has UVs or a material (else None: the welded mesh is all).
+fn read_appearance(
+    path: &Path,
+    doc: &gltf::Document,
+    buffers: &[Vec<u8>],
+    prims: &[Primitive],
+    welded: Vec<u32>,
+    faces: Vec<[u32; 3]>,
+) -> Result<Option<super::Appearance>> {
+    let material = prims.iter().find_map(|p| p.material).and_then(|m| doc.materials().nth(m));
+    if material.is_none() && prims.iter().all(|p| p.uvs.is_none()) {
+        return Ok(None);
+    }
+    let uvs = prims.iter().flat_map(|p| p.uvs.clone().unwrap_or_else(|| vec![[0.0; 2]; p.positions.len()])).collect();
+    let pbr = material.as_ref().map(|m| m.pbr_metallic_roughness());
+    let base_color = pbr.as_ref().map_or([1.0; 4], |p| p.base_color_factor()).map(|c| c.clamp(0.0, 1.0));
+    let texture = match pbr.and_then(|p| p.base_color_texture()) {
+        Some(info) => Some(read_image(path, buffers, &info.texture().source())?),
+        None => None,
+    };
+    Ok(Some(super::Appearance { welded, faces, look: crate::format::Appearance { uvs, base_color, texture } }))
+}
+
+/// An image's MIME type and bytes: from a buffer view, a data URI or a file beside the glTF.
+fn read_image(path: &Path, buffers: &[Vec<u8>], image: &gltf::Image) -> Result<(String, Vec<u8>)> {
+    let (mime, bytes) = match image.source() {
+        gltf::image::Source::View { view, mime_type } => {
+            let buffer = buffers.get(view.buffer().index()).map(Vec::as_slice).unwrap_or_default();
+            let bytes = buffer.get(view.offset()..view.offset() + view.length());
+            (mime_type.to_string(), bytes.ok_or_else(|| err(path, "an image's buffer view is out of range"))?.to_vec())
+        }
+        gltf::image::Source::Uri { uri, mime_type } => match uri.strip_prefix("data:") {
+            Some(rest) => {
+                let (mime, data) =
+                    rest.split_once(";base64,").ok_or_else(|| err(path, "image data URI is not base64"))?;
+                let bytes = base64::engine::general_purpose::STANDARD
+                    .decode(data)
+                    .map_err(|e| err(path, format!("bad base64 image: {e}")))?;
+                (mime_type.unwrap_or(mime).to_string(), bytes)
+            }
+            None => {
+                if uri.contains("://") || uri.starts_with('/') || uri.contains("..") {
+                    return Err(err(path, format!("image URI '{uri}' is not a relative file name")));
+                }
+                let file = path.with_file_name(uri);
+                let png = uri.to_ascii_lowercase().ends_with(".png");
+                let mime = mime_type.unwrap_or(if png { "image/png" } else { "image/jpeg" });
+                (mime.to_string(), std::fs::read(&file).map_err(|e| Error::io(&file, e))?)
+            }
+        },
+    };
+    if !crate::format::appearance::TEXTURE_MIME.contains(&mime.as_str()) {
+        return Err(err(path, format!("base colour texture of type '{mime}' (PNG or JPEG expected)")));
+    }
+    Ok((mime, bytes))
 }
 
 /// The channels of the animation to bake: the one named or numbered `animation`, else the first (if any).
@@ -358,13 +426,16 @@ impl GltfSource {
             start,
             frames,
             weld: Vec::new(),
+            appearance: None,
         };
-        src.weld_first_frame(&raw_faces);
+        let remap = src.weld_first_frame(&raw_faces);
+        src.appearance = read_appearance(path, &doc, &buffers, &src.prims, remap, raw_faces)?;
         Ok(src)
     }
 
-    /// Welds the raw vertices that coincide in the first frame, setting `weld` and the welded `topology`.
-    fn weld_first_frame(&mut self, raw_faces: &[[u32; 3]]) {
+    /// Welds the raw vertices that coincide in the first frame, setting
+    /// `weld` and the welded `topology`; returns each raw vertex's welded one.
+    fn weld_first_frame(&mut self, raw_faces: &[[u32; 3]]) -> Vec<u32> {
         let first = self.bake_raw(self.start);
         let mut map = std::collections::HashMap::new();
         let mut remap = Vec::with_capacity(first.len());
@@ -381,6 +452,7 @@ impl GltfSource {
             vertex_count: self.weld.len(),
             faces: raw_faces.iter().map(|f| f.map(|i| remap[i as usize])).collect(),
         };
+        remap
     }
 
     fn globals(&self, t: f32) -> (Vec<Mat4>, Vec<Vec<f32>>) {
@@ -478,6 +550,9 @@ impl FrameSource for GltfSource {
     }
     fn kind(&self) -> &'static str {
         "glTF animation"
+    }
+    fn appearance(&self) -> Option<&super::Appearance> {
+        self.appearance.as_ref()
     }
     fn read_frame(&self, i: usize) -> Result<Frame> {
         if i >= self.frames {

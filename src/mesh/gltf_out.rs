@@ -219,6 +219,7 @@ pub fn write_glb(
     frame_count: usize,
     fps: f32,
     name: &str,
+    look: Option<&crate::format::Appearance>,
     mut frame: impl FnMut(usize) -> Result<Frame>,
 ) -> Result<()> {
     if frame_count == 0 {
@@ -231,8 +232,61 @@ pub fn write_glb(
     let scratch = Scratch(path.with_file_name(scratch_name));
     let werr = |e: std::io::Error| Error::io(path, e);
     let file = std::fs::File::create(&scratch.0).map_err(werr)?;
-    let layout = write_bin(&mut std::io::BufWriter::new(file), &werr, topology, frame_count, fps, &mut frame)?;
-    write_container(path, &gltf_json(&layout, name), &scratch.0, layout.len())
+    let mut bin = std::io::BufWriter::new(file);
+    let layout = write_bin(&mut bin, &werr, topology, frame_count, fps, &mut frame)?;
+    let mut doc = gltf_json(&layout, name);
+    let mut len = layout.len();
+    if let Some(look) = look.filter(|l| l.uvs.len() == topology.vertex_count) {
+        len += write_look(&mut bin, look).map_err(werr)?;
+        add_look(&mut doc, layout.len(), look);
+        doc["buffers"][0]["byteLength"] = json!(len);
+    }
+    bin.flush().map_err(werr)?;
+    drop(bin);
+    write_container(path, &doc, &scratch.0, len)
+}
+
+/// Appends the texture coordinates and the texture image (padded to 4
+/// bytes) to the binary chunk; returns the bytes written.
+fn write_look(bin: &mut impl Write, look: &crate::format::Appearance) -> std::io::Result<usize> {
+    for c in look.uvs.iter().flatten() {
+        bin.write_all(&c.to_le_bytes())?;
+    }
+    let mut n = look.uvs.len() * 8;
+    if let Some((_, image)) = &look.texture {
+        bin.write_all(image)?;
+        let pad = image.len().div_ceil(4) * 4 - image.len();
+        bin.write_all(&vec![0u8; pad])?;
+        n += image.len() + pad;
+    }
+    Ok(n)
+}
+
+/// The glTF of [`write_look`]'s data at byte `offset`: TEXCOORD_0 and a
+/// material with the base colour (and its texture, embedded).
+fn add_look(doc: &mut serde_json::Value, offset: usize, look: &crate::format::Appearance) {
+    let nv = look.uvs.len();
+    let views = doc["bufferViews"].as_array().map_or(0, Vec::len);
+    let accessors = doc["accessors"].as_array().map_or(0, Vec::len);
+    let mut new_views = vec![json!({"buffer": 0, "byteOffset": offset, "byteLength": nv * 8, "target": ARRAY_BUFFER})];
+    let mut pbr = json!({"baseColorFactor": look.base_color, "metallicFactor": 0.0});
+    if let Some((mime, image)) = &look.texture {
+        new_views.push(json!({"buffer": 0, "byteOffset": offset + nv * 8, "byteLength": image.len()}));
+        doc["images"] = json!([{"bufferView": views + 1, "mimeType": mime}]);
+        doc["samplers"] = json!([{}]);
+        doc["textures"] = json!([{"source": 0, "sampler": 0}]);
+        pbr["baseColorTexture"] = json!({"index": 0});
+    }
+    if let Some(v) = doc["bufferViews"].as_array_mut() {
+        v.extend(new_views);
+    }
+    if let Some(a) = doc["accessors"].as_array_mut() {
+        a.push(json!({"bufferView": views, "componentType": FLOAT, "count": nv, "type": "VEC2"}));
+    }
+    doc["materials"] = json!([{"name": "input", "pbrMetallicRoughness": pbr}]);
+    let primitive = &mut doc["meshes"][0]["primitives"][0];
+    primitive["attributes"]["TEXCOORD_0"] = json!(accessors);
+    primitive["material"] = json!(0);
 }
 
 /// Writes frames as `DIR/frame_0000.obj`, ... The folder must not exist or

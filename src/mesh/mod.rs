@@ -18,6 +18,20 @@ pub use open::{open_sequence, FrameSelection, OpenOptions};
 pub use source::{FrameSource, InMemory};
 pub use topology::{analyze, TopologyReport};
 
+/// How the input looks beyond its shape: its vertices as it stored them
+/// (a glTF splits them at UV seams; the sequence welds them), the faces
+/// over those, and (for the file) their texture coordinates and the
+/// material's base colour.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Appearance {
+    /// For each stored vertex, the sequence vertex it is.
+    pub welded: Vec<u32>,
+    /// The faces over the stored vertices.
+    pub faces: Vec<[u32; 3]>,
+    /// Their texture coordinates and the base colour, as a file carries them.
+    pub look: crate::format::Appearance,
+}
+
 /// Positions of one frame, indexed like the sequence's vertices.
 pub type Frame = Vec<Vec3>;
 

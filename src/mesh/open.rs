@@ -137,6 +137,9 @@ impl FrameSource for Slice {
     fn kind(&self) -> &'static str {
         self.inner.kind()
     }
+    fn appearance(&self) -> Option<&super::Appearance> {
+        self.inner.appearance()
+    }
     fn read_frame(&self, i: usize) -> Result<Frame> {
         if i >= self.len {
             return Err(Error::Argument(format!("frame {i} is past the last selected frame {}", self.len as i64 - 1)));

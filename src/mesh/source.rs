@@ -21,6 +21,11 @@ pub trait FrameSource: Send + Sync {
     fn read_frame(&self, i: usize) -> Result<Frame>;
     /// Short description of the kind of input, for reports.
     fn kind(&self) -> &'static str;
+    /// The input's own vertices, texture coordinates and base colour,
+    /// when it has them (a textured glTF).
+    fn appearance(&self) -> Option<&super::Appearance> {
+        None
+    }
 }
 
 /// Checks a frame against the sequence's first frame.

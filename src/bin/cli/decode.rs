@@ -85,6 +85,8 @@ pub fn source_mesh(
 pub fn run(args: Args) -> Result<()> {
     let (mut dec, solver) = open_decoder(&args.input, args.solver, args.memory)?;
     let source = source_mesh(&args.input, &dec, args.mesh)?;
+    // The input's texture coordinates and material go with its own mesh.
+    let look = if source.is_some() { dec.file.appearance.clone() } else { None };
     let topo = source.as_ref().map_or_else(|| dec.grid.topology(), |s| s.topology.clone());
     let mesh_name = if source.is_some() { "source" } else { "grid" };
     let frames = dec.frame_count();
@@ -101,7 +103,7 @@ pub fn run(args: Args) -> Result<()> {
         })
     };
     let out = &args.output;
-    super::write_sequence(out, &topo, frames, fps, "cgv", &mut next)?;
+    super::write_sequence(out, &topo, frames, fps, "cgv", look.as_ref(), &mut next)?;
     pb.finish_and_clear();
     let video: f64 = stats.iter().map(|s| s.video_seconds).sum();
     let solve: f64 = stats.iter().map(|s| s.solve_seconds).sum();

@@ -100,10 +100,11 @@ pub fn write_sequence(
     frames: usize,
     fps: f32,
     name: &str,
+    look: Option<&cgv::format::Appearance>,
     next: impl FnMut(usize) -> cgv::Result<Vec<glam::Vec3>>,
 ) -> anyhow::Result<()> {
     if is_glb(out) {
-        cgv::mesh::gltf_out::write_glb(out, topology, frames, fps, name, next)?;
+        cgv::mesh::gltf_out::write_glb(out, topology, frames, fps, name, look, next)?;
     } else if out.extension().is_none() || out.is_dir() {
         cgv::mesh::gltf_out::write_obj_folder(out, topology, frames, next)?;
     } else {

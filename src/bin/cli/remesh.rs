@@ -120,7 +120,7 @@ fn write_output(
         Ok(g)
     };
     let name = src.label().file_name().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "motion".into());
-    super::write_sequence(out, &grid.topology(), src.frame_count(), src.fps(), &name, &mut next)?;
+    super::write_sequence(out, &grid.topology(), src.frame_count(), src.fps(), &name, None, &mut next)?;
     pb.finish_and_clear();
     if let Some(g) = &first_grid {
         cgv::fsutil::write_atomic(png, &cgv::image::geometry_image_png(&grid, g)?)?;

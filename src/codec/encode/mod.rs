@@ -218,8 +218,10 @@ pub fn encode_prepared(
     let analysis = analyse::analyse(src, &plan, &image.map, &st, progress)?;
     let simulation = simulate::simulate(src, &plan, opts, &image.map, &st, &analysis.first_grid)?;
     let diagonal = Bounds::of(&src.read_frame(opts.reference)?).diagonal();
-    let source_info = opts.source_mesh.then(|| image.source_mesh(src.topology()).info());
-    let header = plan.header(src, opts, &analysis, &simulation, diagonal, source_info);
+    let look = src.appearance().filter(|_| opts.source_mesh);
+    let source_info = opts.source_mesh.then(|| image.source_mesh_as_stored(src.topology(), look).info());
+    let mut header = plan.header(src, opts, &analysis, &simulation, diagonal, source_info);
+    header.appearance = look.map(|a| a.look.info());
     let code::Coded { bytes, stream_bytes, side_bytes, source_mesh_bytes, seconds_coding } =
         code::code(src, opts, &plan, &header, (image, source_chunk.as_deref()), &st, progress)?;
     let seconds_parameterize = image.seconds();
@@ -240,9 +242,13 @@ pub fn encode_prepared(
 /// The `SMSH` chunk of the input's mesh, or an error naming the way out
 /// when the mesh is more than a file may carry.
 fn source_mesh_chunk(src: &dyn FrameSource, image: &GeometryImage) -> Result<Vec<u8>> {
-    let mesh = image.source_mesh(src.topology());
+    let mesh = image.source_mesh_as_stored(src.topology(), src.appearance());
     mesh.info().validate().map_err(|m| Error::Argument(format!("{m}: encode with --no-source-mesh")))?;
-    let chunk = format::write_source_mesh(&mesh);
+    let mut chunk = format::write_source_mesh(&mesh);
+    if let Some(a) = src.appearance() {
+        a.look.info().validate().map_err(|m| Error::Argument(format!("{m}: encode with --no-source-mesh")))?;
+        chunk.extend(format::write_appearance(&a.look));
+    }
     if chunk.len() > format::MAX_CHUNK {
         return Err(Error::Argument(format!(
             "the source mesh takes {} bytes, more than a chunk may ({}): encode with --no-source-mesh",

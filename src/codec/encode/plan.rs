@@ -172,6 +172,7 @@ impl Plan {
             corrections: if self.motion { CorrectionMode::Motion } else { CorrectionMode::Scaled },
             max_lag: simulation.max_lag,
             source_mesh,
+            appearance: None,
         }
     }
 }
