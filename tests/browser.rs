@@ -210,6 +210,7 @@ fn site() -> (PathBuf, Guard, u16) {
         std::fs::copy(root.join("tests/fixtures/v1").join(f), dir.join(f)).unwrap();
     }
     std::fs::copy(root.join("tests/fixtures/v6/walk-cgv-source.cgv"), dir.join("walk-source.cgv")).unwrap();
+    std::fs::copy(root.join("tests/fixtures/v8/fox-textured.cgv"), dir.join("fox.cgv")).unwrap();
     // A corrupt copy: one flipped byte in the middle.
     let mut bad = std::fs::read(dir.join("walk-cgv.cgv")).unwrap();
     let k = bad.len() / 2;
@@ -329,6 +330,18 @@ fn viewer_plays_renders_and_recovers_in_headless_chromium() {
         json!([]),
     );
     assert_eq!(browser.js(surface, json!([])), json!("grid"));
+
+    // A version-8 file: the input's mesh drawn with its texture (Fox: orange fur).
+    browser.js("document.getElementById('a').setAttribute('mode', 'shaded'); document.getElementById('a').load('fox.cgv'); return true;", json!([]));
+    browser.wait(
+        "the v8 fixture, textured",
+        "const p = document.getElementById('a'); return p.dataset.textured === 'yes';",
+        60,
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    let (px, ch) = common::decode_png(&browser.screenshot(&art.join("textured.png")));
+    let orange = px.chunks_exact(ch).filter(|p| p[0] as i32 > p[2] as i32 + 60 && p[0] > 120).count();
+    assert!(orange > 1000, "the textured fox shows {orange} orange pixels (see {})", art.display());
 
     // A corrupt file dropped on the page: a clear error; then a good file plays.
     browser.go(&format!("{base}/"));

@@ -154,6 +154,8 @@ export class CgvPlayer extends HTMLElement {
     this.pause();
     this.frames = [];
     this.shown = null;
+    this.texture = undefined;
+    this.view?.reframe();
     this.current = 0;
     this.stats.decoded = 0;
     this.stats.firstFrameMs = null;
@@ -208,6 +210,10 @@ export class CgvPlayer extends HTMLElement {
         this.stats.backend = this.view.backend();
       }
       if (!this.decoders) this.decoders = h.streams.map(() => new LumaDecoder(h.grid));
+      if (h.appearance && this.texture === undefined && this.player.source_uvs().length) {
+        this.texture = null;
+        this._texture(h.appearance, gen);
+      }
       this.$('.slider').max = h.frames - 1;
       this.stats.grid = h.grid;
       this.stats.frames = h.frames;
@@ -246,6 +252,28 @@ export class CgvPlayer extends HTMLElement {
     }
   }
 
+  /** Decodes the file's base colour texture (format v8) with the browser's
+   * image decoder, then shows the current frame with it. */
+  async _texture(look, gen) {
+    const t = { uvs: this.player.source_uvs(), baseColor: new Float32Array(look.base_color), rgba: new Uint8Array(0), width: 0, height: 0 };
+    try {
+      if (look.texture) {
+        const blob = new Blob([this.player.texture_bytes()], { type: look.texture.mime });
+        const bitmap = await createImageBitmap(blob);
+        const canvas = new OffscreenCanvas(bitmap.width, bitmap.height);
+        const ctx = canvas.getContext('2d');
+        ctx.drawImage(bitmap, 0, 0);
+        t.rgba = new Uint8Array(ctx.getImageData(0, 0, bitmap.width, bitmap.height).data.buffer);
+        [t.width, t.height] = [bitmap.width, bitmap.height];
+      }
+    } catch (e) {
+      console.warn(`cgv-player: the texture could not be decoded (${e.message || e}); drawing the base colour`);
+    }
+    if (gen !== this.generation) return;
+    this.texture = t;
+    if (this.frames.length) this.show(this.current || 0);
+  }
+
   /** Shows frame f. The view keeps the frame it was given: only a new
    * frame, colour mode or reference is handed to wasm again. */
   show(f) {
@@ -262,12 +290,15 @@ export class CgvPlayer extends HTMLElement {
       const sm = this.header?.source_mesh;
       const mesh = !!sm && this.mode === 'shaded' && this.getAttribute('mesh') !== 'grid';
       if (!s || s.frame !== this.frames[f] || s.mode !== this.mode || s.ref !== ref || s.mesh !== mesh) {
-        if (!s || s.mesh !== mesh) {
+        if (!s || s.mesh !== mesh || s.texture !== this.texture) {
           this.view.set_mesh(mesh ? this.player.source_faces() : new Uint32Array(0), mesh ? sm.vertices : 0);
+          const t = this.texture;
+          if (mesh && t) this.view.set_texture(t.uvs, t.baseColor, t.rgba, t.width, t.height);
         }
         this.view.set_reference(ref || new Float32Array(0));
         this.view.set_frame(mesh ? this.player.source_vertices(this.frames[f]) : this.frames[f], this.mode);
-        this.shown = { frame: this.frames[f], mode: this.mode, ref, mesh };
+        this.shown = { frame: this.frames[f], mode: this.mode, ref, mesh, texture: this.texture };
+        this.dataset.textured = mesh && this.texture?.width > 0 ? 'yes' : 'no';
         this.dataset.surface = mesh ? 'source' : 'grid';
         this.view.draw();
       }

@@ -10,6 +10,7 @@
 pub mod camera;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod offscreen;
+pub mod texture;
 
 use crate::error::{Error, Result};
 use crate::grid::stencil::Stencils;
@@ -17,6 +18,14 @@ use crate::grid::Grid;
 use camera::OrbitCamera;
 use glam::Vec3;
 use wgpu::util::DeviceExt;
+
+/// The material of a mesh drawn by the renderer: per-vertex texture
+/// coordinates, the base colour, and the texture ([`texture::upload`]).
+pub struct Look {
+    pub uvs: Vec<[f32; 2]>,
+    pub base_color: [f32; 4],
+    pub view: Option<wgpu::TextureView>,
+}
 
 /// What colours the surface.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -51,6 +60,7 @@ struct Vertex {
     position: [f32; 3],
     normal: [f32; 3],
     value: f32,
+    uv: [f32; 2],
 }
 
 #[repr(C)]
@@ -59,6 +69,8 @@ struct Uniforms {
     view_proj: [[f32; 4]; 4],
     eye: [f32; 4],
     scalar: [f32; 4],
+    /// The input's base colour; w: 1 when it and its texture colour the surface.
+    tint: [f32; 4],
 }
 
 /// The depth format; every backend, WebGL2 included, has it.
@@ -68,8 +80,15 @@ const DEPTH: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 /// the grid: [`Renderer::set_mesh`]).
 pub struct Renderer {
     st: Stencils,
-    /// The mesh drawn instead of the grid, when there is one.
+    /// The mesh drawn instead of the grid, when there is one, and its
+    /// vertices' texture coordinates (empty: none).
     mesh: Option<crate::mesh::Topology>,
+    uvs: Vec<[f32; 2]>,
+    /// The base colour (factor) of the mesh's material, when it has one.
+    base_color: Option<[f32; 4]>,
+    layout: wgpu::BindGroupLayout,
+    sampler: wgpu::Sampler,
+    white: wgpu::TextureView,
     pipeline: wgpu::RenderPipeline,
     uniforms: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
@@ -83,7 +102,7 @@ pub struct Renderer {
 
 impl Renderer {
     /// A renderer for `grid`, drawing into targets of `format`.
-    pub fn new(device: &wgpu::Device, format: wgpu::TextureFormat, grid: Grid) -> Renderer {
+    pub fn new(device: &wgpu::Device, queue: &wgpu::Queue, format: wgpu::TextureFormat, grid: Grid) -> Renderer {
         let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("cgv surface"),
             source: wgpu::ShaderSource::Wgsl(include_str!("shader.wgsl").into()),
@@ -94,30 +113,16 @@ impl Renderer {
             usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("cgv uniforms"),
-            entries: &[wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-                ty: wgpu::BindingType::Buffer {
-                    ty: wgpu::BufferBindingType::Uniform,
-                    has_dynamic_offset: false,
-                    min_binding_size: None,
-                },
-                count: None,
-            }],
-        });
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("cgv uniforms"),
-            layout: &layout,
-            entries: &[wgpu::BindGroupEntry { binding: 0, resource: uniforms.as_entire_binding() }],
-        });
+        let layout = texture::layout(device);
+        let sampler = texture::sampler(device);
+        let white = texture::white(device, queue);
+        let bind_group = texture::bind_group(device, &layout, &uniforms, &white, &sampler);
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("cgv surface"),
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
-        let attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32];
+        let attributes = wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Float32, 3 => Float32x2];
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("cgv surface"),
             layout: Some(&pipeline_layout),
@@ -164,6 +169,11 @@ impl Renderer {
         Renderer {
             st: Stencils::new(grid),
             mesh: None,
+            uvs: Vec::new(),
+            base_color: None,
+            layout,
+            sampler,
+            white,
             pipeline,
             uniforms,
             bind_group,
@@ -177,7 +187,8 @@ impl Renderer {
     }
 
     /// Draws `mesh` (its vertices given to [`set_frame`](Self::set_frame))
-    /// instead of the grid, or the grid again with `None`.
+    /// instead of the grid, or the grid again with `None`; without a
+    /// texture ([`set_texture`](Self::set_texture)).
     pub fn set_mesh(&mut self, device: &wgpu::Device, mesh: Option<crate::mesh::Topology>) -> Result<()> {
         let (faces, count) = match &mesh {
             Some(m) => (m.faces.clone(), m.vertex_count),
@@ -200,6 +211,28 @@ impl Renderer {
         });
         self.index_count = index_data.len() as u32;
         self.mesh = mesh;
+        self.set_texture(device, None)
+    }
+
+    /// Colours the mesh of [`set_mesh`](Self::set_mesh) by its material:
+    /// `look`'s texture coordinates (one per mesh vertex), its base colour
+    /// and, when given, its base colour texture as RGBA8 texels (width,
+    /// height); `None` goes back to grey.
+    pub fn set_texture(&mut self, device: &wgpu::Device, look: Option<Look>) -> Result<()> {
+        let count = self.mesh.as_ref().map_or(0, |m| m.vertex_count);
+        let look = match look {
+            Some(l) if l.uvs.len() != count => {
+                return Err(Error::Render(format!("{} texture coordinates for a mesh of {count}", l.uvs.len())));
+            }
+            other => other,
+        };
+        let view = match look.as_ref().and_then(|l| l.view.as_ref()) {
+            Some(view) => view,
+            None => &self.white,
+        };
+        self.bind_group = texture::bind_group(device, &self.layout, &self.uniforms, view, &self.sampler);
+        self.base_color = look.as_ref().map(|l| l.base_color);
+        self.uvs = look.map(|l| l.uvs).unwrap_or_default();
         Ok(())
     }
 
@@ -232,7 +265,12 @@ impl Renderer {
             (ColorMode::Error, None) => return Err(Error::Render("the error map needs a reference".into())),
         };
         let vertices: Vec<Vertex> = (0..n)
-            .map(|v| Vertex { position: x[v].to_array(), normal: normals[v].to_array(), value: values[v] })
+            .map(|v| Vertex {
+                position: x[v].to_array(),
+                normal: normals[v].to_array(),
+                value: values[v],
+                uv: self.uvs.get(v).copied().unwrap_or_default(),
+            })
             .collect();
         queue.write_buffer(&self.vertices, 0, bytemuck::cast_slice(&vertices));
         self.bounds = x
@@ -287,6 +325,10 @@ impl Renderer {
             view_proj: camera.view_proj(size.0 as f32 / size.1.max(1) as f32).to_cols_array_2d(),
             eye: camera.eye().extend(1.0).to_array(),
             scalar: self.scalar,
+            tint: match self.base_color {
+                Some([r, g, b, _]) if self.scalar[2] < 0.5 => [r, g, b, 1.0],
+                _ => [1.0, 1.0, 1.0, 0.0],
+            },
         };
         queue.write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&u));
         let mut enc = device.create_command_encoder(&Default::default());

@@ -1,19 +1,25 @@
-// The grid surface: Lambert shading with a head light, optionally tinted by
-// a scalar (λ, H or error) through a blue–white–red map.
+// The grid surface (or the input's own mesh): Lambert shading with a head
+// light, coloured grey, by a scalar (λ, H or error) through a blue–white–red
+// map, or by the input's base colour and texture.
 
 struct Uniforms {
     view_proj: mat4x4<f32>,
     eye: vec4<f32>,
     // x: scalar low, y: scalar high, z: 1 when the scalar colours the surface
     scalar: vec4<f32>,
+    // rgb: the base colour factor; w: 1 when it and the texture colour the surface
+    tint: vec4<f32>,
 };
 
 @group(0) @binding(0) var<uniform> u: Uniforms;
+@group(0) @binding(1) var base_texture: texture_2d<f32>;
+@group(0) @binding(2) var base_sampler: sampler;
 
 struct VertexIn {
     @location(0) position: vec3<f32>,
     @location(1) normal: vec3<f32>,
     @location(2) value: f32,
+    @location(3) uv: vec2<f32>,
 };
 
 struct VertexOut {
@@ -21,6 +27,7 @@ struct VertexOut {
     @location(0) world: vec3<f32>,
     @location(1) normal: vec3<f32>,
     @location(2) value: f32,
+    @location(3) uv: vec2<f32>,
 };
 
 @vertex
@@ -30,6 +37,7 @@ fn vs_main(v: VertexIn) -> VertexOut {
     o.world = v.position;
     o.normal = v.normal;
     o.value = v.value;
+    o.uv = v.uv;
     return o;
 }
 
@@ -53,7 +61,12 @@ fn fs_main(i: VertexOut) -> @location(0) vec4<f32> {
         n = -n;
     }
     let diffuse = max(dot(n, to_eye), 0.0);
+    // Sampled in uniform control flow, used only when the tint says so.
+    let texel = textureSample(base_texture, base_sampler, i.uv).rgb;
     var base = vec3<f32>(0.80, 0.76, 0.70);
+    if (u.tint.w > 0.5) {
+        base = texel * u.tint.rgb;
+    }
     if (u.scalar.z > 0.5) {
         let span = max(u.scalar.y - u.scalar.x, 1e-20);
         base = diverging((i.value - u.scalar.x) / span);

@@ -80,6 +80,22 @@ impl Player {
         Ok(source.vertices(&positions(grid_frame)).iter().flat_map(|p| p.to_array()).collect())
     }
 
+    /// The input's texture coordinates (u, v per source vertex) when the
+    /// file says how its mesh looks (format version 8), else empty.
+    pub fn source_uvs(&self) -> Vec<f32> {
+        self.look().map_or_else(Vec::new, |a| a.uvs.iter().flatten().copied().collect())
+    }
+
+    /// The base colour texture's file bytes (PNG or JPEG: see
+    /// `header.appearance.texture.mime`), else empty.
+    pub fn texture_bytes(&self) -> Vec<u8> {
+        self.look().and_then(|a| a.texture.as_ref()).map_or_else(Vec::new, |(_, b)| b.clone())
+    }
+
+    fn look(&self) -> Option<&crate::format::Appearance> {
+        self.reader.file().and_then(|f| f.appearance.as_ref())
+    }
+
     /// The header as JSON, once it has arrived.
     pub fn header_json(&self) -> Option<String> {
         self.reader.header().and_then(|h| serde_json::to_string(h).ok())

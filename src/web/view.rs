@@ -82,7 +82,7 @@ impl View {
             view_formats: vec![],
         };
         surface.configure(&device, &config);
-        let renderer = Renderer::new(&device, format, grid);
+        let renderer = Renderer::new(&device, &queue, format, grid);
         let backend = match info.backend {
             wgpu::Backend::BrowserWebGpu => "WebGPU".to_string(),
             wgpu::Backend::Gl => "WebGL2".to_string(),
@@ -140,6 +140,39 @@ impl View {
             faces: faces.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
         });
         self.renderer.set_mesh(&self.device, mesh).map_err(js)
+    }
+
+    /// Colours the mesh of [`set_mesh`](Self::set_mesh) by the input's
+    /// material: `uvs` (u, v per vertex: `Player.source_uvs()`), the base
+    /// colour (r, g, b, a: `header.appearance.base_color`) and, when
+    /// `width` > 0, its texture as RGBA8 texels (the page decodes the image
+    /// from `Player.texture_bytes()`). Empty `uvs` goes back to grey.
+    pub fn set_texture(
+        &mut self,
+        uvs: &[f32],
+        base_color: &[f32],
+        rgba: &[u8],
+        width: u32,
+        height: u32,
+    ) -> std::result::Result<(), JsError> {
+        if uvs.is_empty() {
+            return self.renderer.set_texture(&self.device, None).map_err(js);
+        }
+        let base_color = match base_color {
+            [r, g, b, a] => [*r, *g, *b, *a],
+            _ => return Err(JsError::new("the base colour is four numbers (r, g, b, a)")),
+        };
+        let view = match width {
+            0 => None,
+            _ => Some(crate::render::texture::upload(&self.device, &self.queue, rgba, width, height).map_err(js)?),
+        };
+        let uvs = uvs.chunks_exact(2).map(|c| [c[0], c[1]]).collect();
+        self.renderer.set_texture(&self.device, Some(crate::render::Look { uvs, base_color, view })).map_err(js)
+    }
+
+    /// Frames the camera on the next frame set (a new motion in the same view).
+    pub fn reframe(&mut self) {
+        self.last = None;
     }
 
     /// The frame the error map measures against (empty to clear).

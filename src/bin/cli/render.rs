@@ -72,6 +72,37 @@ fn decode_frame(
     Ok((grid, x, source))
 }
 
+/// The renderer's material for a file's appearance: its PNG texture decoded
+/// (a JPEG one is drawn by the browser's decoder only: the base colour here).
+fn textured(gpu: &Offscreen, look: &cgv::format::Appearance) -> Result<cgv::render::Look> {
+    let view = match &look.texture {
+        Some((mime, bytes)) if mime == "image/png" => {
+            let (rgba, w, h) = decode_png_rgba(bytes).context("decoding the file's texture")?;
+            Some(cgv::render::texture::upload(&gpu.device, &gpu.queue, &rgba, w, h)?)
+        }
+        _ => None,
+    };
+    Ok(cgv::render::Look { uvs: look.uvs.clone(), base_color: look.base_color, view })
+}
+
+/// A PNG as 8-bit RGBA texels, with its width and height.
+fn decode_png_rgba(bytes: &[u8]) -> Result<(Vec<u8>, u32, u32)> {
+    let mut dec = png::Decoder::new(std::io::Cursor::new(bytes));
+    dec.set_transformations(
+        png::Transformations::EXPAND | png::Transformations::STRIP_16 | png::Transformations::ALPHA,
+    );
+    let mut reader = dec.read_info()?;
+    let mut buf = vec![0; reader.output_buffer_size().context("the texture is too large")?];
+    let info = reader.next_frame(&mut buf)?;
+    buf.truncate(info.buffer_size());
+    let rgba = match info.color_type {
+        png::ColorType::Rgba => buf,
+        png::ColorType::GrayscaleAlpha => buf.chunks_exact(2).flat_map(|c| [c[0], c[0], c[0], c[1]]).collect(),
+        other => bail!("a texture of colour type {other:?}"),
+    };
+    Ok((rgba, info.width, info.height))
+}
+
 pub fn run(args: Args) -> Result<()> {
     if args.output.extension().is_none_or(|e| !e.eq_ignore_ascii_case("png")) {
         bail!("{}: the output should end in .png", args.output.display());
@@ -91,6 +122,7 @@ pub fn run(args: Args) -> Result<()> {
         m => m,
     };
     let (n, x, source) = decode_frame(&args.input, args.frame, args.solver, args.memory, mesh)?;
+    let look = if source.is_some() { super::decode::read_cgv(&args.input)?.appearance } else { None };
     let reference = match &args.reference {
         Some(r) => {
             let (rn, rx, _) = decode_frame(r, args.frame, None, args.memory, MeshChoice::Grid)?;
@@ -102,11 +134,14 @@ pub fn run(args: Args) -> Result<()> {
         None => None,
     };
     let gpu = Offscreen::new()?;
-    let mut renderer = Renderer::new(&gpu.device, cgv::render::offscreen::FORMAT, cgv::grid::Grid::new(n)?);
+    let mut renderer = Renderer::new(&gpu.device, &gpu.queue, cgv::render::offscreen::FORMAT, cgv::grid::Grid::new(n)?);
     let surface = if source.is_some() { "source mesh" } else { "grid" };
     let x = match source {
         Some(s) if reference.is_none() => {
             renderer.set_mesh(&gpu.device, Some(s.topology.clone()))?;
+            if let Some(look) = &look {
+                renderer.set_texture(&gpu.device, Some(textured(&gpu, look)?))?;
+            }
             s.vertices(&x)
         }
         Some(_) => bail!("--mode error compares grids: draw it with --mesh grid"),
