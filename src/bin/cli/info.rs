@@ -186,7 +186,7 @@ fn cgv_info(args: &Args) -> Result<()> {
     println!("  source mesh   {}", source_mesh_line(h.source_mesh.as_ref()));
     if let Some(a) = &h.appearance {
         let texture =
-            a.texture.as_ref().map_or("no texture".into(), |t| format!("a {} texture of {} bytes", t.mime, t.bytes));
+            a.texture.as_ref().map_or("no texture".into(), |t| format!("texture ({}, {} bytes)", t.mime, t.bytes));
         println!("  appearance    texture coordinates, base colour {:?}, {texture}", a.base_color);
     }
     for (s, b) in h.streams.iter().zip(&stream_bytes) {
