@@ -453,4 +453,17 @@ fn a_textured_gltf_comes_back_with_its_uvs_and_texture() {
     let (mime, png) = look.texture.as_ref().unwrap();
     assert_eq!((mime_type, &blob[view.offset()..view.offset() + view.length()]), (mime.as_str(), &png[..]));
     assert_eq!(&png[1..4], b"PNG");
+    // An OBJ folder: vt per vertex (v flipped, OBJ's way), a material and the PNG beside.
+    let objs = dir.join("frames");
+    let out = cgv(&["decode", cgv_file.to_str().unwrap(), "-o", objs.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert_eq!(std::fs::read(objs.join("texture.png")).unwrap(), *png);
+    assert!(std::fs::read_to_string(objs.join("material.mtl")).unwrap().contains("map_Kd texture.png"));
+    let text = std::fs::read_to_string(objs.join("frame_0000.obj")).unwrap();
+    let vt: Vec<&str> = text.lines().filter(|l| l.starts_with("vt ")).collect();
+    assert_eq!(vt.len(), 1728);
+    assert_eq!(vt[7], format!("vt {} {}", look.uvs[7][0], 1.0 - look.uvs[7][1]));
+    // And it reads back as a sequence of the stored vertices.
+    let again = cgv::mesh::open_sequence(objs.to_str().unwrap(), &Default::default()).unwrap();
+    assert_eq!((again.frame_count(), again.topology().vertex_count), (3, 1728));
 }

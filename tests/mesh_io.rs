@@ -99,7 +99,7 @@ fn glb_and_obj_output_round_trip() {
         assert!(max < 1e-5, "frame {i}: rms {rms} max {max}");
     }
     let objs = dir.join("frames");
-    cgv::mesh::gltf_out::write_obj_folder(&objs, &src.topology, 5, |i| Ok(src.frames[i].clone())).unwrap();
+    cgv::mesh::gltf_out::write_obj_folder(&objs, &src.topology, 5, None, |i| Ok(src.frames[i].clone())).unwrap();
     let back = open(&objs).unwrap();
     assert_eq!(back.frame_count(), 5);
     assert_eq!(back.read_frame(3).unwrap(), src.frames[3]);

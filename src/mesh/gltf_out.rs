@@ -289,14 +289,30 @@ fn add_look(doc: &mut serde_json::Value, offset: usize, look: &crate::format::Ap
     primitive["material"] = json!(0);
 }
 
+/// `material.mtl` and the texture image (`texture.png` or `.jpg`) in `dir`.
+fn write_material(dir: &Path, look: &crate::format::Appearance) -> Result<()> {
+    let texture = look.texture.as_ref().map(|(mime, bytes)| {
+        let name = if mime == "image/png" { "texture.png" } else { "texture.jpg" };
+        (name, bytes)
+    });
+    if let Some((name, bytes)) = texture {
+        let p = dir.join(name);
+        std::fs::write(&p, bytes).map_err(|e| Error::io(&p, e))?;
+    }
+    let p = dir.join("material.mtl");
+    std::fs::write(&p, super::obj::format_mtl(look.base_color, texture.map(|t| t.0))).map_err(|e| Error::io(&p, e))
+}
+
 /// Writes frames as `DIR/frame_0000.obj`, ... The folder must not exist or
 /// be empty; it is filled under a temporary name and renamed when complete.
 pub fn write_obj_folder(
     dir: &Path,
     topology: &Topology,
     frame_count: usize,
+    look: Option<&crate::format::Appearance>,
     mut frame: impl FnMut(usize) -> Result<Frame>,
 ) -> Result<()> {
+    let look = look.filter(|l| l.uvs.len() == topology.vertex_count);
     if dir.exists() {
         let mut entries = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?;
         if entries.next().is_some() {
@@ -310,11 +326,18 @@ pub fn write_obj_folder(
     let tmp = dir.with_file_name(tmp_name);
     std::fs::create_dir_all(&tmp).map_err(|e| Error::io(&tmp, e))?;
     let result = (|| {
+        if let Some(l) = look {
+            write_material(&tmp, l)?;
+        }
         let digits = (frame_count.max(1) - 1).to_string().len().max(4);
         for k in 0..frame_count {
             let positions = frame(k)?;
             let p = tmp.join(format!("frame_{k:0digits$}.obj"));
-            std::fs::write(&p, super::obj::format_obj(&positions, &topology.faces)).map_err(|e| Error::io(&p, e))?;
+            let text = match look {
+                Some(l) => super::obj::format_textured_obj(&positions, &topology.faces, &l.uvs),
+                None => super::obj::format_obj(&positions, &topology.faces),
+            };
+            std::fs::write(&p, text).map_err(|e| Error::io(&p, e))?;
         }
         if dir.exists() {
             std::fs::remove_dir(dir).map_err(|e| Error::io(dir, e))?;

@@ -78,6 +78,37 @@ pub fn format_obj(positions: &[Vec3], faces: &[[u32; 3]]) -> String {
     s
 }
 
+/// [`format_obj`] with texture coordinates (`vt`, one per vertex, v
+/// flipped: OBJ's origin is the image's bottom-left, glTF's its top-left)
+/// and the material `input` of `material.mtl`.
+pub fn format_textured_obj(positions: &[Vec3], faces: &[[u32; 3]], uvs: &[[f32; 2]]) -> String {
+    use std::fmt::Write;
+    let mut s = String::with_capacity(positions.len() * 60 + faces.len() * 40);
+    s.push_str("mtllib material.mtl\nusemtl input\n");
+    for p in positions {
+        let _ = writeln!(s, "v {} {} {}", p.x, p.y, p.z);
+    }
+    for uv in uvs {
+        let _ = writeln!(s, "vt {} {}", uv[0], 1.0 - uv[1]);
+    }
+    for f in faces {
+        let [a, b, c] = f.map(|i| i + 1);
+        let _ = writeln!(s, "f {a}/{a} {b}/{b} {c}/{c}");
+    }
+    s
+}
+
+/// The `material.mtl` beside textured OBJ frames: the base colour, and the
+/// texture file `texture` when there is one.
+pub fn format_mtl(base_color: [f32; 4], texture: Option<&str>) -> String {
+    let [r, g, b, a] = base_color;
+    let mut s = format!("newmtl input\nKd {r} {g} {b}\nd {a}\n");
+    if let Some(t) = texture {
+        s.push_str(&format!("map_Kd {t}\n"));
+    }
+    s
+}
+
 /// Writes one frame as an OBJ file, atomically.
 pub fn write_obj(path: &Path, positions: &[Vec3], topology: &Topology) -> Result<()> {
     let mut f = AtomicFile::create(path)?;

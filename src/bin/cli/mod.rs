@@ -106,7 +106,7 @@ pub fn write_sequence(
     if is_glb(out) {
         cgv::mesh::gltf_out::write_glb(out, topology, frames, fps, name, look, next)?;
     } else if out.extension().is_none() || out.is_dir() {
-        cgv::mesh::gltf_out::write_obj_folder(out, topology, frames, next)?;
+        cgv::mesh::gltf_out::write_obj_folder(out, topology, frames, look, next)?;
     } else {
         anyhow::bail!("{}: output must be a .glb file or a folder", out.display());
     }
