@@ -63,8 +63,17 @@ impl GeometryImage {
         opts: &ParamOptions,
     ) -> Result<GeometryImage> {
         let t = std::time::Instant::now();
-        let carrier = Carrier::build(label, topology, reference)?;
-        let param = parameterize_carrier(&carrier, topology, reference, grid, opts)?;
+        let mut carrier = Carrier::build(label, topology, reference)?;
+        let mut param = parameterize_carrier(&carrier, topology, reference, grid, opts);
+        // A carrier too coarse for its cone paths gets finer, twice at most.
+        for _ in 0..SUBDIVISIONS {
+            if param.is_ok() {
+                break;
+            }
+            carrier.subdivide();
+            param = parameterize_carrier(&carrier, topology, reference, grid, opts);
+        }
+        let param = param?;
         let seconds_parameterize = t.elapsed().as_secs_f64();
         let t = std::time::Instant::now();
         let map = SampleMap::on_carrier(grid, &carrier, &param)?;
@@ -214,6 +223,11 @@ pub fn parameterize_carrier(
         None => Err(first_error.unwrap_or_else(|| Error::Numerical("no cone placement could be cut".into()))),
     }
 }
+
+/// How many times [`GeometryImage::build`] subdivides a carrier whose
+/// parameterization failed (a mesh of a few dozen vertices can have no
+/// four disjoint cone paths) before it reports the failure.
+pub const SUBDIVISIONS: usize = 2;
 
 /// Extremities the cones are chosen among, four at a time (so five
 /// placements race). Measured at N = 128, mean over 8 frames, with every

@@ -234,3 +234,50 @@ fn a_lone_triangle_round_trips() {
     // measured (a few vertices coded as themselves would do better).
     assert_round_trip("triangle", &p, &[[0, 1, 2]], 0.04);
 }
+
+#[test]
+fn random_triangle_soups_always_close_up() {
+    // Meshes no tool would write on purpose: random triangles over a few
+    // vertices (non-manifold edges and vertices, flipped and repeated
+    // faces, several parts, handles). Each must close up into a sphere.
+    let mut seed = 0x9E37_79B9_7F4A_7C15u64;
+    let mut next = move |n: u32| {
+        seed ^= seed << 13;
+        seed ^= seed >> 7;
+        seed ^= seed << 17;
+        (seed % n as u64) as u32
+    };
+    let mut mapped = 0;
+    for case in 0..300 {
+        let nv = 4 + next(40);
+        let p: Vec<Vec3> =
+            (0..nv).map(|_| Vec3::new(next(1000) as f32, next(1000) as f32, next(1000) as f32)).collect();
+        let faces: Vec<[u32; 3]> = (0..1 + next(80)).map(|_| [next(nv), next(nv), next(nv)]).collect();
+        let topology = Topology { vertex_count: nv as usize, faces: faces.clone() };
+        match Carrier::build(Path::new("soup"), &topology, &p) {
+            Ok(c) => {
+                let report = analyze(&c.topology, &c.positions(&p));
+                assert!(report.require_sphere_topology().is_ok(), "case {case}: {:?} from {faces:?}", report.problems);
+                // And every tenth is mapped onto a grid, slivers and all, or
+                // refused with the one known reason (below).
+                if case % 10 == 0 {
+                    let grid = cgv::grid::Grid::new(16).unwrap();
+                    let opts = cgv::param::ParamOptions::default();
+                    match cgv::geometry_image::GeometryImage::build(Path::new("soup"), &topology, &p, grid, &opts) {
+                        Ok(_) => mapped += 1,
+                        Err(e) => assert!(e.to_string().contains("cannot cut the surface"), "case {case}: {e}"),
+                    }
+                }
+            }
+            // Only a soup whose every face repeats a vertex has nothing to close.
+            Err(e) => assert!(
+                faces.iter().all(|f| f[0] == f[1] || f[1] == f[2] || f[0] == f[2]),
+                "case {case}: {e} from {faces:?}"
+            ),
+        }
+    }
+    // Known limit: where two cone candidates fall in one tiny part (a
+    // detached triangle closed up), the four cone paths may not be cut
+    // apart even after two subdivisions. Measured: 29 of these 30 map.
+    assert!(mapped >= 29, "{mapped} of 30 soups mapped");
+}

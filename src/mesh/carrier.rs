@@ -96,6 +96,8 @@ impl Carrier {
         c.report.flipped_faces = orient(&mut c.topology.faces);
         c.split(&HashSet::new());
         c.zip_slits();
+        // Zipping can join fans again where a soup of faces meets itself.
+        c.split(&HashSet::new());
         c.drop_unused();
         c.close_loops();
         c.cut_handles();
@@ -103,7 +105,7 @@ impl Carrier {
         c.grow();
         c.carrier_of = first_copies(&c.ext, nv);
         let positions = c.positions(reference);
-        if let Err(problem) = analyze(&c.topology, &positions).require_sphere() {
+        if let Err(problem) = analyze(&c.topology, &positions).require_sphere_topology() {
             return Err(Error::Numerical(format!(
                 "{}: the surface made to carry the mesh still {problem} (a bug: please report it)",
                 label.display()
@@ -126,6 +128,28 @@ impl Carrier {
             self.topology.faces.extend([[b, c, m], [c, a, m]]);
             let real = self.real[0];
             self.real.extend([real, real]);
+        }
+    }
+
+    /// Splits every face into four at its edges' midpoints (new vertices,
+    /// the means of the edges' ends): a mesh too coarse for the four cone
+    /// paths to be cut apart gets room for them.
+    pub fn subdivide(&mut self) {
+        let mut mid: HashMap<(u32, u32), u32> = HashMap::new();
+        let faces = std::mem::take(&mut self.topology.faces);
+        let real = std::mem::take(&mut self.real);
+        for (f, r) in faces.iter().zip(real) {
+            let [a, b, c] = *f;
+            let [ab, bc, ca] = [(a, b), (b, c), (c, a)].map(|(x, y)| {
+                *mid.entry((x.min(y), x.max(y))).or_insert_with(|| {
+                    self.ext.push((self.source_vertices + self.means.len()) as u32);
+                    self.means.push(vec![self.ext[x as usize], self.ext[y as usize]]);
+                    self.topology.vertex_count += 1;
+                    (self.topology.vertex_count - 1) as u32
+                })
+            });
+            self.topology.faces.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
+            self.real.extend([r; 4]);
         }
     }
 
@@ -156,13 +180,51 @@ impl Carrier {
     /// the `cuts` (undirected carrier edges, smaller index first). Repeats
     /// until every edge is manifold.
     fn split(&mut self, cuts: &HashSet<(u32, u32)>) {
-        for _ in 0..4 {
+        for round in 0..6 {
             let before = self.topology.vertex_count;
             split_fans(self, cuts);
-            self.report.split_vertices += self.topology.vertex_count - before;
             let adj = Adjacency::build(&self.topology.faces);
-            if adj.is_manifold() || self.topology.vertex_count == before {
+            if !adj.is_manifold() && (self.topology.vertex_count == before || round >= 3) {
+                // Fans joined around both ends: the faces past two on such
+                // an edge become triangles of their own.
+                self.detach(&adj);
+            }
+            self.report.split_vertices += self.topology.vertex_count - before;
+            if Adjacency::build(&self.topology.faces).is_manifold() {
                 return;
+            }
+        }
+    }
+
+    /// Gives every face but the first two of each non-manifold edge (and
+    /// the second of each inconsistent one) its own copies of its vertices.
+    fn detach(&mut self, adj: &Adjacency) {
+        let bad: HashSet<(u32, u32)> = adj
+            .non_manifold_edges
+            .iter()
+            .map(|&(a, b, _)| (a, b))
+            .chain(adj.inconsistent_edges.iter().copied())
+            .collect();
+        let mut seen: HashMap<(u32, u32), usize> = HashMap::new();
+        for f in 0..self.topology.faces.len() {
+            let face = self.topology.faces[f];
+            let keys = [0, 1, 2].map(|k| {
+                let (a, b) = (face[k], face[(k + 1) % 3]);
+                (a.min(b), a.max(b))
+            });
+            let mut counts = keys.iter().filter(|k| bad.contains(k)).map(|k| {
+                let n = seen.entry(*k).or_insert(0);
+                *n += 1;
+                *n
+            });
+            let limit = |k: &(u32, u32)| if adj.inconsistent_edges.contains(k) { 1 } else { 2 };
+            let over = keys.iter().filter(|k| bad.contains(k)).zip(counts.by_ref()).any(|(k, n)| n > limit(k));
+            if over {
+                for v in &mut self.topology.faces[f] {
+                    self.ext.push(self.ext[*v as usize]);
+                    *v = self.topology.vertex_count as u32;
+                    self.topology.vertex_count += 1;
+                }
             }
         }
     }

@@ -52,6 +52,15 @@ impl TopologyReport {
         self.problems.iter().filter(|p| !matches!(p, MeshProblem::Holes { .. }))
     }
 
+    /// [`require_sphere`](Self::require_sphere) of the connectivity alone:
+    /// faces without area are a matter for the parameterization.
+    pub fn require_sphere_topology(&self) -> Result<(), MeshProblem> {
+        match self.problems.iter().find(|p| !matches!(p, MeshProblem::ZeroAreaFace { .. })) {
+            Some(p) => Err(p.clone()),
+            None => Ok(()),
+        }
+    }
+
     pub fn require_sphere(&self) -> Result<(), MeshProblem> {
         match self.problems.first() {
             Some(p) => Err(p.clone()),

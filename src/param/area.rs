@@ -86,7 +86,10 @@ impl<'a> AreaPasses<'a> {
         if !(opts.area_correction.is_finite() && (0.0..=2.0).contains(&opts.area_correction)) {
             return Err(Error::Argument(format!("area correction {} is not in [0, 2]", opts.area_correction)));
         }
-        if let Err(problem) = crate::mesh::analyze(topology, positions).require_sphere() {
+        // Faces without area are allowed (a user's mesh may have slivers
+        // that collapse, and so may a carrier's closing fans); they weigh
+        // nothing in the distortion and get bounded weights.
+        if let Err(problem) = crate::mesh::analyze(topology, positions).require_sphere_topology() {
             return Err(Error::Argument(format!("cannot parameterize: the surface {problem}")));
         }
         let pos: Vec<DVec3> = positions.iter().map(|p| p.as_dvec3()).collect();
@@ -167,7 +170,7 @@ impl<'a> AreaPasses<'a> {
             let fs = distortion::face_stretch(faces, &self.pos, |f| self.p.face_uv(faces, f));
             let mut num = vec![0.0; nv];
             let mut den = vec![0.0; nv];
-            for (f, face) in faces.iter().enumerate() {
+            for (f, face) in faces.iter().enumerate().filter(|(f, _)| self.area3[*f] > 0.0) {
                 let s = fs[f].min(STRETCH_CAP);
                 for &v in face {
                     num[v as usize] += self.area3[f] * s * s;

@@ -65,6 +65,11 @@ pub struct Graph {
 }
 
 impl Graph {
+    /// The number of neighbours of `v`.
+    pub fn degree(&self, v: u32) -> usize {
+        self.start.get(v as usize + 1).zip(self.start.get(v as usize)).map_or(0, |(b, a)| b - a)
+    }
+
     pub fn new(nv: usize, faces: &[[u32; 3]], pos: &[DVec3]) -> Graph {
         let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(faces.len() * 6);
         for f in faces {
@@ -170,7 +175,10 @@ pub fn corner_for(graph: &Graph, nv: usize, cones: &[u32]) -> u32 {
             *m = m.min(x);
         }
     }
-    argmax(min_d.iter().copied())
+    // Four paths leave the corner by four different edges: a vertex of
+    // fewer neighbours (a coarse mesh has some) cannot be it.
+    let roomy = (0..nv as u32).any(|v| graph.degree(v) >= 4 && !cones.contains(&v));
+    argmax(min_d.iter().enumerate().map(|(v, &d)| if roomy && graph.degree(v as u32) < 4 { -1.0 } else { d }))
 }
 
 /// Picks four cones on the extremities (farthest-point sampling of geodesic
@@ -193,8 +201,54 @@ fn check_cone_vertices(nv: usize, cones: [u32; 4], corner: u32) -> Result<()> {
     Ok(())
 }
 
-/// Shortest paths from `corner` to each cone, both ends included, in the order of `cones`.
+/// Shortest paths from `corner` to each cone, both ends included, in the
+/// order of `cones`. The paths are found one after the other, so an early
+/// one can wall a later cone off (on coarse meshes); then the other orders
+/// are tried.
 fn cut_paths(graph: &Graph, nv: usize, cones: [u32; 4], corner: u32) -> Result<Vec<Vec<u32>>> {
+    let mut first_error = None;
+    for order in ORDERS {
+        match cut_paths_in_order(graph, nv, order.map(|k| cones[k]), corner) {
+            Ok(paths) => {
+                let mut out = vec![Vec::new(); 4];
+                for (k, p) in order.iter().zip(paths) {
+                    out[*k] = p;
+                }
+                return Ok(out);
+            }
+            Err(e) => {
+                first_error.get_or_insert(e);
+            }
+        }
+    }
+    Err(first_error.unwrap_or_else(|| Error::Numerical("no cut".into())))
+}
+
+/// The 24 orders of four cones, the given one first.
+const ORDERS: [[usize; 4]; 24] = {
+    let mut out = [[0; 4]; 24];
+    let mut n = 0;
+    let mut a = 0;
+    while a < 4 {
+        let mut b = 0;
+        while b < 4 {
+            let mut c = 0;
+            while c < 4 {
+                if a != b && b != c && a != c {
+                    out[n] = [a, b, c, 6 - a - b - c];
+                    n += 1;
+                }
+                c += 1;
+            }
+            b += 1;
+        }
+        a += 1;
+    }
+    out
+};
+
+/// [`cut_paths`] in the order of `cones`, or the error of the first cone walled off.
+fn cut_paths_in_order(graph: &Graph, nv: usize, cones: [u32; 4], corner: u32) -> Result<Vec<Vec<u32>>> {
     // Four disjoint paths from the corner, each avoiding the others and the other cones.
     let mut blocked = vec![false; nv];
     for &c in &cones {

@@ -121,8 +121,10 @@ pub fn measure(faces: &[[u32; 3]], pos: &[DVec3], face_uv: impl Fn(usize) -> [DV
     let mut d = Distortion { area_min: f64::INFINITY, ..Default::default() };
     for (fi, f) in faces.iter().enumerate() {
         let w = area3(f);
-        let (s1, s2, sign) = face_singular_values(f.map(|i| pos[i as usize]), face_uv(fi), scale);
-        if sign <= 0.0 {
+        let (s1, s2, _) = face_singular_values(f.map(|i| pos[i as usize]), face_uv(fi), scale);
+        // The image's orientation, which is the Jacobian's sign wherever
+        // the surface triangle has area, and still defined where it has none.
+        if signed_area(face_uv(fi)) <= 0.0 {
             d.flipped_faces += 1;
         }
         let k = if s2 > 0.0 { s1 / s2 } else { f64::INFINITY };

@@ -24,6 +24,9 @@ use glam::{DVec2, DVec3};
 /// keeps the map a bijection at a tiny cost in conformality.
 pub const MIN_WEIGHT_REL: f64 = 1e-3;
 
+/// Largest half-cotangent a corner may have (see [`half_cotangents`]).
+pub const MAX_HALF_COT: f64 = 1e3;
+
 /// Half the cotangent of the angle at each corner of each face.
 pub fn half_cotangents(faces: &[[u32; 3]], pos: &[DVec3]) -> Vec<[f64; 3]> {
     faces
@@ -33,8 +36,10 @@ pub fn half_cotangents(faces: &[[u32; 3]], pos: &[DVec3]) -> Vec<[f64; 3]> {
             let mut c = [0.0; 3];
             for k in 0..3 {
                 let (a, b) = (p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]);
+                // Bounded: a triangle without area would give an infinite
+                // weight (1e3 is a corner of 0.06 degrees).
                 let cross = a.cross(b).length().max(1e-300);
-                c[k] = 0.5 * a.dot(b) / cross;
+                c[k] = (0.5 * a.dot(b) / cross).clamp(-MAX_HALF_COT, MAX_HALF_COT);
             }
             c
         })
