@@ -122,16 +122,11 @@ impl SampleMap {
 
     /// Like [`SampleMap::apply`], reusing `out`'s allocation.
     pub fn apply_into(&self, frame: &[Vec3], out: &mut Vec<Vec3>) {
-        let extended;
+        let mut extended = Vec::new();
         let frame = if self.means.is_empty() {
             frame
         } else {
-            let mut ext = frame.to_vec();
-            for m in &self.means {
-                let sum: Vec3 = m.iter().map(|&i| ext[i as usize]).sum();
-                ext.push(sum / m.len().max(1) as f32);
-            }
-            extended = ext;
+            crate::mesh::carrier::extend_frame(&self.means, frame, &mut extended);
             &extended
         };
         out.clear();

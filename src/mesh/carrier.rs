@@ -120,10 +120,7 @@ impl Carrier {
     fn grow(&mut self) {
         while self.topology.vertex_count < 5 {
             let [a, b, c] = self.topology.faces[0];
-            let m = self.topology.vertex_count as u32;
-            self.ext.push((self.source_vertices + self.means.len()) as u32);
-            self.means.push([a, b, c].iter().map(|&v| self.ext[v as usize]).collect());
-            self.topology.vertex_count += 1;
+            let m = self.add_mean([a, b, c].iter().map(|&v| self.ext[v as usize]).collect());
             self.topology.faces[0] = [a, b, m];
             self.topology.faces.extend([[b, c, m], [c, a, m]]);
             let real = self.real[0];
@@ -141,12 +138,8 @@ impl Carrier {
         for (f, r) in faces.iter().zip(real) {
             let [a, b, c] = *f;
             let [ab, bc, ca] = [(a, b), (b, c), (c, a)].map(|(x, y)| {
-                *mid.entry((x.min(y), x.max(y))).or_insert_with(|| {
-                    self.ext.push((self.source_vertices + self.means.len()) as u32);
-                    self.means.push(vec![self.ext[x as usize], self.ext[y as usize]]);
-                    self.topology.vertex_count += 1;
-                    (self.topology.vertex_count - 1) as u32
-                })
+                *mid.entry((x.min(y), x.max(y)))
+                    .or_insert_with(|| self.add_mean(vec![self.ext[x as usize], self.ext[y as usize]]))
             });
             self.topology.faces.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
             self.real.extend([r; 4]);
@@ -160,12 +153,26 @@ impl Carrier {
 
     /// An input frame followed by the added vertices' positions.
     pub fn extend(&self, frame: &[Vec3], out: &mut Vec<Vec3>) {
-        out.clear();
-        out.extend_from_slice(frame);
-        for m in &self.means {
-            let sum: Vec3 = m.iter().map(|&i| out[i as usize]).sum();
-            out.push(sum / m.len().max(1) as f32);
-        }
+        extend_frame(&self.means, frame, out);
+    }
+
+    /// A new carrier vertex at the mean of `members` (extended-frame entries).
+    fn add_mean(&mut self, members: Vec<u32>) -> u32 {
+        self.ext.push((self.source_vertices + self.means.len()) as u32);
+        self.means.push(members);
+        self.add_vertex()
+    }
+
+    /// A new carrier vertex at the same place as carrier vertex `v`.
+    fn add_copy(&mut self, v: u32) -> u32 {
+        self.ext.push(self.ext[v as usize]);
+        self.add_vertex()
+    }
+
+    /// Counts the vertex whose `ext` entry was just pushed.
+    fn add_vertex(&mut self) -> u32 {
+        self.topology.vertex_count += 1;
+        (self.topology.vertex_count - 1) as u32
     }
 
     /// The carrier's vertex positions for an input frame.
@@ -220,10 +227,8 @@ impl Carrier {
             let limit = |k: &(u32, u32)| if adj.inconsistent_edges.contains(k) { 1 } else { 2 };
             let over = keys.iter().filter(|k| bad.contains(k)).zip(counts.by_ref()).any(|(k, n)| n > limit(k));
             if over {
-                for v in &mut self.topology.faces[f] {
-                    self.ext.push(self.ext[*v as usize]);
-                    *v = self.topology.vertex_count as u32;
-                    self.topology.vertex_count += 1;
+                for k in 0..3 {
+                    self.topology.faces[f][k] = self.add_copy(self.topology.faces[f][k]);
                 }
             }
         }
@@ -296,10 +301,7 @@ impl Carrier {
         for lp in boundary_loops(&self.topology.faces, &adj) {
             let faces = &self.topology.faces;
             let rim: Vec<(u32, u32)> = lp.iter().map(|&h| (origin(faces, h), target(faces, h))).collect();
-            let centre = self.topology.vertex_count as u32;
-            self.ext.push((self.source_vertices + self.means.len()) as u32);
-            self.means.push(rim.iter().map(|&(a, _)| self.ext[a as usize]).collect());
-            self.topology.vertex_count += 1;
+            let centre = self.add_mean(rim.iter().map(|&(a, _)| self.ext[a as usize]).collect());
             for (a, b) in rim {
                 // The rim runs a -> b with the surface on its left.
                 self.topology.faces.push([b, a, centre]);
@@ -357,18 +359,12 @@ impl Carrier {
             }
             joined.extend_from_slice(part);
         }
-        let mut keep = removed.iter().map(|r| !r).chain(std::iter::repeat(true));
-        let mut real = self.real.iter();
-        let mut kept_real = Vec::with_capacity(self.real.len());
-        self.topology.faces.retain(|_| {
-            let k = keep.next().unwrap_or(true);
-            let r = real.next().copied().unwrap_or(false);
-            if k {
-                kept_real.push(r);
-            }
-            k
-        });
-        self.real = kept_real;
+        // The tubes' faces come after every removed one.
+        let kept = |f: usize| !removed.get(f).copied().unwrap_or(false);
+        let faces = std::mem::take(&mut self.topology.faces);
+        let real = std::mem::take(&mut self.real);
+        (self.topology.faces, self.real) =
+            faces.into_iter().zip(real).enumerate().filter(|(f, _)| kept(*f)).map(|(_, x)| x).unzip();
     }
 
     /// The faces of `part` a tube may start from: its added ones where it
@@ -490,11 +486,7 @@ fn split_fans(c: &mut Carrier, cuts: &HashSet<(u32, u32)>) {
         if first_root[v as usize] == NONE {
             first_root[v as usize] = root;
         } else if first_root[v as usize] != root {
-            *slot = *copies.entry((v, root)).or_insert_with(|| {
-                c.ext.push(c.ext[v as usize]);
-                c.topology.vertex_count += 1;
-                (c.topology.vertex_count - 1) as u32
-            });
+            *slot = *copies.entry((v, root)).or_insert_with(|| c.add_copy(v));
         }
     }
     c.topology.faces = faces;
@@ -617,6 +609,18 @@ fn prune(mut edges: HashSet<(u32, u32)>) -> Vec<(u32, u32)> {
     let mut out: Vec<(u32, u32)> = edges.into_iter().collect();
     out.sort_unstable();
     out
+}
+
+/// `frame` (input vertices) followed by the mean of each of `means`, in
+/// order, into `out`: how every frame's added vertices are placed, by the
+/// carrier and by the sample map alike.
+pub fn extend_frame(means: &[Vec<u32>], frame: &[Vec3], out: &mut Vec<Vec3>) {
+    out.clear();
+    out.extend_from_slice(frame);
+    for m in means {
+        let sum: Vec3 = m.iter().map(|&i| out[i as usize]).sum();
+        out.push(sum / m.len().max(1) as f32);
+    }
 }
 
 /// Each input vertex's first carrier vertex.

@@ -213,15 +213,14 @@ pub fn encode_prepared(
         return Err(Error::Argument("the geometry image is for another grid size".into()));
     }
     // The source mesh first: an input too large for a file fails before the passes.
-    let source_chunk = if opts.source_mesh { Some(source_mesh_chunk(src, image)?) } else { None };
+    let source = if opts.source_mesh { Some(source_mesh_chunk(src, image)?) } else { None };
     let st = Stencils::new(plan.grid);
     let analysis = analyse::analyse(src, &plan, &image.map, &st, progress)?;
     let simulation = simulate::simulate(src, &plan, opts, &image.map, &st, &analysis.first_grid)?;
     let diagonal = Bounds::of(&src.read_frame(opts.reference)?).diagonal();
-    let look = src.appearance().filter(|_| opts.source_mesh);
-    let source_info = opts.source_mesh.then(|| image.source_mesh_as_stored(src.topology(), look).info());
+    let (source_chunk, source_info) = source.map_or((None, None), |(chunk, info)| (Some(chunk), Some(info)));
     let mut header = plan.header(src, opts, &analysis, &simulation, diagonal, source_info);
-    header.appearance = look.map(|a| a.look.info());
+    header.appearance = src.appearance().filter(|_| opts.source_mesh).map(|a| a.look.info());
     let code::Coded { bytes, stream_bytes, side_bytes, source_mesh_bytes, seconds_coding } =
         code::code(src, opts, &plan, &header, (image, source_chunk.as_deref()), &st, progress)?;
     let seconds_parameterize = image.seconds();
@@ -239,9 +238,10 @@ pub fn encode_prepared(
     Ok((bytes, report))
 }
 
-/// The `SMSH` chunk of the input's mesh, or an error naming the way out
+/// The `SMSH` chunk of the input's mesh (and `APPR` after it) with the
+/// header's description of it, or an error naming the way out
 /// when the mesh is more than a file may carry.
-fn source_mesh_chunk(src: &dyn FrameSource, image: &GeometryImage) -> Result<Vec<u8>> {
+fn source_mesh_chunk(src: &dyn FrameSource, image: &GeometryImage) -> Result<(Vec<u8>, format::SourceMeshInfo)> {
     let mesh = image.source_mesh_as_stored(src.topology(), src.appearance());
     mesh.info().validate().map_err(|m| Error::Argument(format!("{m}: encode with --no-source-mesh")))?;
     let mut chunk = format::write_source_mesh(&mesh);
@@ -256,7 +256,7 @@ fn source_mesh_chunk(src: &dyn FrameSource, image: &GeometryImage) -> Result<Vec
             format::MAX_CHUNK
         )));
     }
-    Ok(chunk)
+    Ok((chunk, mesh.info()))
 }
 
 /// The correction mode that measured better for these settings (cgv eval
