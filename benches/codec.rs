@@ -6,7 +6,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)] // tests may stop on any failure
 
 use cgv::codec::h264::{Decoder, Encoder, VideoSettings};
-use cgv::codec::{choose_anchors, Corrections};
+use cgv::codec::{choose_anchors, Corrections, Layout};
 use cgv::format::quant::Quantizer;
 use cgv::format::CorrectionMode;
 use cgv::grid::stencil::Stencils;
@@ -86,9 +86,10 @@ fn bench(c: &mut Criterion) {
         // Format v5: applying a motion correction after the frame's filter,
         // at the most passes the encoder chooses (4), and the encoder's
         // choice among its filters.
-        let d: Vec<Vec3> = g1.iter().zip(&g0).map(|(a, b)| (*a - *b) * 0.1).collect();
-        let mut corr = Corrections::new(CorrectionMode::Motion, st.clone());
-        corr.apply(&mut g0.clone(), vec![Vec3::ZERO; g0.len()], 0);
+        let err: Vec<Vec3> = g1.iter().zip(&g0).map(|(a, b)| (*a - *b) * 0.1).collect();
+        let d: Vec<Vec<f32>> = (0..3).map(|c| err.iter().map(|e| e[c]).collect()).collect();
+        let mut corr = Corrections::new(CorrectionMode::Motion, Layout::WORLD, st.clone());
+        corr.apply(&mut g0.clone(), vec![vec![0.0; g0.len()]; 3], 0);
         g.bench_function(format!("correction-filter-4-passes/{n}"), |b| {
             b.iter(|| {
                 let mut x = g0.clone();
@@ -97,6 +98,25 @@ fn bench(c: &mut Criterion) {
             })
         });
         g.bench_function(format!("correction-filter-choice/{n}"), |b| b.iter(|| corr.best_filter(&g0, &d, &g1)));
+        // Format v9: x, y, z at half size and the normal picture, applied
+        // (the decoder's step), and made (the encoder's).
+        let normal = Corrections::new(CorrectionMode::Motion, Layout { shrink: 1, normal: true }, st.clone());
+        let mut pictures = normal.world_pictures(&err, 0.0);
+        pictures.push(normal.normal_picture(&g0, &err, &pictures, 0.0));
+        g.bench_function(format!("correction-normal-apply/{n}"), |b| {
+            b.iter(|| {
+                let mut x = g0.clone();
+                normal.clone().apply(&mut x, pictures.clone(), 0);
+                x
+            })
+        });
+        g.bench_function(format!("correction-normal-pictures/{n}"), |b| {
+            b.iter(|| {
+                let mut p = normal.world_pictures(&err, 0.0);
+                p.push(normal.normal_picture(&g0, &err, &p, 0.0));
+                p
+            })
+        });
         g.bench_function(format!("reconstruct-paper/{n}"), |b| {
             b.iter(|| {
                 let mut s = PaperSolver::new(st.clone(), anchors.clone());

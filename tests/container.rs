@@ -22,6 +22,7 @@ fn header() -> Header {
                 quant: Quantizer::new(-1.0, 1.0),
                 coverage: Coverage::All,
                 scaled: false,
+                shrink: 0,
             },
             StreamInfo {
                 name: StreamName::Lambda,
@@ -30,6 +31,7 @@ fn header() -> Header {
                 quant: Quantizer::new(0.0, 1.0),
                 coverage: Coverage::Key,
                 scaled: false,
+                shrink: 0,
             },
             StreamInfo {
                 name: StreamName::H,
@@ -38,6 +40,7 @@ fn header() -> Header {
                 quant: Quantizer::new(-0.1, 0.1),
                 coverage: Coverage::All,
                 scaled: false,
+                shrink: 0,
             },
         ],
         key_frames: vec![0, 2],
@@ -129,9 +132,9 @@ fn bad_magic_and_versions() {
     assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::BadMagic);
     assert_eq!(format::read(b"GIF89a").unwrap_err(), ContainerError::BadMagic);
     let mut bytes = file(&header());
-    bytes[8] = 9;
-    assert_eq!(format::VERSION, 8);
-    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 9 });
+    bytes[8] = 10;
+    assert_eq!(format::VERSION, 9);
+    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 10 });
     bytes[8] = 0;
     assert!(matches!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 0 }));
 }
@@ -148,6 +151,7 @@ fn motion_header() -> Header {
             quant: Quantizer::new(-0.1, 0.1),
             coverage: Coverage::All,
             scaled: false,
+            shrink: 0,
         });
     }
     h.corrections = CorrectionMode::Motion;
@@ -610,7 +614,7 @@ fn version_eight_carries_the_look() {
     let (h, look) = (header(), look());
     let bytes = file_with_look(&h, look.info(), format::write_appearance(&look));
     let f = format::read(&bytes).unwrap();
-    assert_eq!((f.version, f.header.min_version()), (8, 8));
+    assert_eq!((f.version, f.header.min_version()), (format::VERSION, 8));
     assert_eq!(f.appearance.as_ref(), Some(&look));
     let mut r = format::StreamReader::default();
     for c in bytes.chunks(7) {
@@ -660,4 +664,50 @@ fn bad_looks_are_errors() {
         let e = format::write_header(&h).unwrap_err();
         assert!(matches!(&e, ContainerError::Header(m) if m.contains(want)), "{want}: {e}");
     }
+}
+
+#[test]
+fn a_normal_correction_and_shrunk_streams_need_version_nine() {
+    // dx, dy, dz at half size beside a full-size dn: read back whole, and
+    // only as version 9.
+    let mut h = Header { grid: 32, ..motion_header() };
+    h.streams.iter_mut().filter(|s| s.name.is_correction()).for_each(|s| s.shrink = 1);
+    let mut dn = h.streams[2].clone();
+    (dn.name, dn.shrink) = (StreamName::Dn, 0);
+    h.streams.push(dn);
+    let bytes = file(&h);
+    let f = format::read(&bytes).unwrap();
+    assert_eq!((f.version, &f.header), (9, &h));
+    assert_eq!(f.header.correction_streams().unwrap().len(), 4);
+    assert_eq!(f.header.streams[2].size(32), 16);
+    assert!(String::from_utf8_lossy(&bytes).contains("\"shrink\":1"));
+    let e = format::read(&with_version(bytes, 8)).unwrap_err();
+    assert!(matches!(&e, ContainerError::Header(m) if m.contains("version 9")), "{e}");
+    // A world-axes file says nothing of either.
+    assert!(!String::from_utf8_lossy(&file(&motion_header())).contains("shrink"));
+
+    let refused = |h: &Header, what: &str| {
+        let e = format::write_header(h).unwrap_err();
+        assert!(matches!(&e, ContainerError::Header(m) if m.contains(what)), "{e}");
+    };
+    // Shrunk without dn, or a stream that is not a correction.
+    let mut bad = motion_header();
+    bad.streams[2].shrink = 1;
+    refused(&bad, "only dx, dy, dz beside dn");
+    let mut bad = h.clone();
+    bad.streams[0].shrink = 1;
+    refused(&bad, "only dx, dy, dz beside dn");
+    // Below H.264's 16 samples a side: N = 32 halved twice is 8.
+    let mut bad = h.clone();
+    bad.streams[2..5].iter_mut().for_each(|s| s.shrink = 2);
+    refused(&bad, "at least 16");
+    // dx, dy, dz of different sizes, or dn without them.
+    let mut bad = h.clone();
+    bad.grid = 64;
+    bad.anchors.clear();
+    bad.streams[2].shrink = 2;
+    refused(&bad, "all three the same size");
+    let mut bad = h.clone();
+    bad.streams.retain(|s| s.name.axis().is_none() || !s.name.is_correction());
+    refused(&bad, "with or without dn");
 }

@@ -209,7 +209,8 @@ export class CgvPlayer extends HTMLElement {
         this.viewGrid = h.grid;
         this.stats.backend = this.view.backend();
       }
-      if (!this.decoders) this.decoders = h.streams.map(() => new LumaDecoder(h.grid));
+      // A stream may be coded on a coarser grid (format v9: `shrink` halvings).
+      if (!this.decoders) this.decoders = h.streams.map((s) => new LumaDecoder(h.grid >> (s.shrink || 0)));
       if (h.appearance && this.texture === undefined && this.player.source_uvs().length) {
         this.texture = null;
         this._texture(h.appearance, gen);

@@ -35,13 +35,14 @@ impl UnitDecoder {
     /// Decodes the next frame from its side data and each stream's access
     /// unit (`None` where the stream has no picture at this frame).
     pub fn push_frame(&mut self, info: &FrameInfo, units: &[Option<&[u8]>]) -> Result<(Vec<Vec3>, FrameStats)> {
-        let n = self.sequence.grid().n;
+        let h = self.sequence.header();
         if units.len() != self.videos.len() {
             return Err(Error::Video(format!("{} access units for {} streams", units.len(), self.videos.len())));
         }
         let t0 = std::time::Instant::now();
         let mut lumas = Vec::with_capacity(units.len());
-        for (video, au) in self.videos.iter_mut().zip(units) {
+        for ((video, au), s) in self.videos.iter_mut().zip(units).zip(&h.streams) {
+            let n = s.size(h.grid) as usize;
             lumas.push(au.map(|au| video.decode(au, n, n)).transpose()?);
         }
         let t1 = std::time::Instant::now();

@@ -9,14 +9,17 @@
 //!   (`seed_x/y/z`) the decoders start from, and then either the paper's
 //!   representation (mean curvature H every frame, the conformal factor λ at
 //!   key frames, a few anchor positions) for the paper's solver, or
-//!   closed-loop corrections `dx/dy/dz` to the predictive decoder's
-//!   prediction from the decoded past (`crate::solve::predictor`).
+//!   closed-loop corrections to the predictive decoder's prediction from
+//!   the decoded past (`crate::solve::predictor`): `dx/dy/dz` along the
+//!   world axes, or from version 9 `dn` along the predicted surface's
+//!   normal and `dt/db` along it, coarser ([`corrections`]).
 //!   Motion-corrected files, the default at low rates, carry no H and no λ.
 //!
 //! [`reconstruct`] is what the decoder does with a frame, called by the
 //! encoder's closed loop too; [`decode`] decodes a file natively; `encode`
 //! is the encoder.
 
+pub mod corrections;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod decode;
 #[cfg(not(target_arch = "wasm32"))]
@@ -25,6 +28,7 @@ mod encode;
 pub mod h264;
 pub mod reconstruct;
 
+pub use corrections::{Corrections, Layout, SurfaceFrame, FILTER_CHOICES};
 #[cfg(not(target_arch = "wasm32"))]
 pub use decode::{FileDecoder, UnitDecoder};
 #[cfg(not(target_arch = "wasm32"))]
@@ -33,8 +37,7 @@ pub use encode::{
     MOTION_MARGIN, PAPER_ANCHORS,
 };
 pub use reconstruct::{
-    frame_values, Corrections, FrameStats, Reconstructor, SequenceDecoder, SourceMeshDecoder, DEFAULT_MEMORY_LIMIT,
-    FILTER_CHOICES,
+    frame_values, FrameStats, Reconstructor, SequenceDecoder, SourceMeshDecoder, DEFAULT_MEMORY_LIMIT,
 };
 
 use glam::Vec3;

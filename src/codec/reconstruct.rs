@@ -8,8 +8,9 @@
 //! decoded luma planes as they arrive (from OpenH264 natively, from
 //! WebCodecs in the browser) and holds no file.
 
+use super::corrections::{Corrections, Pictures};
 use crate::error::{Error, Result};
-use crate::format::stream::{CORRECTION, POSITION, SEED};
+use crate::format::stream::{POSITION, SEED};
 use crate::format::{CodecKind, CorrectionMode, FrameInfo, Header, PredictorCode, SolverKind, SourceMesh, StreamName};
 use crate::grid::{Grid, Stencils};
 use crate::mesh::Topology;
@@ -60,89 +61,21 @@ impl<'a> Values<'a> {
         self.header.stream(name).and_then(|s| self.values[s].as_deref())
     }
 
+    /// Streams' values as they are (each on its stream's grid), if all are there.
+    pub fn pictures(&self, names: &[StreamName]) -> Option<Pictures> {
+        names.iter().map(|&n| self.get(n).map(<[f32]>::to_vec)).collect()
+    }
+
+    /// The frame's correction pictures, if it has them.
+    pub fn corrections(&self) -> Option<Pictures> {
+        self.header.correction_streams().and_then(|names| self.pictures(&names))
+    }
+
     /// Three streams as positions, if all are there.
     pub fn xyz(&self, names: [StreamName; 3]) -> Option<Vec<Vec3>> {
         let [x, y, z] = names.map(|n| self.get(n));
         let (x, y, z) = (x?, y?, z?);
         Some(x.iter().zip(y).zip(z).map(|((&x, &y), &z)| Vec3::new(x, y, z)).collect())
-    }
-}
-
-/// The filters (averaging passes) the encoder tries on each frame's
-/// correction; it keeps the one that lands closest to the true frame.
-pub const FILTER_CHOICES: [u8; 4] = [0, 1, 2, 4];
-
-/// Applies the decoded correction streams to the predictive decoder's
-/// prediction, by the file's [`CorrectionMode`], after the frame's filter
-/// (format version 5): `filter` averaging passes over the correction, as a
-/// video codec's in-loop deblocking filter. At the lowest rates H.264 keeps
-/// little of a correction but its block edges, and in motion mode they
-/// never cancel: each frame adds the difference of two decoded pictures,
-/// whose block noise the coarse corrections cannot take back, so it piles
-/// up in the decoded surface (samba, N = 256, 67 kbit/s: smoothness 24.5
-/// against GV's 22.9). The encoder chooses the filter per frame
-/// ([`FILTER_CHOICES`]), so a correction whose detail is real keeps it.
-#[derive(Debug, Clone)]
-pub struct Corrections {
-    mode: CorrectionMode,
-    st: Stencils,
-    /// Motion mode: the previous frame's decoded values.
-    prev: Option<Vec<Vec3>>,
-}
-
-impl Corrections {
-    pub fn new(mode: CorrectionMode, st: Stencils) -> Corrections {
-        Corrections { mode, st, prev: None }
-    }
-
-    /// The correction this frame's decoded streams carry (`decoded`: the
-    /// three streams' values, already scaled in scaled mode), unfiltered.
-    fn increment(&self, decoded: &[Vec3]) -> Vec<Vec3> {
-        match (self.mode, &self.prev) {
-            (CorrectionMode::Motion, Some(prev)) => decoded.iter().zip(prev).map(|(d, q)| *d - *q).collect(),
-            _ => decoded.to_vec(),
-        }
-    }
-
-    /// Adds this frame's correction, after `filter` averaging passes, to
-    /// the prediction `x`.
-    pub fn apply(&mut self, x: &mut [Vec3], decoded: Vec<Vec3>, filter: u8) {
-        let inc = self.st.smooth(self.increment(&decoded), filter as usize);
-        x.iter_mut().zip(&inc).for_each(|(p, d)| *p += *d);
-        if self.mode == CorrectionMode::Motion {
-            self.prev = Some(decoded);
-        }
-    }
-
-    /// The encoder's choice of filter for this frame: of
-    /// [`FILTER_CHOICES`], the one with which the correction `decoded`
-    /// brings the prediction `x` closest to `truth` (the smallest on a tie).
-    pub fn best_filter(&self, x: &[Vec3], decoded: &[Vec3], truth: &[Vec3]) -> u8 {
-        let mut inc = self.increment(decoded);
-        let mut done = 0;
-        let mut best = (f64::INFINITY, 0);
-        for f in FILTER_CHOICES {
-            inc = self.st.smooth(inc, (f - done) as usize);
-            done = f;
-            let e: f64 = x.iter().zip(&inc).zip(truth).map(|((p, d), t)| (*p + *d).distance_squared(*t) as f64).sum();
-            if e < best.0 {
-                best = (e, f);
-            }
-        }
-        best.1
-    }
-
-    /// The encoder's side of [`apply`](Self::apply): what the correction
-    /// streams must carry for this frame's correction to be `err`. Scaled:
-    /// `err` over the frame's `scale`. Motion: the running sum, `err` plus
-    /// what the previous picture held.
-    pub fn stream_values(&self, mut err: Vec<Vec3>, scale: f32) -> Vec<Vec3> {
-        match (self.mode, &self.prev) {
-            (CorrectionMode::Scaled, _) => err.iter_mut().for_each(|e| *e /= scale),
-            (CorrectionMode::Motion, Some(prev)) => err.iter_mut().zip(prev).for_each(|(e, p)| *e += *p),
-            (CorrectionMode::Motion, None) => {}
-        }
-        err
     }
 }
 
@@ -158,7 +91,7 @@ pub struct Predictive {
 impl Predictive {
     pub fn new(header: &Header, st: Stencils) -> Predictive {
         let predictor = Predictor::new(st.clone(), header.anchors.clone()).with_max_lag(header.max_lag);
-        Predictive { predictor, corrections: Corrections::new(header.corrections, st) }
+        Predictive { predictor, corrections: Corrections::of(header, st) }
     }
 
     /// The decoder's prediction of a frame with the file's predictor `code`.
@@ -186,7 +119,7 @@ impl Predictive {
     pub fn finish(
         &mut self,
         mut x: Vec<Vec3>,
-        correction: Option<Vec<Vec3>>,
+        correction: Option<Pictures>,
         filter: u8,
         anchors: &[Vec3],
     ) -> Vec<Vec3> {
@@ -239,9 +172,6 @@ impl Reconstructor {
                     require(&[StreamName::H, StreamName::Lambda])?;
                 }
                 require(&SEED)?;
-                if CORRECTION.iter().any(|&n| h.stream(n).is_some()) {
-                    require(&CORRECTION)?;
-                }
                 let st = Stencils::new(Grid::new(h.grid as usize)?);
                 match solver {
                     SolverKind::Predictive => Rebuild::Predictive(Predictive::new(h, st)),
@@ -265,7 +195,7 @@ impl Reconstructor {
             Rebuild::Predictive(p) => {
                 let code = info.predictor;
                 let x = p.predict(code, values, &anchors)?;
-                let x = p.finish(x, values.xyz(CORRECTION), info.filter, &anchors);
+                let x = p.finish(x, values.corrections(), info.filter, &anchors);
                 Ok((x, SolveStats { iterations: code.steps as usize, residual: 0.0, converged: true }))
             }
             Rebuild::Paper(solver) => {
@@ -323,7 +253,9 @@ impl SequenceDecoder {
     }
 
     /// Rebuilds the next frame from its side data and each stream's decoded
-    /// luma plane (N x N, row-major; `None` where the stream has no frame).
+    /// luma plane (the stream's size squared, row-major, see
+    /// [`StreamInfo::size`](crate::format::StreamInfo::size); `None` where the
+    /// stream has no frame).
     pub fn push_frame(&mut self, info: &FrameInfo, lumas: &[Option<Vec<u8>>]) -> Result<(Vec<Vec3>, SolveStats)> {
         let (f, h) = (self.next, &self.header);
         if f >= h.frames {
@@ -332,8 +264,8 @@ impl SequenceDecoder {
         if lumas.len() != h.streams.len() {
             return Err(Error::Video(format!("{} pictures for {} streams", lumas.len(), h.streams.len())));
         }
-        let n = self.grid.len();
         for (s, luma) in lumas.iter().enumerate() {
+            let n = (h.streams[s].size(h.grid) as usize).pow(2);
             let problem = match (h.stream_has_frame(s, f), luma) {
                 (true, Some(l)) if l.len() != n => format!("a picture of {} samples, not {n}", l.len()),
                 (true, None) => "no picture".into(),

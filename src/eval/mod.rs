@@ -633,12 +633,13 @@ impl Ctx<'_> {
         let mut dec = self.decoder(&t.bytes, codec.solver())?;
         let h = &dec.file.header;
         let corrections = (h.codec == CodecKind::Cgv && codec != EvalCodec::Paper).then_some(h.corrections);
-        let correction_interval =
-            corrections.map(|_| match h.stream(format::StreamName::Dx).map(|s| h.streams[s].coverage) {
+        let correction_interval = corrections.map(|_| {
+            match h.correction_streams().and_then(|c| h.stream(c[0])).map(|s| h.streams[s].coverage) {
                 // Frames 0 and 1, then every k-th.
                 Some(format::Coverage::Key) => h.key_frames.get(2).map_or(h.frames, |k| k - 1),
                 _ => 1,
-            });
+            }
+        });
         let st = Stencils::new(self.grid);
         let grid_faces = self.prepared.map.surface_faces();
         let n = self.mem.frames.len();

@@ -10,11 +10,13 @@
 //! ([`source_mesh`]: the `SMSH` chunk after the header, and the header
 //! field `source_mesh`); version 7 its vertices' offsets from the grid mesh;
 //! version 8 how it looks ([`appearance`]: UVs, base colour, texture).
-//! This writer writes version 8; the reader reads all eight.
+//! Version 9 may code `dx`, `dy`, `dz` on a coarser grid (`shrink`) and
+//! what they leave along the surface's normal (`dn`).
+//! This writer writes version 9; the reader reads all nine.
 //!
 //! ```text
 //! magic    8 bytes   89 43 47 56 0D 0A 1A 0A   ("\x89CGV\r\n\x1a\n")
-//! version  u16 LE    1 to 8
+//! version  u16 LE    1 to 9
 //! flags    u16 LE    0
 //! length   u32 LE    header length L (at most 1 MiB)
 //! header   L bytes   UTF-8 JSON (serde), see [`Header`]
@@ -48,7 +50,7 @@ pub use stream::StreamName;
 
 pub const MAGIC: [u8; 8] = [0x89, b'C', b'G', b'V', b'\r', b'\n', 0x1A, b'\n'];
 /// The newest version this reader reads and this writer writes.
-pub const VERSION: u16 = 8;
+pub const VERSION: u16 = 9;
 /// Largest header accepted.
 pub const MAX_HEADER: usize = 1 << 20;
 /// Largest chunk payload accepted (an access unit of a 2160² frame at QP 0
@@ -143,6 +145,18 @@ pub struct StreamInfo {
     /// ([`FrameInfo::correction_scale`]): the closed-loop corrections.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub scaled: bool,
+    /// Version 9: the stream's pictures are the grid halved this many times
+    /// (`grid >> shrink` samples a side; see `crate::grid::coarse`). Only
+    /// `dx`, `dy`, `dz` beside a `dn` stream are shrunk, all three alike.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub shrink: u8,
+}
+
+impl StreamInfo {
+    /// The side of this stream's pictures in a file of grid size `grid`.
+    pub fn size(&self, grid: u32) -> u32 {
+        grid >> self.shrink
+    }
 }
 
 /// Per-frame side data (the `FRAM` chunk). Payload: `predictor u8 | lag u8
@@ -213,6 +227,9 @@ impl FrameInfo {
         Ok(FrameInfo { predictor, filter, correction_scale, anchors })
     }
 }
+
+/// Most times a stream's grid may be halved (version 9).
+pub const MAX_SHRINK: u8 = 3;
 
 /// Most averaging passes a frame's correction filter may ask for.
 pub const MAX_FILTER: u8 = 8;
@@ -333,9 +350,21 @@ impl Header {
             if !s.quant.is_valid() {
                 return bad(format!("stream {i} has an invalid range"));
             }
+            let side = s.size(self.grid);
+            let shrinkable = s.name.axis().is_some() && s.name.is_correction() && self.stream(StreamName::Dn).is_some();
+            if s.shrink > 0 && !(shrinkable && side >= MIN_GRID && side % 2 == 0 && s.shrink <= MAX_SHRINK) {
+                return bad(format!(
+                    "stream {i} ({}) is shrunk {} times to {side} samples a side: only dx, dy, dz beside dn \
+                     may be, at most {MAX_SHRINK} times, to an even size of at least {MIN_GRID}",
+                    s.name, s.shrink
+                ));
+            }
             match (s.layer, s.refines) {
                 (1, None) => {}
-                (2, Some(r)) if (r as usize) < i && self.streams[r as usize].layer == 1 => {}
+                (2, Some(r))
+                    if (r as usize) < i
+                        && self.streams[r as usize].layer == 1
+                        && self.streams[r as usize].shrink == 0 => {}
                 _ => return bad(format!("stream {i} has an invalid layer {} / refines {:?}", s.layer, s.refines)),
             }
         }
@@ -352,12 +381,18 @@ impl Header {
         // The paper's solver needs anchors; the closed loop (correction
         // streams) does not.
         let closed_loop = self.streams.iter().any(|s| s.scaled) || self.corrections == CorrectionMode::Motion;
+        let world: Vec<u8> =
+            stream::CORRECTION.iter().filter_map(|&n| self.stream(n)).map(|s| self.streams[s].shrink).collect();
+        let normal = self.stream(StreamName::Dn).is_some();
+        if !(world.is_empty() && !normal || world.len() == 3 && world.windows(2).all(|w| w[0] == w[1])) {
+            return bad("correction streams are dx, dy, dz (all three the same size), with or without dn".into());
+        }
         if self.corrections == CorrectionMode::Motion {
             let ok = self.codec == CodecKind::Cgv
-                && stream::CORRECTION.iter().all(|&n| self.stream(n).is_some())
+                && self.correction_streams().is_some()
                 && self.streams.iter().all(|s| !s.scaled);
             if !ok {
-                return bad("motion corrections need a CGV file with unscaled dx, dy, dz streams".into());
+                return bad("motion corrections need a CGV file with unscaled correction streams".into());
             }
         }
         if self.codec == CodecKind::Cgv
@@ -384,13 +419,16 @@ impl Header {
         Ok(())
     }
 
-    /// The oldest format version that can hold this header: 8 for an
+    /// The oldest format version that can hold this header: 9 for a normal
+    /// correction or a shrunk stream, 8 for an
     /// appearance, 7 for the
     /// source mesh's vertex offsets, 6 for the source mesh, 4 for cycle
     /// predictions, 3 for a CGV file without H, 2 for motion corrections,
     /// else 1.
     pub fn min_version(&self) -> u16 {
-        if self.appearance.is_some() {
+        if self.stream(StreamName::Dn).is_some() || self.streams.iter().any(|s| s.shrink > 0) {
+            9
+        } else if self.appearance.is_some() {
             8
         } else if self.source_mesh.is_some_and(|m| m.offset_step.is_some()) {
             7
@@ -419,6 +457,16 @@ impl Header {
     /// The stream named `name` in layer 1, if present.
     pub fn stream(&self, name: StreamName) -> Option<usize> {
         self.streams.iter().position(|s| s.layer == 1 && s.name == name)
+    }
+
+    /// The names of the file's correction streams: `dx`, `dy`, `dz`, and
+    /// from version 9 `dn` after them if the file has it; `None` without
+    /// corrections.
+    pub fn correction_streams(&self) -> Option<Vec<StreamName>> {
+        self.stream(StreamName::Dx)?;
+        let mut names = stream::CORRECTION.to_vec();
+        names.extend(self.stream(StreamName::Dn).map(|_| StreamName::Dn));
+        Some(names)
     }
 
     /// The layer-2 stream refining stream `base`, if any.

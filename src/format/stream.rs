@@ -39,13 +39,17 @@ pub enum StreamName {
     Dy,
     #[serde(rename = "dz")]
     Dz,
+    /// Version 9: what coarse `dx`, `dy`, `dz` leave of the correction,
+    /// along the predicted surface's normal (the extrinsic channel).
+    #[serde(rename = "dn")]
+    Dn,
 }
 
 /// A geometry video's coordinate streams.
 pub const POSITION: [StreamName; 3] = [StreamName::X, StreamName::Y, StreamName::Z];
 /// The frame-0 seed streams.
 pub const SEED: [StreamName; 3] = [StreamName::SeedX, StreamName::SeedY, StreamName::SeedZ];
-/// The correction streams.
+/// The correction streams along the world axes.
 pub const CORRECTION: [StreamName; 3] = [StreamName::Dx, StreamName::Dy, StreamName::Dz];
 
 impl StreamName {
@@ -65,6 +69,7 @@ impl StreamName {
             StreamName::Dx => "dx",
             StreamName::Dy => "dy",
             StreamName::Dz => "dz",
+            StreamName::Dn => "dn",
         }
     }
 
@@ -74,7 +79,7 @@ impl StreamName {
     }
 
     pub fn is_correction(self) -> bool {
-        CORRECTION.contains(&self)
+        CORRECTION.contains(&self) || self == StreamName::Dn
     }
 }
 

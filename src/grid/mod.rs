@@ -20,6 +20,7 @@
 //! right side), so those samples have three distinct neighbours. N must be
 //! even, so no sample lies on the border or on a cone.
 
+pub mod coarse;
 pub mod stencil;
 
 use crate::error::{Error, Result};

@@ -76,6 +76,8 @@ pub struct Args {
     /// docs/RESULTS.md).
     #[arg(long, value_enum, default_value = "auto")]
     corrections: Corrections,
+    #[command(flatten)]
+    layout: super::LayoutArgs,
     /// CGV: most mean-curvature steps the encoder may choose per frame (0..=3).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(0..=3))]
     max_steps: u8,
@@ -141,6 +143,8 @@ fn options(args: &Args, fps: f32) -> EncodeOptions {
             Corrections::Scaled => CorrectionMode::Scaled,
             Corrections::Motion => CorrectionMode::Motion,
         },
+        normal_correction: args.layout.normal_correction,
+        correction_shrink: args.layout.correction_shrink,
         max_steps: args.max_steps,
         max_lag: args.max_lag,
         correction_interval: args.correction_interval,

@@ -56,6 +56,8 @@ pub struct Args {
     /// cgv: never filter a frame's correction, as in `cgv encode` (for measurement).
     #[arg(long)]
     no_correction_filter: bool,
+    #[command(flatten)]
+    layout: super::LayoutArgs,
     /// Write the report as JSON.
     #[arg(long, value_name = "OUT.json")]
     json: Option<PathBuf>,
@@ -94,6 +96,8 @@ pub fn run(args: Args) -> Result<()> {
         max_lag: args.max_lag,
         correction_interval: args.correction_interval,
         correction_filter: !args.no_correction_filter,
+        normal_correction: args.layout.normal_correction,
+        correction_shrink: args.layout.correction_shrink,
         ..Default::default()
     };
     base.video.gop = args.gop;

@@ -191,10 +191,11 @@ fn cgv_info(args: &Args) -> Result<()> {
     }
     for (s, b) in h.streams.iter().zip(&stream_bytes) {
         println!(
-            "  stream {:<7} layer {} {:?} range [{:.4e}, {:.4e}]{} {:>9} bytes",
+            "  stream {:<7} layer {} {:?} {}² range [{:.4e}, {:.4e}]{} {:>9} bytes",
             s.name,
             s.layer,
             s.coverage,
+            s.size(h.grid),
             s.quant.min,
             s.quant.max,
             if s.scaled { " x frame scale" } else { "" },

@@ -1,6 +1,7 @@
 //! The native CLI. Each subcommand is one file; this one parses arguments,
 //! reports errors, and holds what the subcommands share.
 
+mod bdrate;
 mod decode;
 mod encode;
 mod eval;
@@ -45,6 +46,8 @@ enum Command {
     Decode(decode::Args),
     /// Compare GV, the paper's CGV and the project's CGV at matched bitrates (tables, JSON, plots).
     Eval(eval::Args),
+    /// The BD-rate between two `cgv eval --json` reports (one codec's settings against another's).
+    Bdrate(bdrate::Args),
     /// Draw one decoded frame to a PNG with the viewer's renderer (no GPU needed: lavapipe works).
     #[cfg(feature = "render")]
     Render(render::Args),
@@ -136,6 +139,7 @@ pub fn main() -> ExitCode {
         Command::Encode(a) => encode::run(a),
         Command::Decode(a) => decode::run(a),
         Command::Eval(a) => eval::run(a),
+        Command::Bdrate(a) => bdrate::run(a),
         #[cfg(feature = "render")]
         Command::Render(a) => render::run(a),
         Command::Serve(a) => serve::run(a),
@@ -161,4 +165,19 @@ fn error_text(e: &anyhow::Error) -> String {
         }
     }
     text
+}
+
+/// How the CGV corrections are laid out (`cgv encode`, `cgv eval`).
+#[derive(clap::Args)]
+pub struct LayoutArgs {
+    /// CGV: code the corrections' x, y, z on a coarser grid (see
+    /// --correction-shrink) and what they leave along the predicted
+    /// surface's normal at full size (`dn`, one scalar picture: the
+    /// extrinsic channel); format version 9.
+    #[arg(long)]
+    pub normal_correction: bool,
+    /// CGV with --normal-correction: halve the x, y, z pictures' grid this
+    /// many times (0..=3; as far as the grid allows, down to 16 a side).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(0..=3))]
+    pub correction_shrink: u8,
 }

@@ -6,6 +6,7 @@
 use super::analyse::{features, values};
 use super::plan::Plan;
 use super::{EncodeOptions, SEED_MIN_QP, SEED_QP_OFFSET};
+use crate::codec::corrections::Pictures;
 use crate::codec::h264::{Decoder as H264Decoder, Encoder as H264Encoder};
 use crate::codec::reconstruct::{frame_values, Predictive, Values};
 use crate::error::{Error, Result};
@@ -46,10 +47,12 @@ fn open_streams(header: &Header, opts: &EncodeOptions, plan: &Plan) -> Result<Ve
         Coverage::Key => plan.key_frames.len() as f32 / frames,
         Coverage::First => 1.0 / frames,
     };
-    let total_weight: f32 = header.streams.iter().map(|i| weight(i.coverage)).sum();
-    let n = plan.grid.n;
+    // ... and by how many samples its pictures have.
+    let share = |i: &StreamInfo| weight(i.coverage) / 4f32.powi(i.shrink.into());
+    let total_weight: f32 = header.streams.iter().map(share).sum();
     let mut streams = Vec::with_capacity(header.streams.len());
     for info in &header.streams {
+        let n = info.size(header.grid) as usize;
         let mut vs = opts.video;
         // Rate control spreads a stream's bits over the pictures it has.
         vs.fps = header.fps * if info.coverage == Coverage::Key { weight(Coverage::Key) } else { 1.0 };
@@ -57,7 +60,7 @@ fn open_streams(header: &Header, opts: &EncodeOptions, plan: &Plan) -> Result<Ve
             vs.qp = vs.qp.saturating_sub(SEED_QP_OFFSET).max(SEED_MIN_QP);
             vs.kbps = None;
         } else if let Some(kbps) = opts.video.kbps {
-            vs.kbps = Some((kbps * weight(info.coverage) / total_weight).max(1.0));
+            vs.kbps = Some((kbps * share(info) / total_weight).max(1.0));
         }
         let (enc, dec) = (H264Encoder::new(n, n, &vs)?, H264Decoder::new()?);
         streams.push(Stream { info: info.clone(), enc, dec, bytes: 0 });
@@ -141,14 +144,25 @@ fn close_loop(
     // The predictor that lands closest to the true frame.
     let (code, pred) = predictive.choose(plan.allowed, opts.max_steps, &Values::new(header, &vals), anchors, truth)?;
     let err: Vec<Vec3> = truth.iter().zip(&pred).map(|(p, q)| *p - *q).collect();
-    let scale = if plan.motion { 0.0 } else { correction_scale(&err) };
-    let carried = predictive.corrections.stream_values(err, scale);
-    coder.code(streams, post, &|name| {
-        let c = name.axis().unwrap_or(0);
-        carried.iter().map(|e| e[c]).collect()
-    })?;
+    let corrections = &predictive.corrections;
+    let scale = if plan.motion { 0.0 } else { correction_scale(&corrections.world_pictures(&err, 1.0)) };
+    let world = corrections.world_pictures(&err, scale);
+    // x, y, z first; the normal picture carries what they left, as decoded.
+    let is_normal = |k: &usize| {
+        let base = streams[*k].info.refines.map_or(*k, usize::from);
+        streams[base].info.name == StreamName::Dn
+    };
+    let (normal_ks, world_ks): (Vec<usize>, Vec<usize>) = post.iter().partition(|k| is_normal(k));
+    coder.code(streams, &world_ks, &|name| world[name.axis().unwrap_or(0)].clone())?;
+    if !normal_ks.is_empty() {
+        let vals = frame_values(header, &coder.decoded, scale)?;
+        if let Some(decoded) = Values::new(header, &vals).pictures(&CORRECTION) {
+            let normal = corrections.normal_picture(&pred, &err, &decoded, scale);
+            coder.code(streams, &normal_ks, &|_| normal.clone())?;
+        }
+    }
     let vals = frame_values(header, &coder.decoded, scale)?;
-    let correction = Values::new(header, &vals).xyz(CORRECTION);
+    let correction = Values::new(header, &vals).corrections();
     match &correction {
         Some(d) if opts.correction_filter => info.filter = predictive.corrections.best_filter(&pred, d, truth),
         Some(_) => {}
@@ -161,13 +175,13 @@ fn close_loop(
     Ok(())
 }
 
-/// The correction scale: the largest error component, rounded up to a power
+/// The correction scale: the largest picture value, rounded up to a power
 /// of 2^(1/4), so that consecutive frames usually share it (H.264 predicts
 /// across frames best when sample values mean the same thing). Clipping the
 /// largest errors instead (a 99.5 % quantile) was measured worse: what is
 /// clipped comes back doubled through the velocity extrapolation.
-fn correction_scale(err: &[Vec3]) -> f32 {
-    let m = err.iter().map(|e| e.abs().max_element()).filter(|m| m.is_finite()).fold(0.0, f32::max);
+fn correction_scale(pictures: &Pictures) -> f32 {
+    let m = pictures.iter().flatten().map(|e| e.abs()).filter(|m| m.is_finite()).fold(0.0, f32::max);
     if m <= 0.0 {
         return f32::MIN_POSITIVE.sqrt();
     }
@@ -187,12 +201,12 @@ impl FrameCoder<'_> {
     /// Codes streams `ks` (each layer 2 after its base) with the values
     /// `value_of(name)`, in the natural domain.
     fn code(&mut self, streams: &mut [Stream], ks: &[usize], value_of: &dyn Fn(StreamName) -> Vec<f32>) -> Result<()> {
-        let n = self.header.grid as usize;
         for &k in ks {
             if !self.header.stream_has_frame(k, self.frame) {
                 continue;
             }
             let info = &streams[k].info;
+            let n = info.size(self.header.grid) as usize;
             let q = info.quant;
             let samples: Vec<u8> = match info.refines {
                 None => value_of(info.name).iter().map(|&v| q.quantize(v)).collect(),

@@ -76,6 +76,13 @@ pub struct EncodeOptions {
     /// [`Corrections`](super::Corrections)); off, every frame's is 0 (for
     /// measuring what the filter does).
     pub correction_filter: bool,
+    /// CGV with corrections: code x, y, z coarser and what they leave along
+    /// the predicted surface's normal (format version 9: `dn`; see
+    /// [`Corrections`](super::Corrections)).
+    pub normal_correction: bool,
+    /// With a normal correction: how many times the x, y, z pictures' grid
+    /// is halved (as far as the grid allows, down to 16 a side).
+    pub correction_shrink: u8,
     /// 1, or 2 for a residual layer on every stream but the seeds.
     pub layers: u8,
     /// Layer-2 range, in layer-1 quantization steps.
@@ -104,6 +111,8 @@ impl Default for EncodeOptions {
             correction_interval: 1,
             max_lag: DEFAULT_MAX_LAG,
             correction_filter: true,
+            normal_correction: false,
+            correction_shrink: 1,
             layers: 1,
             residual_steps: 8.0,
             solver: SolverKind::Predictive,
@@ -126,6 +135,12 @@ impl EncodeOptions {
         }
         if self.layers == 2 && !(self.residual_steps.is_finite() && self.residual_steps > 0.0) {
             return bad(format!("the residual layer's range ({} steps) must be above 0", self.residual_steps));
+        }
+        if self.correction_shrink > format::MAX_SHRINK {
+            return bad(format!("correction_shrink {} is above {}", self.correction_shrink, format::MAX_SHRINK));
+        }
+        if self.normal_correction && self.layers == 2 {
+            return bad("a normal correction has no residual layer (layers 1)".into());
         }
         if self.max_steps > MAX_STEPS {
             return bad(format!("max_steps {} is above {MAX_STEPS}", self.max_steps));

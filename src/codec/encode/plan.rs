@@ -5,13 +5,14 @@
 use super::analyse::Analysis;
 use super::simulate::Simulation;
 use super::EncodeOptions;
+use crate::codec::corrections::Layout;
 use crate::error::Result;
 use crate::format::quant::Quantizer;
 use crate::format::stream::{CORRECTION, POSITION, SEED};
 use crate::format::{
     self, CodecKind, CorrectionMode, Coverage, Header, Settings, SourceInfo, SourceMeshInfo, StreamInfo, StreamName,
 };
-use crate::grid::Grid;
+use crate::grid::{coarse, Grid};
 use crate::mesh::FrameSource;
 use crate::solve::predictor::{Extrapolation, ALL_EXTRAPOLATIONS, MOTION_EXTRAPOLATIONS};
 
@@ -33,6 +34,8 @@ pub(super) struct Plan {
     pub anchor_count: usize,
     /// The extrapolations the encoder may choose from.
     pub allowed: &'static [Extrapolation],
+    /// What the correction pictures mean.
+    pub layout: Layout,
 }
 
 impl Plan {
@@ -54,6 +57,7 @@ impl Plan {
             names: Vec::new(),
             anchor_count: opts.anchor_count(),
             allowed: if motion { &MOTION_EXTRAPOLATIONS } else { &ALL_EXTRAPOLATIONS },
+            layout: correction_layout(opts)?,
         };
         plan.key_frames = match (interval, motion) {
             (0, _) | (1, true) => vec![0],
@@ -84,6 +88,9 @@ impl Plan {
         if self.closed_loop {
             let coverage = if self.motion && self.interval > 1 { Coverage::Key } else { Coverage::All };
             names.extend(CORRECTION.map(|s| (s, coverage)));
+            if self.layout.normal {
+                names.push((StreamName::Dn, coverage));
+            }
         }
         names
     }
@@ -114,20 +121,22 @@ impl Plan {
                 name,
                 layer: 1,
                 refines: None,
-                quant: match CORRECTION.iter().position(|&c| c == name) {
-                    Some(c) if self.motion => simulation.motion_quant[c],
-                    Some(_) => Quantizer::new(-1.0, 1.0),
-                    None => r.quantizer(),
+                quant: match (name.is_correction(), name.axis()) {
+                    (true, c) if self.motion => simulation.motion_quant[c.unwrap_or(3)],
+                    (true, _) => Quantizer::new(-1.0, 1.0),
+                    _ => r.quantizer(),
                 },
                 coverage,
                 scaled: name.is_correction() && !self.motion,
+                shrink: if name.is_correction() && name.axis().is_some() { self.layout.shrink } else { 0 },
             })
             .collect();
         if opts.layers == 2 {
             for (k, &(name, coverage)) in self.names.iter().enumerate() {
                 if coverage != Coverage::First {
                     let quant = infos[k].quant.residual(opts.residual_steps);
-                    infos.push(StreamInfo { name, layer: 2, refines: Some(k as u16), quant, coverage, scaled: false });
+                    let refines = Some(k as u16);
+                    infos.push(StreamInfo { name, layer: 2, refines, quant, coverage, scaled: false, shrink: 0 });
                 }
             }
         }
@@ -175,4 +184,20 @@ impl Plan {
             appearance: None,
         }
     }
+}
+
+/// The correction pictures' layout the options ask for: with a normal
+/// picture, x, y, z halved `correction_shrink` times (as many times as the
+/// grid allows, down to H.264's 16 samples a side); without, x, y, z at
+/// full size.
+fn correction_layout(opts: &EncodeOptions) -> Result<Layout> {
+    if !opts.normal_correction {
+        return Ok(Layout::WORLD);
+    }
+    let grid = Grid::new(opts.grid)?;
+    let shrink = (0..=opts.correction_shrink)
+        .rev()
+        .find(|&k| coarse::coarser(grid, k, format::MIN_GRID as usize).is_some())
+        .unwrap_or(0);
+    Ok(Layout { shrink, normal: true })
 }

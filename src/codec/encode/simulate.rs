@@ -4,8 +4,10 @@
 
 use super::plan::Plan;
 use super::EncodeOptions;
+use crate::codec::corrections::{Corrections, Layout};
 use crate::error::{Error, Result};
 use crate::format::quant::{Quantizer, Range};
+use crate::format::CorrectionMode;
 use crate::grid::Stencils;
 use crate::mesh::FrameSource;
 use crate::resample::SampleMap;
@@ -16,7 +18,7 @@ use glam::Vec3;
 pub(super) struct Simulation {
     /// The file's `max_lag` (0: no cycle predictions).
     pub max_lag: u8,
-    /// Motion corrections: the quantizers of `dx`, `dy`, `dz`.
+    /// Motion corrections: the quantizers of the three correction streams.
     pub motion_quant: Vec<Quantizer>,
 }
 
@@ -37,7 +39,7 @@ pub(super) fn simulate(
     // where the motion repeats (see CYCLE_GAIN).
     let lags: &[u8] = if opts.max_lag > 0 { &[0, opts.max_lag] } else { &[0] };
     let corrected = |f: usize| plan.corrected(f);
-    let mut runs = uncoded_loops(src, map, st, seed, plan.allowed, lags, &corrected)?.into_iter();
+    let mut runs = uncoded_loops(src, (map, st, plan.layout), seed, plan.allowed, lags, &corrected)?.into_iter();
     let without = runs.next().ok_or_else(|| Error::Numerical("no uncoded loop".into()))?;
     let kept = match runs.next() {
         Some(w) if w.energy < CYCLE_GAIN * without.energy => w,
@@ -62,7 +64,8 @@ pub const CYCLE_GAIN: f64 = 0.75;
 /// What the closed loop does on the true frames (no coding): the range of
 /// the motion-mode running sum and the longest cycle lag it chose.
 struct UncodedLoop {
-    ranges: [Range; 3],
+    /// Of x, y, z, and the normal picture if there is one.
+    ranges: Vec<Range>,
     longest_lag: u8,
     /// Sum over the corrected frames of the squared corrections.
     energy: f64,
@@ -77,13 +80,16 @@ impl UncodedLoop {
     /// centre): the same step on every axis spends the bits where the
     /// squared error is (equal distortion per component is what minimizes
     /// the total at a given rate); per-axis widths made the narrow axes
-    /// finer than the wide one needed.
+    /// finer than the wide one needed. A normal picture, which carries
+    /// what the others leave, keeps its own width.
     fn running_sum_quantizers(&self) -> Vec<Quantizer> {
-        let width = self.ranges.iter().map(|r| r.quantizer()).map(|q| q.max - q.min).fold(0.0, f32::max);
+        let width = self.ranges[..3].iter().map(|r| r.quantizer()).map(|q| q.max - q.min).fold(0.0, f32::max);
         self.ranges
             .iter()
-            .map(|r| {
+            .enumerate()
+            .map(|(c, r)| {
                 let q = r.quantizer();
+                let width = if c < 3 { width } else { q.max - q.min };
                 let half = width * (0.5 + MOTION_MARGIN);
                 let centre = (q.min + q.max) / 2.0;
                 Quantizer::new(centre - half, centre + half)
@@ -98,8 +104,7 @@ impl UncodedLoop {
 /// the true ones, the others as their prediction.
 fn uncoded_loops(
     src: &dyn FrameSource,
-    map: &SampleMap,
-    st: &Stencils,
+    (map, st, layout): (&SampleMap, &Stencils, Layout),
     seed: &[Vec3],
     allowed: &[Extrapolation],
     lags: &[u8],
@@ -107,15 +112,20 @@ fn uncoded_loops(
 ) -> Result<Vec<UncodedLoop>> {
     struct Run {
         sim: Predictor,
-        sum: Vec<Vec3>,
+        /// The motion-mode running sum of the corrections, as pictures.
+        sum: Corrections,
         out: UncodedLoop,
     }
     let mut runs: Vec<Run> = lags
         .iter()
         .map(|&lag| Run {
             sim: Predictor::new(st.clone(), Vec::new()).with_max_lag(lag),
-            sum: vec![Vec3::ZERO; st.grid.len()],
-            out: UncodedLoop { ranges: [Range::default(); 3], longest_lag: 0, energy: 0.0 },
+            sum: Corrections::new(CorrectionMode::Motion, layout, st.clone()),
+            out: UncodedLoop {
+                ranges: vec![Range::default(); 3 + usize::from(layout.normal)],
+                longest_lag: 0,
+                energy: 0.0,
+            },
         })
         .collect();
     for fi in 0..src.frame_count() {
@@ -128,12 +138,16 @@ fn uncoded_loops(
                 continue;
             }
             out.energy += squared_distance(&g, &pred);
-            for ((s, p), q) in sum.iter_mut().zip(&g).zip(&pred) {
-                *s += *p - *q;
+            let err: Vec<Vec3> = g.iter().zip(&pred).map(|(p, q)| *p - *q).collect();
+            let mut pictures = sum.world_pictures(&err, 0.0);
+            if layout.normal {
+                let normal = sum.normal_picture(&pred, &err, &pictures, 0.0);
+                pictures.push(normal);
             }
-            for (c, r) in out.ranges.iter_mut().enumerate() {
-                r.add(&sum.iter().map(|s| s[c]).collect::<Vec<f32>>());
+            for (r, p) in out.ranges.iter_mut().zip(&pictures) {
+                r.add(p);
             }
+            sum.record(pictures);
             sim.commit(g.clone(), &[]);
         }
     }
