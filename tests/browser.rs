@@ -211,6 +211,7 @@ fn site() -> (PathBuf, Guard, u16) {
     }
     std::fs::copy(root.join("tests/fixtures/v6/walk-cgv-source.cgv"), dir.join("walk-source.cgv")).unwrap();
     std::fs::copy(root.join("tests/fixtures/v8/fox-textured.cgv"), dir.join("fox.cgv")).unwrap();
+    std::fs::copy(root.join("tests/fixtures/v9/walk-cgv-normal.cgv"), dir.join("normal.cgv")).unwrap();
     // A corrupt copy: one flipped byte in the middle.
     let mut bad = std::fs::read(dir.join("walk-cgv.cgv")).unwrap();
     let k = bad.len() / 2;
@@ -342,6 +343,15 @@ fn viewer_plays_renders_and_recovers_in_headless_chromium() {
     let (px, ch) = common::decode_png(&browser.screenshot(&art.join("textured.png")));
     let orange = px.chunks_exact(ch).filter(|p| p[0] as i32 > p[2] as i32 + 60 && p[0] > 120).count();
     assert!(orange > 1000, "the textured fox shows {orange} orange pixels (see {})", art.display());
+
+    // A version-9 file: x, y, z corrections at 16 x 16 beside a 32 x 32
+    // normal picture, each stream's WebCodecs decoder at its own size.
+    browser.js("document.getElementById('a').load('normal.cgv'); return true;", json!([]));
+    browser.wait("the v9 fixture's 6 frames", "return (document.getElementById('a').frames || []).length === 6;", 60);
+    browser.js("const p = document.getElementById('a'); p.pause(); p.show(5); return true;", json!([]));
+    std::thread::sleep(Duration::from_millis(300));
+    let (fig, _) = figure_pixels(&browser.screenshot(&art.join("normal-correction.png")));
+    assert!(fig > 2000, "the v9 file shows {fig} figure pixels: {}", browser.js(STATE, json!([])));
 
     // A corrupt file dropped on the page: a clear error; then a good file plays.
     browser.go(&format!("{base}/"));

@@ -183,3 +183,12 @@ fn v8_appearance_fixture_decodes_as_frozen() {
     check("v8/fox-textured.cgv", SolverKind::Predictive, 1e-5);
     check_source("v8/fox-textured.cgv", f);
 }
+
+#[test]
+fn v9_normal_correction_fixture_decodes_as_frozen() {
+    let f = open("v9/walk-cgv-normal.cgv");
+    assert_eq!((f.version, f.header.corrections), (9, CorrectionMode::Motion));
+    let sizes: Vec<(&str, u32)> = f.header.streams.iter().map(|s| (s.name.as_str(), s.size(f.header.grid))).collect();
+    assert_eq!(sizes[3..], [("dx", 16), ("dy", 16), ("dz", 16), ("dn", 32)]);
+    check("v9/walk-cgv-normal.cgv", SolverKind::Predictive, 1e-5);
+}

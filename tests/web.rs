@@ -34,6 +34,8 @@ const SOURCE6_VERTICES: &[u8] = include_bytes!("fixtures/v6/walk-cgv-source.cgv.
 const OFFSETS7: &[u8] = include_bytes!("fixtures/v7/walk-cgv-offsets.cgv");
 const OFFSETS7_POS: &[u8] = include_bytes!("fixtures/v7/walk-cgv-offsets.cgv.cgv.positions");
 const OFFSETS7_VERTICES: &[u8] = include_bytes!("fixtures/v7/walk-cgv-offsets.cgv.source.positions");
+const NORMAL9: &[u8] = include_bytes!("fixtures/v9/walk-cgv-normal.cgv");
+const NORMAL9_POS: &[u8] = include_bytes!("fixtures/v9/walk-cgv-normal.cgv.cgv.positions");
 
 #[wasm_bindgen(inline_js = r#"
 const decoders = new Map();
@@ -104,10 +106,11 @@ async fn decode(name: &str, bytes: &[u8]) -> (Vec<f32>, Vec<Vec<Vec<u8>>>) {
     let mut p = Player::new("").unwrap();
     p.push(bytes).unwrap();
     let h = cgv::format::read(bytes).unwrap().header;
-    let n = h.grid;
     let (mut out, mut lumas) = (Vec::new(), vec![Vec::new(); h.streams.len()]);
     for f in 0..h.frames {
         for s in 0..h.streams.len() {
+            // Version 9: a stream's pictures may be on a coarser grid.
+            let n = h.streams[s].size(h.grid);
             if p.has_frame(s, f) {
                 let au = p.access_unit(s, f).unwrap();
                 let l: Vec<u8> =
@@ -151,6 +154,7 @@ async fn wasm_reconstruction_equals_native() {
         ("filter5", FILTER5, FILTER5_POS, 1e-5),
         ("source6", SOURCE6, SOURCE6_POS, 1e-5),
         ("offsets7", OFFSETS7, OFFSETS7_POS, 1e-5),
+        ("normal9", NORMAL9, NORMAL9_POS, 1e-5),
     ] {
         let diag = cgv::format::read(bytes).unwrap().header.source.diagonal;
         let (got, _) = decode(name, bytes).await;

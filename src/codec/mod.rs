@@ -28,7 +28,7 @@ mod encode;
 pub mod h264;
 pub mod reconstruct;
 
-pub use corrections::{Corrections, Layout, SurfaceFrame, FILTER_CHOICES};
+pub use corrections::{smoothed_normals, Corrections, Layout, FILTER_CHOICES};
 #[cfg(not(target_arch = "wasm32"))]
 pub use decode::{FileDecoder, UnitDecoder};
 #[cfg(not(target_arch = "wasm32"))]

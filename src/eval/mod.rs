@@ -173,6 +173,8 @@ pub struct FrameMetrics {
     pub smoothness: f64,
     pub surface_rms: Option<f64>,
     pub surface_max: Option<f64>,
+    /// The grid samples' spacing change ([`metrics::spacing_drift`]).
+    pub spacing_drift: f64,
     /// RMS distance of the input's vertices rebuilt from the decoded grid.
     pub source_vertex_rms: f64,
 }
@@ -206,6 +208,9 @@ pub struct CodecResult {
     /// Worst frame's surface RMS (vertex RMS without surface distances)
     /// divided by the mean: 1 is flat, large means drift or spikes.
     pub worst_over_mean: f64,
+    /// The worst frame's sample spacing change ([`metrics::spacing_drift`]):
+    /// how far a texture carried by the grid would swim.
+    pub spacing_drift_worst: f64,
     /// Karni & Gotsman, percent, over the grid samples against the uncompressed grid.
     pub kg: f64,
     /// The errors on the input's own vertices, rebuilt from the decoded grid.
@@ -508,7 +513,9 @@ impl Ctx<'_> {
                 *best = Some(t);
             }
         };
-        'layers: for layers in [1u8, 2] {
+        // A normal correction has no second layer (format v9).
+        let layer_choices: &[u8] = if self.opts.base.normal_correction { &[1] } else { &[1, 2] };
+        'layers: for &layers in layer_choices {
             // Secant steps on log(size) over integer QPs inside a shrinking
             // bracket: size(lo) > target > size(hi).
             // (QP, size) of the coarsest QP still too large and the finest too small.
@@ -665,6 +672,7 @@ impl Ctx<'_> {
                 vertex_rms: rms / self.diagonal,
                 vertex_max: max / self.diagonal,
                 smoothness: metrics::smoothness(&st, truth, &x) / self.diagonal,
+                spacing_drift: metrics::spacing_drift(&st, truth, &x),
                 surface_rms: surf.map(|d| d.rms / self.diagonal),
                 surface_max: surf.map(|d| d.max / self.diagonal),
                 source_vertex_rms: source.add_frame(&self.mem.frames[f], &x),
@@ -701,6 +709,7 @@ impl Ctx<'_> {
             surface_rms,
             surface_max: per_frame.iter().filter_map(|m| m.surface_max).reduce(f64::max),
             worst_over_mean,
+            spacing_drift_worst: worst(&|m| Some(m.spacing_drift)),
             kg: kg.value(),
             source: source.finish(),
             encode_ms_per_frame: 1000.0 * t.encode_seconds / n as f64,

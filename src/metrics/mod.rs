@@ -30,6 +30,24 @@ pub fn smoothness(st: &crate::grid::stencil::Stencils, v: &[Vec3], decoded: &[Ve
     (sum / n as f64).sqrt()
 }
 
+/// How far the decoded grid's samples have slid along the surface, as the
+/// change of their spacing: sqrt(mean over grid samples of (λ'/λ − 1)²),
+/// λ the mean length of a sample's four grid edges (the paper's conformal
+/// factor) in the uncompressed grid and λ' in the decoded one. 0.1 is a
+/// spacing 10 % off: a texture carried by the grid would swim that much.
+/// Samples whose λ is zero (none on a valid grid) are left out.
+pub fn spacing_drift(st: &crate::grid::stencil::Stencils, v: &[Vec3], decoded: &[Vec3]) -> f64 {
+    let (mut sum, mut n) = (0.0f64, 0usize);
+    for i in 0..v.len().min(decoded.len()) {
+        let l = st.lambda(v, i);
+        if l > 0.0 {
+            sum += (st.lambda(decoded, i) as f64 / l as f64 - 1.0).powi(2);
+            n += 1;
+        }
+    }
+    (sum / n.max(1) as f64).sqrt()
+}
+
 /// The KG error of Karni & Gotsman (2004), "Compression of soft-body
 /// animation sequences": 100 ‖A − A'‖_F / ‖A − E(A)‖_F, A the 3V x F matrix
 /// of a sequence's coordinates and A' the decoded one. Two definitions of

@@ -80,16 +80,18 @@ impl UncodedLoop {
     /// centre): the same step on every axis spends the bits where the
     /// squared error is (equal distortion per component is what minimizes
     /// the total at a given rate); per-axis widths made the narrow axes
-    /// finer than the wide one needed. A normal picture, which carries
-    /// what the others leave, keeps its own width.
+    /// finer than the wide one needed. A normal picture (format v9) shares
+    /// it too, though its own range is narrower (what x, y, z leave): on
+    /// samba at N = 128 its own range gave +12 % BD-rate (surface RMS)
+    /// against x, y, z at full size, 2x it -4 %, 3x -9 %, 4x -8 %, and the
+    /// shared width is about 2.6x.
     fn running_sum_quantizers(&self) -> Vec<Quantizer> {
-        let width = self.ranges[..3].iter().map(|r| r.quantizer()).map(|q| q.max - q.min).fold(0.0, f32::max);
+        let width = self.ranges.iter().map(|r| r.quantizer()).map(|q| q.max - q.min).fold(0.0, f32::max);
         self.ranges
             .iter()
-            .enumerate()
-            .map(|(c, r)| {
+            .map(|r| {
                 let q = r.quantizer();
-                let width = if c < 3 { width } else { q.max - q.min };
+
                 let half = width * (0.5 + MOTION_MARGIN);
                 let centre = (q.min + q.max) / 2.0;
                 Quantizer::new(centre - half, centre + half)
