@@ -189,19 +189,7 @@ fn cgv_info(args: &Args) -> Result<()> {
             a.texture.as_ref().map_or("no texture".into(), |t| format!("texture ({}, {} bytes)", t.mime, t.bytes));
         println!("  appearance    texture coordinates, base colour {:?}, {texture}", a.base_color);
     }
-    for (s, b) in h.streams.iter().zip(&stream_bytes) {
-        println!(
-            "  stream {:<7} layer {} {:?} {}² range [{:.4e}, {:.4e}]{} {:>9} bytes",
-            s.name,
-            s.layer,
-            s.coverage,
-            s.size(h.grid),
-            s.quant.min,
-            s.quant.max,
-            if s.scaled { " x frame scale" } else { "" },
-            b
-        );
-    }
+    print_streams(h, &stream_bytes);
     if h.stream(StreamName::Dx).is_some() {
         // How the encoder chose to predict each frame (see src/solve/predictor.rs).
         let mut counts = [0usize; 4];
@@ -238,4 +226,21 @@ fn cgv_info(args: &Args) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// One line a stream: its name, layer, frames, picture size, range, bytes.
+fn print_streams(h: &cgv::format::Header, stream_bytes: &[usize]) {
+    for (s, b) in h.streams.iter().zip(stream_bytes) {
+        println!(
+            "  stream {:<7} layer {} {:?} {}² range [{:.4e}, {:.4e}]{} {:>9} bytes",
+            s.name,
+            s.layer,
+            s.coverage,
+            s.size(h.grid),
+            s.quant.min,
+            s.quant.max,
+            if s.scaled { " x frame scale" } else { "" },
+            b
+        );
+    }
 }
