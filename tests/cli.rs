@@ -468,3 +468,64 @@ fn a_textured_gltf_comes_back_with_its_uvs_and_texture() {
     let again = cgv::mesh::open_sequence(objs.to_str().unwrap(), &Default::default()).unwrap();
     assert_eq!((again.frame_count(), again.topology().vertex_count), (3, 1728));
 }
+
+/// One raw HTTP/1.1 request to `cgv serve`: the status line, the headers
+/// (lower-case names) and the body.
+fn http_get(port: u16, path: &str, range: Option<&str>) -> (String, Vec<(String, String)>, Vec<u8>) {
+    use std::io::{Read, Write};
+    let mut s = std::net::TcpStream::connect(("127.0.0.1", port)).unwrap();
+    let range = range.map_or(String::new(), |r| format!("Range: {r}\r\n"));
+    write!(s, "GET {path} HTTP/1.1\r\nHost: 127.0.0.1\r\n{range}\r\n").unwrap();
+    let mut all = Vec::new();
+    s.read_to_end(&mut all).unwrap();
+    let split = all.windows(4).position(|w| w == b"\r\n\r\n").unwrap();
+    let head = String::from_utf8_lossy(&all[..split]).to_string();
+    let mut lines = head.lines();
+    let status = lines.next().unwrap().to_string();
+    let headers = lines
+        .filter_map(|l| l.split_once(':'))
+        .map(|(k, v)| (k.trim().to_ascii_lowercase(), v.trim().to_string()))
+        .collect();
+    (status, headers, all[split + 4..].to_vec())
+}
+
+#[test]
+fn serve_answers_byte_ranges() {
+    // A player seeks in a long file by fetching byte ranges (issue 19).
+    let dir = common::temp_dir("cli-serve");
+    let body: Vec<u8> = (0..5000u32).map(|i| (i * 7 % 251) as u8).collect();
+    std::fs::write(dir.join("motion.cgv"), &body).unwrap();
+    let port = std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port();
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_cgv"))
+        .args(["serve", dir.to_str().unwrap(), "--port", &port.to_string()])
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    struct Kill(std::process::Child);
+    impl Drop for Kill {
+        fn drop(&mut self) {
+            let _ = self.0.kill();
+        }
+    }
+    let _server = Kill(child);
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(20);
+    while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
+        assert!(std::time::Instant::now() < deadline, "cgv serve did not start");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    let header = |h: &[(String, String)], k: &str| h.iter().find(|(n, _)| n == k).map(|(_, v)| v.clone());
+    let (status, h, whole) = http_get(port, "/motion.cgv", None);
+    assert!(status.contains("200"), "{status}");
+    assert_eq!((whole, header(&h, "accept-ranges")), (body.clone(), Some("bytes".into())));
+    let (status, h, part) = http_get(port, "/motion.cgv", Some("bytes=1000-1999"));
+    assert!(status.contains("206"), "{status}");
+    assert_eq!(part, body[1000..2000]);
+    assert_eq!(header(&h, "content-range"), Some("bytes 1000-1999/5000".into()));
+    let (_, _, tail) = http_get(port, "/motion.cgv", Some("bytes=-100"));
+    assert_eq!(tail, body[4900..]);
+    let (status, h, _) = http_get(port, "/motion.cgv", Some("bytes=6000-"));
+    assert!(status.contains("416"), "{status}");
+    assert_eq!(header(&h, "content-range"), Some("bytes */5000".into()));
+    let (status, _, _) = http_get(port, "/../secret", None);
+    assert!(status.contains("404"), "{status}");
+}

@@ -514,7 +514,8 @@ impl Ctx<'_> {
             }
         };
         // A normal correction has no second layer (format v9).
-        let layer_choices: &[u8] = if self.opts.base.normal_correction { &[1] } else { &[1, 2] };
+        let normal = self.opts.base.normal_correction && codec != EvalCodec::Gv;
+        let layer_choices: &[u8] = if normal { &[1] } else { &[1, 2] };
         'layers: for &layers in layer_choices {
             // Secant steps on log(size) over integer QPs inside a shrinking
             // bracket: size(lo) > target > size(hi).

@@ -139,7 +139,7 @@ impl EncodeOptions {
         if self.correction_shrink > format::MAX_SHRINK {
             return bad(format!("correction_shrink {} is above {}", self.correction_shrink, format::MAX_SHRINK));
         }
-        if self.normal_correction && self.layers == 2 {
+        if self.normal_correction && self.layers == 2 && self.closed_loop() {
             return bad("a normal correction has no residual layer (layers 1)".into());
         }
         if self.max_steps > MAX_STEPS {
