@@ -149,27 +149,6 @@ fn handle(root: &Path, stream: TcpStream) -> std::io::Result<()> {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::byte_range;
-
-    #[test]
-    fn ranges_as_rfc_9110_reads_them() {
-        assert_eq!(byte_range("bytes=0-9", 100), Ok(Some((0, 9))));
-        assert_eq!(byte_range("bytes=90-", 100), Ok(Some((90, 99))));
-        assert_eq!(byte_range("bytes=-10", 100), Ok(Some((90, 99))));
-        assert_eq!(byte_range("bytes=-1000", 100), Ok(Some((0, 99))));
-        assert_eq!(byte_range("bytes=50-1000", 100), Ok(Some((50, 99))));
-        assert_eq!(byte_range("bytes=100-", 100), Err(()));
-        assert_eq!(byte_range("bytes=9-3", 100), Err(()));
-        assert_eq!(byte_range("bytes=-", 100), Err(()));
-        assert_eq!(byte_range("bytes=x-3", 100), Err(()));
-        assert_eq!(byte_range("bytes=0-1,5-6", 100), Ok(None), "several ranges: the whole file");
-        assert_eq!(byte_range("items=0-1", 100), Ok(None));
-        assert_eq!(byte_range("bytes=-5", 0), Err(()));
-    }
-}
-
 pub fn run(args: Args) -> Result<()> {
     if !args.dir.is_dir() {
         bail!("{}: not a folder", args.dir.display());
@@ -189,4 +168,25 @@ pub fn run(args: Args) -> Result<()> {
         });
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::byte_range;
+
+    #[test]
+    fn ranges_as_rfc_9110_reads_them() {
+        assert_eq!(byte_range("bytes=0-9", 100), Ok(Some((0, 9))));
+        assert_eq!(byte_range("bytes=90-", 100), Ok(Some((90, 99))));
+        assert_eq!(byte_range("bytes=-10", 100), Ok(Some((90, 99))));
+        assert_eq!(byte_range("bytes=-1000", 100), Ok(Some((0, 99))));
+        assert_eq!(byte_range("bytes=50-1000", 100), Ok(Some((50, 99))));
+        assert_eq!(byte_range("bytes=100-", 100), Err(()));
+        assert_eq!(byte_range("bytes=9-3", 100), Err(()));
+        assert_eq!(byte_range("bytes=-", 100), Err(()));
+        assert_eq!(byte_range("bytes=x-3", 100), Err(()));
+        assert_eq!(byte_range("bytes=0-1,5-6", 100), Ok(None), "several ranges: the whole file");
+        assert_eq!(byte_range("items=0-1", 100), Ok(None));
+        assert_eq!(byte_range("bytes=-5", 0), Err(()));
+    }
 }
