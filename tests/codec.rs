@@ -469,3 +469,34 @@ fn the_memory_estimate_counts_what_a_decoder_of_the_header_holds() {
     let e = SequenceDecoder::new(scaled, SolverKind::Predictive, DEFAULT_MEMORY_LIMIT).err().expect("refused");
     assert!(matches!(e, cgv::Error::Memory { .. }), "{e}");
 }
+
+#[test]
+fn a_bitrate_is_kept_by_the_whole_file_or_refused() {
+    // The default motion (72 frames, 2.4 s) at N = 64: with --kbps the file,
+    // not only its video, lands within 5 % of the budget, for both codecs;
+    // a budget a codec cannot reach is refused, saying why.
+    let src = cgv::mesh::builtin::motion(72);
+    let base = EncodeOptions { grid: 64, source_mesh: false, ..Default::default() };
+    let image = cgv::codec::prepare(&src, &base).unwrap();
+    let budget = |codec: CodecKind, kbps: f32, source_mesh: bool| {
+        let mut o = EncodeOptions { codec, source_mesh, ..base.clone() };
+        o.video.kbps = Some(kbps);
+        o.corrections = cgv::codec::auto_corrections(&o.video, 64, 30.0);
+        cgv::codec::encode_on_budget(&src, &o, &image, &mut |_, _, _| {})
+            .map(|(b, _)| b.len() as f64 * 8.0 / 1000.0 / 2.4)
+    };
+    for (codec, kbps) in [(CodecKind::Cgv, 60.0), (CodecKind::Cgv, 300.0), (CodecKind::Gv, 60.0)] {
+        let got = budget(codec, kbps, false).unwrap();
+        eprintln!("{codec:?} at {kbps} kbit/s: {got:.1}");
+        assert!((got / kbps as f64 - 1.0).abs() <= cgv::codec::BUDGET_TOLERANCE, "{codec:?}: {got} for {kbps}");
+    }
+    // GV's one 8-bit layer at N = 64 cannot spend 500 kbit/s on this motion.
+    let e = budget(CodecKind::Gv, 500.0, false).unwrap_err().to_string();
+    assert!(e.contains("largest file") && e.contains("QP 0"), "{e}");
+    // The source mesh (135 KB, once) does not fit in 100 kbit/s over 2.4 s.
+    let e = budget(CodecKind::Cgv, 100.0, true).unwrap_err().to_string();
+    assert!(e.contains("--no-source-mesh"), "{e}");
+    // Nor the frame chunks alone in 3 kbit/s.
+    let e = budget(CodecKind::Cgv, 3.0, false).unwrap_err().to_string();
+    assert!(e.contains("what is not video alone") && !e.contains("source mesh"), "{e}");
+}

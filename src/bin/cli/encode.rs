@@ -42,7 +42,11 @@ pub struct Args {
     /// Constant H.264 quantization parameter, 0..=51 (lower: larger and finer).
     #[arg(long, default_value_t = 20, conflicts_with = "kbps")]
     qp: u8,
-    /// Target total bitrate in kbit/s at the motion's frame rate, instead of a constant QP.
+    /// Bitrate budget in kbit/s at the motion's frame rate, instead of a
+    /// constant QP: the whole file (source mesh and frame data included)
+    /// lands within 5 % of it; the coding is repeated until it does (a few
+    /// passes, each far shorter than the parameterization). A budget the
+    /// codec cannot reach is refused with the range it can.
     #[arg(long)]
     kbps: Option<f32>,
     /// A key frame (λ) every N frames; 0 for the first frame only.

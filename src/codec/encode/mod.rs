@@ -7,13 +7,16 @@
 //!    for the cycle lags and the motion corrections' ranges;
 //! 4. [`code`]: every frame quantized and coded; for the predictive decoder
 //!    the decoder's own per-frame step ([`super::reconstruct`]) runs on what
-//!    was coded (closed loop), so what it corrects is what the decoder has.
+//!    was coded (closed loop), so what it corrects is what the decoder has;
+//! 5. with a bitrate, [`budget`]: step 4 repeated until the file keeps it.
 
 mod analyse;
+mod budget;
 mod code;
 mod plan;
 mod simulate;
 
+pub use budget::{encode_on_budget, BUDGET_TOLERANCE};
 pub use simulate::MOTION_MARGIN;
 
 use super::h264::VideoSettings;
@@ -187,15 +190,16 @@ pub struct EncodeReport {
     pub seconds_total: f64,
 }
 
-/// Encodes a motion into `.cgv` bytes. `progress(stage, done, total)` is
-/// called as frames are processed.
+/// Encodes a motion into `.cgv` bytes; with a bitrate, the file within
+/// [`BUDGET_TOLERANCE`] of it ([`encode_on_budget`]). `progress(stage,
+/// done, total)` is called as frames are processed.
 pub fn encode(
     src: &dyn FrameSource,
     opts: &EncodeOptions,
     progress: &mut dyn FnMut(&str, usize, usize),
 ) -> Result<(Vec<u8>, EncodeReport)> {
     let image = prepare(src, opts)?;
-    encode_prepared(src, opts, &image, progress)
+    encode_on_budget(src, opts, &image, progress)
 }
 
 /// Checks the options and the motion, parameterizes the reference frame,
