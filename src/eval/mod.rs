@@ -219,6 +219,8 @@ pub struct CodecResult {
     pub video_decode_ms_per_frame: f64,
     pub reconstruct_ms_per_frame: f64,
     pub encodes_tried: usize,
+    /// Bytes of H.264 per stream (layer-2 streams as `name/2`).
+    pub stream_bytes: Vec<(String, usize)>,
     /// The `cgv` entry: the variants measured at this point and not kept.
     pub passed_over: Vec<Variant>,
     pub frames: Vec<FrameMetrics>,
@@ -648,6 +650,12 @@ impl Ctx<'_> {
                 _ => 1,
             }
         });
+        let stream_bytes = h
+            .streams
+            .iter()
+            .zip(&dec.file.units)
+            .map(|(s, u)| (format!("{}{}", s.name, if s.layer == 2 { "/2" } else { "" }), u.iter().map(Vec::len).sum()))
+            .collect();
         let st = Stencils::new(self.grid);
         let grid_faces = self.prepared.map.surface_faces();
         let n = self.mem.frames.len();
@@ -717,6 +725,7 @@ impl Ctx<'_> {
             video_decode_ms_per_frame: 1000.0 * video / n as f64,
             reconstruct_ms_per_frame: 1000.0 * solve / n as f64,
             encodes_tried: tries,
+            stream_bytes,
             passed_over: Vec::new(),
             frames: per_frame,
         })
