@@ -89,11 +89,11 @@ fn bench(c: &mut Criterion) {
         let err: Vec<Vec3> = g1.iter().zip(&g0).map(|(a, b)| (*a - *b) * 0.1).collect();
         let d: Vec<Vec<f32>> = (0..3).map(|c| err.iter().map(|e| e[c]).collect()).collect();
         let mut corr = Corrections::new(CorrectionMode::Motion, Layout::WORLD, st.clone());
-        corr.apply(&mut g0.clone(), vec![vec![0.0; g0.len()]; 3], 0);
+        corr.apply(&mut g0.clone(), vec![vec![0.0; g0.len()]; 3], (0, 0));
         g.bench_function(format!("correction-filter-4-passes/{n}"), |b| {
             b.iter(|| {
                 let mut x = g0.clone();
-                corr.clone().apply(&mut x, d.clone(), 4);
+                corr.clone().apply(&mut x, d.clone(), (4, 0));
                 x
             })
         });
@@ -106,7 +106,7 @@ fn bench(c: &mut Criterion) {
         g.bench_function(format!("correction-normal-apply/{n}"), |b| {
             b.iter(|| {
                 let mut x = g0.clone();
-                normal.clone().apply(&mut x, pictures.clone(), 0);
+                normal.clone().apply(&mut x, pictures.clone(), (0, 1));
                 x
             })
         });

@@ -234,7 +234,7 @@ fn the_normal_picture_carries_what_the_coarse_pictures_leave() {
         assert!((checker - 0.003).abs() < 0.0006, "{mode:?}: checkerboard {checker}");
         pictures.push(normal);
         let mut y = x.clone();
-        corr.apply(&mut y, pictures, 0);
+        corr.apply(&mut y, pictures, (0, 0));
         let off = |y: &[Vec3]| inner.iter().map(|&i| y[i].distance_squared(truth[i])).sum::<f32>().sqrt();
         let (before, after) = (off(&x), off(&y));
         assert!(after < 0.1 * before, "{mode:?}: {before} -> {after}");
@@ -308,10 +308,10 @@ fn the_filter_is_chosen_by_what_it_leaves() {
     assert!(f > 0, "chose {f}");
     let mut corr = corr;
     let mut y = x.clone();
-    corr.apply(&mut y, xyz(&noisy), f);
+    corr.apply(&mut y, xyz(&noisy), (f, 0));
     let left = |y: &[Vec3]| cgv::solve::predictor::squared_distance(y, &truth);
     let mut raw = x.clone();
-    Corrections::new(CorrectionMode::Motion, Layout::WORLD, st).apply(&mut raw, xyz(&noisy), 0);
+    Corrections::new(CorrectionMode::Motion, Layout::WORLD, st).apply(&mut raw, xyz(&noisy), (0, 0));
     assert!(left(&y) < 0.5 * left(&raw), "{} against {}", left(&y), left(&raw));
 }
 

@@ -62,7 +62,7 @@ fn code(byte: u8, lag: u8) -> PredictorCode {
 
 fn frame_info(h: &Header, f: u32) -> format::FrameInfo {
     let anchors = (0..h.anchors.len()).map(|i| [0, 1, 2].map(|c| (3 * i + c) as f32 + f as f32)).collect();
-    format::FrameInfo { predictor: code(6, 0), filter: 0, correction_scale: 0.5, anchors }
+    format::FrameInfo { predictor: code(6, 0), filter: 0, relax: 0, correction_scale: 0.5, anchors }
 }
 
 /// Not real H.264: the reader does not look inside.
@@ -391,11 +391,16 @@ fn chunks_out_of_order_or_extra_are_errors() {
 #[test]
 fn bad_frame_chunks_are_errors() {
     let h = header();
-    let good =
-        format::FrameInfo { predictor: code(1, 0), filter: 0, correction_scale: 1.0, anchors: vec![[0.0; 3]; 4] };
+    let good = format::FrameInfo {
+        predictor: code(1, 0),
+        filter: 0,
+        relax: 0,
+        correction_scale: 1.0,
+        anchors: vec![[0.0; 3]; 4],
+    };
     let mut bad_bytes = good.to_bytes();
     bad_bytes.pop();
-    // The reserved byte after the filter.
+    // The byte after the filter, reserved before version 9 (relaxation).
     let mut reserved = good.to_bytes();
     reserved[3] = 1;
     let cases: Vec<Vec<u8>> = vec![

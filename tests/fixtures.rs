@@ -192,3 +192,12 @@ fn v9_normal_correction_fixture_decodes_as_frozen() {
     assert_eq!(sizes[3..], [("dx", 16), ("dy", 16), ("dz", 16), ("dn", 32)]);
     check("v9/walk-cgv-normal.cgv", SolverKind::Predictive, 1e-5);
 }
+
+#[test]
+fn v9_relaxation_fixture_decodes_as_frozen() {
+    // The same layout at QP 36, where the encoder relaxes a frame.
+    let f = open("v9/walk-cgv-relax.cgv");
+    assert_eq!(f.version, 9);
+    assert!(f.frames.iter().any(|i| i.relax > 0), "{:?}", f.frames.iter().map(|i| i.relax).collect::<Vec<_>>());
+    check("v9/walk-cgv-relax.cgv", SolverKind::Predictive, 1e-5);
+}

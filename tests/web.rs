@@ -36,6 +36,8 @@ const OFFSETS7_POS: &[u8] = include_bytes!("fixtures/v7/walk-cgv-offsets.cgv.cgv
 const OFFSETS7_VERTICES: &[u8] = include_bytes!("fixtures/v7/walk-cgv-offsets.cgv.source.positions");
 const NORMAL9: &[u8] = include_bytes!("fixtures/v9/walk-cgv-normal.cgv");
 const NORMAL9_POS: &[u8] = include_bytes!("fixtures/v9/walk-cgv-normal.cgv.cgv.positions");
+const RELAX9: &[u8] = include_bytes!("fixtures/v9/walk-cgv-relax.cgv");
+const RELAX9_POS: &[u8] = include_bytes!("fixtures/v9/walk-cgv-relax.cgv.cgv.positions");
 
 #[wasm_bindgen(inline_js = r#"
 const decoders = new Map();
@@ -155,6 +157,7 @@ async fn wasm_reconstruction_equals_native() {
         ("source6", SOURCE6, SOURCE6_POS, 1e-5),
         ("offsets7", OFFSETS7, OFFSETS7_POS, 1e-5),
         ("normal9", NORMAL9, NORMAL9_POS, 1e-5),
+        ("relax9", RELAX9, RELAX9_POS, 1e-5),
     ] {
         let diag = cgv::format::read(bytes).unwrap().header.source.diagonal;
         let (got, _) = decode(name, bytes).await;

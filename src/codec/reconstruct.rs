@@ -115,16 +115,17 @@ impl Predictive {
     }
 
     /// Adds the decoded correction (if the frame has one) to the prediction
-    /// `x` after `filter` passes, and records the result as decoded.
+    /// `x` after `steps` = (filter passes, relaxation passes), and records
+    /// the result as decoded.
     pub fn finish(
         &mut self,
         mut x: Vec<Vec3>,
         correction: Option<Pictures>,
-        filter: u8,
+        steps: (u8, u8),
         anchors: &[Vec3],
     ) -> Vec<Vec3> {
         if let Some(d) = correction {
-            self.corrections.apply(&mut x, d, filter);
+            self.corrections.apply(&mut x, d, steps);
         }
         self.predictor.commit(x.clone(), anchors);
         x
@@ -195,7 +196,7 @@ impl Reconstructor {
             Rebuild::Predictive(p) => {
                 let code = info.predictor;
                 let x = p.predict(code, values, &anchors)?;
-                let x = p.finish(x, values.corrections(), info.filter, &anchors);
+                let x = p.finish(x, values.corrections(), (info.filter, info.relax), &anchors);
                 Ok((x, SolveStats { iterations: code.steps as usize, residual: 0.0, converged: true }))
             }
             Rebuild::Paper(solver) => {

@@ -160,9 +160,9 @@ impl StreamInfo {
 }
 
 /// Per-frame side data (the `FRAM` chunk). Payload: `predictor u8 | lag u8
-/// | filter u8 | reserved u8 (zero) | correction_scale f32 | anchors (f32
+/// | filter u8 | relax u8 | correction_scale f32 | anchors (f32
 /// x, y, z each)`, little-endian. The lag byte is zero before version 4,
-/// the filter byte before version 5.
+/// the filter byte before version 5, the relax byte (reserved) before version 9.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct FrameInfo {
     /// How the predictive decoder predicts this frame before its
@@ -173,6 +173,9 @@ pub struct FrameInfo {
     /// frame's correction before adding it (0..=[`MAX_FILTER`]; see
     /// `crate::codec::reconstruct`).
     pub filter: u8,
+    /// Version 9: passes of tangential relaxation after this frame's
+    /// correction (0..=[`MAX_RELAX`]; see `crate::codec::corrections`).
+    pub relax: u8,
     /// Scale of the correction streams at this frame (0 without corrections).
     pub correction_scale: f32,
     pub anchors: Vec<[f32; 3]>,
@@ -180,7 +183,7 @@ pub struct FrameInfo {
 
 impl FrameInfo {
     pub fn to_bytes(&self) -> Vec<u8> {
-        let mut out = vec![self.predictor.to_byte(), self.predictor.lag, self.filter, 0];
+        let mut out = vec![self.predictor.to_byte(), self.predictor.lag, self.filter, self.relax];
         out.extend_from_slice(&self.correction_scale.to_le_bytes());
         out.extend(self.anchors.iter().flatten().flat_map(|v| v.to_le_bytes()));
         out
@@ -206,13 +209,16 @@ impl FrameInfo {
             .filter(|c| c.lag == 0 || (c.lag <= header.max_lag && u32::from(c.lag) < frame));
         let filter = payload[2];
         let filter_ok = filter == 0 || (version >= 5 && filter <= MAX_FILTER);
-        let (Some(predictor), true, 0) = (predictor, filter_ok, payload[3]) else {
+        let relax = payload[3];
+        let relax_ok = relax == 0 || (version >= 9 && relax <= MAX_RELAX);
+        let (Some(predictor), true, true) = (predictor, filter_ok, relax_ok) else {
             return Err(bad(format!(
                 "unknown predictor {:?} at frame {frame} (lags up to {} allowed; filters up to {} from version 5, \
-                 this file is version {version})",
+                 relaxation up to {} from version 9, this file is version {version})",
                 &payload[..4],
                 header.max_lag,
-                MAX_FILTER
+                MAX_FILTER,
+                MAX_RELAX
             )));
         };
         let f32_at = |o: usize| f32::from_le_bytes([payload[o], payload[o + 1], payload[o + 2], payload[o + 3]]);
@@ -224,12 +230,15 @@ impl FrameInfo {
         if anchors.iter().flatten().any(|v| !v.is_finite()) {
             return Err(bad("non-finite anchor position".into()));
         }
-        Ok(FrameInfo { predictor, filter, correction_scale, anchors })
+        Ok(FrameInfo { predictor, filter, relax, correction_scale, anchors })
     }
 }
 
 /// Most times a stream's grid may be halved (version 9).
 pub const MAX_SHRINK: u8 = 3;
+
+/// Most passes of tangential relaxation a frame may ask for (version 9).
+pub const MAX_RELAX: u8 = 4;
 
 /// Most averaging passes a frame's correction filter may ask for.
 pub const MAX_FILTER: u8 = 8;

@@ -153,6 +153,7 @@ fn cgv_info(args: &Args) -> Result<()> {
                 "predictors": file.frames.iter().map(|f| f.predictor.to_byte()).collect::<Vec<_>>(),
                 "lags": file.frames.iter().map(|f| f.predictor.lag).collect::<Vec<_>>(),
                 "filters": file.frames.iter().map(|f| f.filter).collect::<Vec<_>>(),
+                "relax": file.frames.iter().map(|f| f.relax).collect::<Vec<_>>(),
                 "correction_scales": file.frames.iter().map(|f| f.correction_scale).collect::<Vec<_>>(),
             }))?
         );
@@ -212,18 +213,8 @@ fn cgv_info(args: &Args) -> Result<()> {
             if lags.is_empty() { String::new() } else { format!(" ({})", lags.join(", ")) },
             with_h
         );
-        let mut filters = std::collections::BTreeMap::<u8, usize>::new();
-        for f in file.frames.iter().filter(|f| f.filter > 0) {
-            *filters.entry(f.filter).or_default() += 1;
-        }
-        if !filters.is_empty() {
-            let by: Vec<String> = filters.iter().map(|(p, n)| format!("{n} with {p}")).collect();
-            println!(
-                "  corrections   filtered on {} frames (averaging passes: {})",
-                filters.values().sum::<usize>(),
-                by.join(", ")
-            );
-        }
+        print_passes(&file.frames, "filtered", "averaging passes", |f| f.filter);
+        print_passes(&file.frames, "relaxed", "tangential relaxation passes", |f| f.relax);
     }
     Ok(())
 }
@@ -242,5 +233,18 @@ fn print_streams(h: &cgv::format::Header, stream_bytes: &[usize]) {
             if s.scaled { " x frame scale" } else { "" },
             b
         );
+    }
+}
+
+/// How many frames took how many passes of one per-frame step (the
+/// correction filter, the tangential relaxation); nothing if none did.
+fn print_passes(frames: &[cgv::format::FrameInfo], verb: &str, what: &str, passes: fn(&cgv::format::FrameInfo) -> u8) {
+    let mut by = std::collections::BTreeMap::<u8, usize>::new();
+    for p in frames.iter().map(passes).filter(|&p| p > 0) {
+        *by.entry(p).or_default() += 1;
+    }
+    if !by.is_empty() {
+        let list: Vec<String> = by.iter().map(|(p, n)| format!("{n} with {p}")).collect();
+        println!("  corrections   {verb} on {} frames ({what}: {})", by.values().sum::<usize>(), list.join(", "));
     }
 }

@@ -169,7 +169,13 @@ fn close_loop(
         None if !plan.corrected(coder.frame as usize) => {}
         None => return Err(Error::Video("corrections were not coded".into())),
     }
-    predictive.finish(pred, correction, info.filter, anchors);
+    if let (Some(d), true, true) = (&correction, opts.correction_filter, plan.layout.normal) {
+        // What the decoder's relaxation would do after this filter.
+        let mut x = pred.clone();
+        predictive.corrections.clone().apply(&mut x, d.clone(), (info.filter, 0));
+        info.relax = predictive.corrections.best_relax(&x, truth);
+    }
+    predictive.finish(pred, correction, (info.filter, info.relax), anchors);
     info.predictor = code;
     info.correction_scale = scale;
     Ok(())
