@@ -224,8 +224,10 @@ pub fn run(args: Args) -> Result<()> {
                 p.area_passes
             );
         }
+        let passes =
+            if report.passes > 1 { format!(" in {} passes for the budget", report.passes) } else { String::new() };
         println!(
-            "  time: parameterize {:.2} s, coding {:.2} s, total {:.2} s ({:.1} ms/frame)",
+            "  time: parameterize {:.2} s, coding {:.2} s{passes}, total {:.2} s ({:.1} ms/frame)",
             report.seconds_parameterize,
             report.seconds_coding,
             report.seconds_total,

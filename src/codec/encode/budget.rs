@@ -37,10 +37,14 @@ pub fn encode_on_budget(
     let miss = |size: usize| (size as f64 / target - 1.0).abs();
     let mut o = opts.clone();
     let mut best: Option<(Vec<u8>, EncodeReport)> = None;
+    let (mut coding, mut total, mut passes) = (0.0, 0.0, 0);
     for pass in 0..MAX_PASSES {
         let (bytes, report) = encode_prepared(src, &o, image, &mut |stage, done, total| {
             progress(&format!("{stage} (pass {} for {kbps} kbit/s)", pass + 1), done, total)
         })?;
+        coding += report.seconds_coding;
+        total += report.seconds_total - if pass > 0 { report.seconds_parameterize } else { 0.0 };
+        passes = pass + 1;
         let (size, video) = (bytes.len(), report.stream_bytes.iter().map(|s| s.1).sum::<usize>());
         let fixed = size - video;
         if best.as_ref().is_none_or(|b| miss(size) < miss(b.0.len())) {
@@ -62,7 +66,8 @@ pub fn encode_on_budget(
         let scaled = o.video.kbps.unwrap_or(kbps) as f64 * room / video.max(1) as f64;
         o.video.kbps = Some(scaled.clamp(0.01, 1e7) as f32);
     }
-    let (bytes, report) = best.ok_or_else(|| Error::Argument("no encode was made".into()))?;
+    let (bytes, mut report) = best.ok_or_else(|| Error::Argument("no encode was made".into()))?;
+    (report.passes, report.seconds_coding, report.seconds_total) = (passes, coding, total);
     if miss(bytes.len()) <= BUDGET_TOLERANCE {
         return Ok((bytes, report));
     }

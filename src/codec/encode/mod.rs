@@ -188,6 +188,9 @@ pub struct EncodeReport {
     pub seconds_parameterize: f64,
     pub seconds_coding: f64,
     pub seconds_total: f64,
+    /// Times the frames were coded: 1, or with a bitrate the passes
+    /// [`encode_on_budget`] took (the times above add them all up).
+    pub passes: usize,
 }
 
 /// Encodes a motion into `.cgv` bytes; with a bitrate, the file within
@@ -253,6 +256,7 @@ pub fn encode_prepared(
         seconds_parameterize,
         seconds_coding,
         seconds_total: seconds_parameterize + t_start.elapsed().as_secs_f64(),
+        passes: 1,
     };
     Ok((bytes, report))
 }
