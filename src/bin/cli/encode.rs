@@ -27,6 +27,13 @@ enum Corrections {
     Motion,
 }
 
+#[derive(Clone, Copy, PartialEq, clap::ValueEnum)]
+enum CorrectionLayout {
+    Auto,
+    World,
+    Normal,
+}
+
 #[derive(clap::Args)]
 pub struct Args {
     #[command(flatten)]
@@ -80,8 +87,20 @@ pub struct Args {
     /// docs/RESULTS.md).
     #[arg(long, value_enum, default_value = "auto")]
     corrections: Corrections,
-    #[command(flatten)]
-    layout: super::LayoutArgs,
+    /// CGV: how the corrections are laid out. `normal`: their x, y, z on a
+    /// grid halved --correction-shrink times and what those leave along the
+    /// predicted surface's normal at full size (`dn`, one scalar picture a
+    /// frame: the extrinsic channel), with tangential relaxation chosen per
+    /// frame; format version 9. `world`: x, y, z at full size (versions
+    /// 1-8). `auto`: normal from 0.25 to 1.3 bits per grid sample per frame
+    /// (or QP 12 to 30) with one layer, where it measured better, else
+    /// world (docs/RESULTS.md, "One scalar channel per frame").
+    #[arg(long, value_enum, default_value = "auto")]
+    correction_layout: CorrectionLayout,
+    /// CGV with the normal layout: halve the x, y, z pictures' grid this
+    /// many times (0..=3; as far as the grid allows, down to 16 a side).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(0..=3))]
+    correction_shrink: u8,
     /// CGV: most mean-curvature steps the encoder may choose per frame (0..=3).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(0..=3))]
     max_steps: u8,
@@ -147,8 +166,12 @@ fn options(args: &Args, fps: f32) -> EncodeOptions {
             Corrections::Scaled => CorrectionMode::Scaled,
             Corrections::Motion => CorrectionMode::Motion,
         },
-        normal_correction: args.layout.normal_correction,
-        correction_shrink: args.layout.correction_shrink,
+        normal_correction: match args.correction_layout {
+            CorrectionLayout::Auto => cgv::codec::auto_normal_correction(&video, args.grid, fps, args.layers),
+            CorrectionLayout::World => false,
+            CorrectionLayout::Normal => true,
+        },
+        correction_shrink: args.correction_shrink,
         max_steps: args.max_steps,
         max_lag: args.max_lag,
         correction_interval: args.correction_interval,

@@ -305,3 +305,27 @@ pub fn auto_corrections(video: &VideoSettings, grid: usize, fps: f32) -> Correct
 /// at QP 20-25).
 pub const AUTO_SCALED_BITS: f64 = 0.5;
 pub const AUTO_MOTION_QP: u8 = 26;
+
+/// Whether a normal correction measured better for these settings (`cgv
+/// eval --normal-correction` against without, on samba, horse-gallop and
+/// pcow at N = 128, docs/RESULTS.md): it won at every rate point from 0.29
+/// to 0.80 bits per grid sample per frame and tied at 1.27, lost at every
+/// point at 0.15 and below and at 1.67, and the one-layer files it makes
+/// cannot reach the two-layer points. By QP (one layer): it won at its
+/// QPs 13 to 26 (and pcow's scaled 33), lost at 33 to 39 (motion).
+pub fn auto_normal_correction(video: &VideoSettings, grid: usize, fps: f32, layers: u8) -> bool {
+    if layers != 1 {
+        return false;
+    }
+    match video.kbps {
+        Some(kbps) => {
+            let bits = kbps as f64 * 1000.0 / fps.max(1e-3) as f64 / (grid * grid) as f64;
+            (AUTO_NORMAL_BITS.0..=AUTO_NORMAL_BITS.1).contains(&bits)
+        }
+        None => (AUTO_NORMAL_QP.0..=AUTO_NORMAL_QP.1).contains(&video.qp),
+    }
+}
+
+/// See [`auto_normal_correction`]: bits per grid sample per frame, and QPs.
+pub const AUTO_NORMAL_BITS: (f64, f64) = (0.25, 1.3);
+pub const AUTO_NORMAL_QP: (u8, u8) = (12, 30);
