@@ -681,7 +681,7 @@ impl Ctx<'_> {
                 vertex_rms: rms / self.diagonal,
                 vertex_max: max / self.diagonal,
                 smoothness: metrics::smoothness(&st, truth, &x) / self.diagonal,
-                spacing_drift: metrics::spacing_drift(&st, truth, &x),
+                spacing_drift: metrics::spacing_drift(&st, truth, &x, &self.prepared.map.on_input),
                 surface_rms: surf.map(|d| d.rms / self.diagonal),
                 surface_max: surf.map(|d| d.max / self.diagonal),
                 source_vertex_rms: source.add_frame(&self.mem.frames[f], &x),

@@ -35,12 +35,14 @@ pub fn smoothness(st: &crate::grid::stencil::Stencils, v: &[Vec3], decoded: &[Ve
 /// λ the mean length of a sample's four grid edges (the paper's conformal
 /// factor) in the uncompressed grid and λ' in the decoded one. 0.1 is a
 /// spacing 10 % off: a texture carried by the grid would swim that much.
-/// Samples whose λ is zero (none on a valid grid) are left out.
-pub fn spacing_drift(st: &crate::grid::stencil::Stencils, v: &[Vec3], decoded: &[Vec3]) -> f64 {
+/// Samples whose λ is zero (none on a valid grid), and those `on_surface`
+/// marks false (on faces a carrier added to close the input up), are left
+/// out.
+pub fn spacing_drift(st: &crate::grid::stencil::Stencils, v: &[Vec3], decoded: &[Vec3], on_surface: &[bool]) -> f64 {
     let (mut sum, mut n) = (0.0f64, 0usize);
     for i in 0..v.len().min(decoded.len()) {
         let l = st.lambda(v, i);
-        if l > 0.0 {
+        if l > 0.0 && on_surface.get(i).copied().unwrap_or(true) {
             sum += (st.lambda(decoded, i) as f64 / l as f64 - 1.0).powi(2);
             n += 1;
         }
@@ -106,5 +108,37 @@ impl KgError {
         } else {
             0.0
         }
+    }
+}
+
+#[cfg(test)]
+mod spacing_tests {
+    use super::spacing_drift;
+    use crate::grid::{stencil::Stencils, Grid};
+    use glam::Vec3;
+
+    #[test]
+    fn spacing_drift_is_the_change_of_lambda() {
+        let grid = Grid::new(16).unwrap();
+        let st = Stencils::new(grid);
+        let v: Vec<Vec3> =
+            (0..grid.len()).map(|i| Vec3::new((i % 16) as f32, (i / 16) as f32, (i % 5) as f32)).collect();
+        let all = vec![true; v.len()];
+        assert_eq!(spacing_drift(&st, &v, &v, &all), 0.0);
+        // Scaled by 1.1 about any point: every spacing 10 % longer.
+        let big: Vec<Vec3> = v.iter().map(|p| *p * 1.1 + Vec3::ONE).collect();
+        assert!((spacing_drift(&st, &v, &big, &all) - 0.1).abs() < 1e-5);
+        // A translation slides nothing.
+        let moved: Vec<Vec3> = v.iter().map(|p| *p + Vec3::X).collect();
+        assert!(spacing_drift(&st, &v, &moved, &all) < 1e-6);
+        // One sample stretched, then left out.
+        let mut one = v.clone();
+        one[40] += Vec3::Z * 3.0;
+        let mut mask = all.clone();
+        assert!(spacing_drift(&st, &v, &one, &all) > 0.0);
+        for i in std::iter::once(40).chain(grid.neighbours(40).into_iter().map(|s| s as usize)) {
+            mask[i] = false;
+        }
+        assert!(spacing_drift(&st, &v, &one, &mask) < 1e-6);
     }
 }
