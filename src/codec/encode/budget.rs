@@ -104,9 +104,15 @@ fn refuse_or_keep(
     } else {
         let largest = at_qp(0)?;
         if (largest as f64) < target * (1.0 - BUDGET_TOLERANCE) {
+            // One 8-bit layer saturates (GV at N = 128 near 400 kbit/s on
+            // samba): a second layer can spend more, where the layout has one.
+            if opts.layers == 1 && !(opts.normal_correction && opts.closed_loop()) {
+                let two = EncodeOptions { layers: 2, ..opts.clone() };
+                return encode_on_budget(src, &two, image, &mut |_, _, _| {});
+            }
             return Err(Error::Argument(format!(
-                "the largest file this codec makes of this motion (QP 0) is {:.1} kbit/s, below the budget of {:.1} \
-                 (ask for less, or for a second layer with --layers 2)",
+                "the largest file this codec makes of this motion (QP 0{}) is {:.1} kbit/s, below the budget of {:.1}",
+                if opts.layers == 2 { ", two layers" } else { ", one layer: a normal correction has no second" },
                 kbps(largest),
                 kbps(target as usize)
             )));

@@ -158,7 +158,7 @@ impl EncodeOptions {
     }
 
     /// Whether the encoder runs the predictive decoder in its loop.
-    fn closed_loop(&self) -> bool {
+    pub(crate) fn closed_loop(&self) -> bool {
         self.codec == CodecKind::Cgv && self.solver == SolverKind::Predictive && self.correction
     }
 
