@@ -529,3 +529,41 @@ fn serve_answers_byte_ranges() {
     let (status, _, _) = http_get(port, "/../secret", None);
     assert!(status.contains("404"), "{status}");
 }
+
+#[test]
+fn a_manifest_encodes_many_skips_what_is_done_and_reports_failures() {
+    // Issue 20: many inputs to outputs in one process, done jobs skipped,
+    // outputs atomic, a failed job not stopping the others, the same bytes
+    // every time.
+    let dir = common::temp_dir("cli-manifest");
+    let jobs = r#"[
+        {"input": "builtin:walk", "output": "a.cgv", "args": ["--frames", "0..3"]},
+        {"input": "builtin:walk", "output": "b.cgv", "args": ["--frames", "0..3", "--qp", "36"]},
+        {"input": "missing/frames", "output": "c.cgv"}
+    ]"#;
+    std::fs::write(dir.join("jobs.json"), jobs).unwrap();
+    let m = dir.join("jobs.json");
+    let run = || cgv(&["encode", "--manifest", m.to_str().unwrap(), "--grid", "16", "--no-source-mesh"]);
+    let out = run();
+    let text = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(!out.status.success(), "a failed job fails the run");
+    assert!(text.contains("3 jobs: 2 encoded, 0 skipped (done before), 1 failed"), "{text}");
+    assert!(stderr(&out).contains("c.cgv: failed: ") && stderr(&out).contains("missing/frames"), "{}", stderr(&out));
+    assert!(!dir.join("c.cgv").exists(), "no output for the failed job");
+    let a = std::fs::read(dir.join("a.cgv")).unwrap();
+    assert!(cgv::format::read(&a).is_ok());
+    // Run again: both done jobs are skipped.
+    let text = String::from_utf8_lossy(&run().stdout).to_string();
+    assert!(text.contains("0 encoded, 2 skipped"), "{text}");
+    // A job whose options changed is done again; the same job gives the same bytes.
+    let changed = jobs.replace(r#""--qp", "36""#, r#""--qp", "30""#);
+    std::fs::write(&m, changed).unwrap();
+    std::fs::remove_file(dir.join("a.cgv")).unwrap();
+    let text = String::from_utf8_lossy(&run().stdout).to_string();
+    assert!(text.contains("2 encoded, 0 skipped"), "{text}");
+    assert_eq!(std::fs::read(dir.join("a.cgv")).unwrap(), a, "the encoder is deterministic");
+    // A bad manifest is an error naming the file.
+    std::fs::write(&m, "{\"input\": 1}").unwrap();
+    let out = run();
+    assert!(!out.status.success() && stderr(&out).contains("not a manifest"), "{}", stderr(&out));
+}

@@ -41,6 +41,15 @@ pub struct Args {
     /// Output .cgv file.
     #[arg(short, long)]
     output: PathBuf,
+    /// Encode many motions: a JSON file listing jobs, each
+    /// `{"input": ..., "output": ..., "args": ["--grid", "256", ...]}` (any
+    /// `cgv encode` options; those given here apply to every job before its
+    /// own). A job whose output exists and was made by the same job is
+    /// skipped; each output is written atomically; a failed job does not
+    /// stop the others (the exit status says some failed). Used as
+    /// `cgv encode --manifest JOBS.json [OPTIONS]`, without INPUT and -o.
+    #[arg(long, value_name = "JOBS.json")]
+    manifest: Option<PathBuf>,
     #[arg(long, value_enum, default_value = "cgv")]
     codec: Codec,
     /// The decoder recorded as intended (cgv or paper); `cgv decode --solver` overrides it.
@@ -186,14 +195,46 @@ fn options(args: &Args, fps: f32) -> EncodeOptions {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    if args.output.extension().is_none_or(|e| e != "cgv") {
-        bail!("{}: the output should end in .cgv", args.output.display());
+    if args.manifest.is_some() {
+        bail!("--manifest takes no INPUT or -o of its own: each job names its input and output");
     }
-    cgv::fsutil::check_output_folder(&args.output)?;
+    encode_one(&args)
+}
+
+/// Runs one job's command line (`encode INPUT -o OUT [options]`) as
+/// `cgv encode` would.
+pub fn run_job(argv: &[String]) -> Result<()> {
+    let args = parse_job(argv)?;
+    if args.manifest.is_some() {
+        bail!("a job may not name a manifest of its own");
+    }
+    encode_one(&args)
+}
+
+/// Parses one job's command line.
+fn parse_job(argv: &[String]) -> Result<Args> {
+    #[derive(clap::Parser)]
+    // A job's own options come after the shared ones, and win.
+    #[command(args_override_self = true)]
+    struct Job {
+        #[command(flatten)]
+        args: Args,
+    }
+    let job = <Job as clap::Parser>::try_parse_from(argv).map_err(|e| anyhow::anyhow!("{}", e.to_string().trim()))?;
+    Ok(job.args)
+}
+
+/// Encodes one motion (the whole command without --manifest).
+fn encode_one(args: &Args) -> Result<()> {
+    let (input, output) = (&args.input, args.output.as_path());
+    if output.extension().is_none_or(|e| e != "cgv") {
+        bail!("{}: the output should end in .cgv", output.display());
+    }
+    cgv::fsutil::check_output_folder(output)?;
     // Every option is checked before the motion is read.
-    options(&args, args.input.fps).validate()?;
-    let src = args.input.open()?;
-    let opts = options(&args, src.fps());
+    options(args, input.fps).validate()?;
+    let src = input.open()?;
+    let opts = options(args, src.fps());
     opts.validate()?;
     if opts.correction_interval > 1 && opts.corrections != CorrectionMode::Motion {
         bail!("--correction-interval applies to motion corrections, and these are scaled (add --corrections motion)");
@@ -208,21 +249,21 @@ pub fn run(args: Args) -> Result<()> {
     })
     .with_context(|| format!("encoding {}", src.label().display()))?;
     pb.finish_and_clear();
-    cgv::fsutil::write_atomic(&args.output, &bytes)?;
+    cgv::fsutil::write_atomic(output, &bytes)?;
     let seconds = report.frames as f64 / src.fps() as f64;
     let kbps = report.bytes as f64 * 8.0 / 1000.0 / seconds;
     if args.json {
         println!(
             "{}",
             serde_json::to_string_pretty(&serde_json::json!({
-                "output": args.output, "bytes": report.bytes, "kbps": kbps, "report": report
+                "output": output, "bytes": report.bytes, "kbps": kbps, "report": report
             }))?
         );
     } else {
         println!(
             "{} -> {} ({} frames, {} bytes, {:.1} kbit/s at {} fps)",
             src.label().display(),
-            args.output.display(),
+            output.display(),
             report.frames,
             report.bytes,
             kbps,

@@ -6,6 +6,7 @@ mod decode;
 mod encode;
 mod eval;
 mod info;
+mod manifest;
 mod remesh;
 #[cfg(feature = "render")]
 mod render;
@@ -132,6 +133,12 @@ pub fn progress(len: usize, msg: &'static str, quiet: bool) -> ProgressBar {
 }
 
 pub fn main() -> ExitCode {
+    let argv: Vec<String> = std::env::args().collect();
+    // `cgv encode --manifest JOBS.json [OPTIONS]` has no INPUT or -o, which
+    // a single encode requires; each job is parsed as one instead.
+    if let Some(path) = manifest::requested(&argv) {
+        return report(manifest::run(&path, &argv));
+    }
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Info(a) => info::run(a),
@@ -144,6 +151,11 @@ pub fn main() -> ExitCode {
         Command::Render(a) => render::run(a),
         Command::Serve(a) => serve::run(a),
     };
+    report(result)
+}
+
+/// The exit status of a command, its error printed.
+fn report(result: anyhow::Result<()>) -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
@@ -156,7 +168,7 @@ pub fn main() -> ExitCode {
 /// The error and its causes, each said once: the library's errors already
 /// end in their source's text (`file: problem`), so a cause whose text is
 /// already there is not repeated.
-fn error_text(e: &anyhow::Error) -> String {
+pub(crate) fn error_text(e: &anyhow::Error) -> String {
     let mut text = e.to_string();
     for cause in e.chain().skip(1) {
         let c = cause.to_string();
