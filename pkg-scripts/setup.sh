@@ -8,6 +8,8 @@
 #   chromium, chromium-driver                browser tests
 #   mesa-vulkan-drivers                      lavapipe, for rendering without a GPU
 #   nodejs, npm; tests/node (npm ci)         the Khronos glTF-Validator the tests run on our GLBs
+#   python3-venv; python/requirements-dev.txt the Python package's build (maturin) and tests (numpy,
+#                                            pytest, Ray), in a virtual environment under ~/.cache/cgv
 set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -34,6 +36,7 @@ command -v nasm >/dev/null || missing+=(nasm)
 command -v chromium >/dev/null || missing+=(chromium)
 command -v chromedriver >/dev/null || missing+=(chromium-driver)
 command -v xz >/dev/null || missing+=(xz-utils)
+command -v python3 >/dev/null && python3 -c 'import ensurepip, venv' 2>/dev/null || missing+=(python3 python3-venv)
 command -v node >/dev/null || missing+=(nodejs)
 command -v npm >/dev/null || missing+=(npm)
 # A TrueType font for the labels of `cgv eval --plot` (plotters lays text out with one).
@@ -61,6 +64,18 @@ fi
 if [ ! -d "$here/tests/node/node_modules/gltf-validator" ]; then
   say "installing the Khronos glTF-Validator (npm ci in tests/node)"
   (cd "$here/tests/node" && npm ci --no-audit --no-fund --silent)
+fi
+
+# The Python package's tools, in their own virtual environment (CGV_VENV).
+export CGV_VENV="$cache/venv"
+if [ ! -x "$CGV_VENV/bin/python" ]; then
+  say "making a Python virtual environment in $CGV_VENV"
+  python3 -m venv "$CGV_VENV"
+fi
+if ! cmp -s "$here/python/requirements-dev.txt" "$CGV_VENV/requirements-dev.txt"; then
+  say "installing maturin, numpy, pytest and Ray into $CGV_VENV (python/requirements-dev.txt)"
+  "$CGV_VENV/bin/pip" install -q --disable-pip-version-check -r "$here/python/requirements-dev.txt"
+  cp "$here/python/requirements-dev.txt" "$CGV_VENV/requirements-dev.txt"
 fi
 
 # Mesa (lavapipe) warns without a runtime dir; harmless, but noisy in logs.

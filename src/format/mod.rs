@@ -658,6 +658,27 @@ pub struct CgvFile {
     pub bytes: usize,
 }
 
+impl CgvFile {
+    /// What `cgv info --json` says of the file (and the Python package's
+    /// `info`): version, size, header, bytes per stream, and each frame's
+    /// side data.
+    pub fn summary(&self) -> serde_json::Value {
+        let h = &self.header;
+        let seconds = h.frames as f64 / h.fps as f64;
+        let stream_bytes: Vec<usize> = self.units.iter().map(|u| u.iter().map(Vec::len).sum()).collect();
+        let f = &self.frames;
+        serde_json::json!({
+            "version": self.version, "bytes": self.bytes, "kbps": self.bytes as f64 * 8.0 / 1000.0 / seconds,
+            "header": h, "stream_bytes": stream_bytes,
+            "predictors": f.iter().map(|f| f.predictor.to_byte()).collect::<Vec<_>>(),
+            "lags": f.iter().map(|f| f.predictor.lag).collect::<Vec<_>>(),
+            "filters": f.iter().map(|f| f.filter).collect::<Vec<_>>(),
+            "relax": f.iter().map(|f| f.relax).collect::<Vec<_>>(),
+            "correction_scales": f.iter().map(|f| f.correction_scale).collect::<Vec<_>>(),
+        })
+    }
+}
+
 /// Reads and checks a complete `.cgv` file.
 pub fn read(bytes: &[u8]) -> Result<CgvFile, ContainerError> {
     let mut r = StreamReader::default();

@@ -160,7 +160,7 @@ pub struct Args {
 fn options(args: &Args, fps: f32) -> EncodeOptions {
     let video =
         VideoSettings { qp: args.qp, kbps: args.kbps, gop: args.gop, cabac: !args.cavlc, fps, ..Default::default() };
-    EncodeOptions {
+    let mut opts = EncodeOptions {
         codec: match args.codec {
             Codec::Cgv => CodecKind::Cgv,
             Codec::Gv => CodecKind::Gv,
@@ -170,16 +170,6 @@ fn options(args: &Args, fps: f32) -> EncodeOptions {
         key_interval: args.keyframes,
         correction: !args.no_correction,
         correction_filter: !args.no_correction_filter,
-        corrections: match args.corrections {
-            Corrections::Auto => cgv::codec::auto_corrections(&video, args.grid, fps),
-            Corrections::Scaled => CorrectionMode::Scaled,
-            Corrections::Motion => CorrectionMode::Motion,
-        },
-        normal_correction: match args.correction_layout {
-            CorrectionLayout::Auto => cgv::codec::auto_normal_correction(&video, args.grid, fps, args.layers),
-            CorrectionLayout::World => false,
-            CorrectionLayout::Normal => true,
-        },
         correction_shrink: args.correction_shrink,
         max_steps: args.max_steps,
         max_lag: args.max_lag,
@@ -191,7 +181,20 @@ fn options(args: &Args, fps: f32) -> EncodeOptions {
         param: ParamOptions { area_correction: args.area_correction, area_passes: args.area_passes, cones: None },
         reference: 0,
         source_mesh: !args.no_source_mesh,
+        ..EncodeOptions::default()
     }
+    .with_auto_choices();
+    match args.corrections {
+        Corrections::Auto => {}
+        Corrections::Scaled => opts.corrections = CorrectionMode::Scaled,
+        Corrections::Motion => opts.corrections = CorrectionMode::Motion,
+    }
+    match args.correction_layout {
+        CorrectionLayout::Auto => {}
+        CorrectionLayout::World => opts.normal_correction = false,
+        CorrectionLayout::Normal => opts.normal_correction = true,
+    }
+    opts
 }
 
 pub fn run(args: Args) -> Result<()> {

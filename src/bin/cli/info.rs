@@ -143,20 +143,10 @@ fn cgv_info(args: &Args) -> Result<()> {
     let file = super::decode::read_cgv(path)?;
     let h = &file.header;
     let seconds = h.frames as f64 / h.fps as f64;
-    let stream_bytes: Vec<usize> = file.units.iter().map(|u| u.iter().map(|a| a.len()).sum()).collect();
     if args.json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&serde_json::json!({
-                "file": path, "version": file.version, "bytes": file.bytes, "kbps": file.bytes as f64 * 8.0 / 1000.0 / seconds,
-                "header": h, "stream_bytes": stream_bytes,
-                "predictors": file.frames.iter().map(|f| f.predictor.to_byte()).collect::<Vec<_>>(),
-                "lags": file.frames.iter().map(|f| f.predictor.lag).collect::<Vec<_>>(),
-                "filters": file.frames.iter().map(|f| f.filter).collect::<Vec<_>>(),
-                "relax": file.frames.iter().map(|f| f.relax).collect::<Vec<_>>(),
-                "correction_scales": file.frames.iter().map(|f| f.correction_scale).collect::<Vec<_>>(),
-            }))?
-        );
+        let mut summary = file.summary();
+        summary["file"] = serde_json::json!(path);
+        println!("{}", serde_json::to_string_pretty(&summary)?);
         return Ok(());
     }
     println!("{} (.cgv format version {})", path.display(), file.version);
@@ -190,6 +180,7 @@ fn cgv_info(args: &Args) -> Result<()> {
             a.texture.as_ref().map_or("no texture".into(), |t| format!("texture ({}, {} bytes)", t.mime, t.bytes));
         println!("  appearance    texture coordinates, base colour {:?}, {texture}", a.base_color);
     }
+    let stream_bytes: Vec<usize> = file.units.iter().map(|u| u.iter().map(Vec::len).sum()).collect();
     print_streams(h, &stream_bytes);
     if h.stream(StreamName::Dx).is_some() {
         // How the encoder chose to predict each frame (see src/solve/predictor.rs).

@@ -127,6 +127,16 @@ impl Default for EncodeOptions {
 }
 
 impl EncodeOptions {
+    /// These options with the correction mode and layout chosen by the
+    /// measured rules for their rate, grid and layers ([`auto_corrections`],
+    /// [`auto_normal_correction`]): what `cgv encode` and the Python package
+    /// do unless told otherwise.
+    pub fn with_auto_choices(mut self) -> Self {
+        self.corrections = auto_corrections(&self.video, self.grid, self.video.fps);
+        self.normal_correction = auto_normal_correction(&self.video, self.grid, self.video.fps, self.layers);
+        self
+    }
+
     /// Checks every option against what the codec can do, before any work:
     /// each problem gets one error that names the option.
     pub fn validate(&self) -> Result<()> {

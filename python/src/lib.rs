@@ -1,0 +1,439 @@
+//! Python bindings of the cgv library (PyO3 and rust-numpy), built by
+//! maturin as `cgv._native` and re-exported by the `cgv` package.
+//!
+//! Arrays come in as numpy arrays (float32 positions of shape (F, V, 3),
+//! integer faces of shape (M, 3)); a C-contiguous float32 array is read in
+//! place, frame by frame, as the encoder streams it (other dtypes or
+//! layouts are converted once). Decoded arrays are handed to numpy without
+//! a copy. The GIL is released while the library works, so Python threads
+//! (and Ray's workers) run alongside. Every library error is raised as
+//! `cgv.Error` (a `ValueError`), or `OSError` for a file that cannot be
+//! read, with the library's message, which names the file and the problem.
+
+use cgv::codec::{EncodeOptions, FileDecoder};
+use cgv::format::CodecKind;
+use cgv::mesh::source::check_frame;
+use cgv::mesh::{Frame, FrameSource, OpenOptions, Topology};
+use glam::Vec3;
+use numpy::{
+    AllowTypeChange, PyArray1, PyArrayLike2, PyArrayLike3, PyArrayLikeDyn, PyArrayMethods, PyUntypedArrayMethods,
+};
+use pyo3::exceptions::{PyOSError, PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyDict};
+use std::path::{Path, PathBuf};
+
+pyo3::create_exception!(
+    cgv,
+    Error,
+    PyValueError,
+    "An input cgv cannot use (a bad mesh, a malformed .cgv file, an option out of range); the message names the file and the problem."
+);
+
+fn raise(e: cgv::Error) -> PyErr {
+    match e {
+        cgv::Error::Io { .. } => PyOSError::new_err(e.to_string()),
+        _ => Error::new_err(e.to_string()),
+    }
+}
+
+fn invalid(msg: String) -> PyErr {
+    Error::new_err(msg)
+}
+
+/// A motion held by numpy: frame `i` is read from the array when the
+/// encoder asks for it.
+struct ArrayFrames<'a> {
+    label: PathBuf,
+    fps: f32,
+    topology: Topology,
+    coords: &'a [f32],
+}
+
+impl FrameSource for ArrayFrames<'_> {
+    fn label(&self) -> &Path {
+        &self.label
+    }
+    fn frame_count(&self) -> usize {
+        self.coords.len() / (3 * self.topology.vertex_count)
+    }
+    fn fps(&self) -> f32 {
+        self.fps
+    }
+    fn topology(&self) -> &Topology {
+        &self.topology
+    }
+    fn kind(&self) -> &'static str {
+        "numpy arrays"
+    }
+    fn read_frame(&self, i: usize) -> cgv::Result<Frame> {
+        let n = 3 * self.topology.vertex_count;
+        let chunk = self.coords.get(i * n..(i + 1) * n).ok_or_else(|| {
+            cgv::Error::Argument(format!("frame {i} is past the last frame {}", self.frame_count() as i64 - 1))
+        })?;
+        let frame: Frame = chunk.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect();
+        check_frame(&self.label, &self.topology, &frame, None)?;
+        Ok(frame)
+    }
+}
+
+/// Faces of shape (M, 3), every index a vertex of `vertices`.
+fn faces_from(faces: &PyArrayLike2<'_, i64, AllowTypeChange>, vertices: usize) -> PyResult<Vec<[u32; 3]>> {
+    let a = faces.as_array();
+    if a.ncols() != 3 || a.nrows() == 0 {
+        return Err(invalid(format!("faces: shape {:?}, expected (M, 3) with M >= 1", a.shape())));
+    }
+    let mut out = Vec::with_capacity(a.nrows());
+    for (k, row) in a.rows().into_iter().enumerate() {
+        let mut f = [0u32; 3];
+        for (j, &v) in row.iter().enumerate() {
+            if v < 0 || v as u64 >= vertices as u64 {
+                return Err(invalid(format!("faces[{k}] names vertex {v}, not one of the {vertices} vertices")));
+            }
+            f[j] = v as u32;
+        }
+        out.push(f);
+    }
+    Ok(out)
+}
+
+/// Positions of shape (F, V, 3) as one flat slice (borrowed when the array
+/// is C-contiguous float32, else copied into `owned`).
+fn flat<'a>(frames: &'a PyArrayLike3<'_, f32, AllowTypeChange>, owned: &'a mut Vec<f32>) -> PyResult<&'a [f32]> {
+    let shape = frames.shape();
+    if shape[2] != 3 || shape[1] < 3 || shape[0] == 0 {
+        return Err(invalid(format!("frames: shape {shape:?}, expected (F, V, 3) with F >= 1 and V >= 3")));
+    }
+    match frames.as_slice() {
+        Ok(s) => Ok(s),
+        Err(_) => {
+            *owned = frames.as_array().iter().copied().collect();
+            Ok(owned.as_slice())
+        }
+    }
+}
+
+/// The encoder's options from Python keywords, named as `cgv encode`'s
+/// flags are (with `_` for `-`); unknown keywords are a `TypeError`.
+fn encode_options(options: Option<&Bound<'_, PyDict>>, fps: f32) -> PyResult<EncodeOptions> {
+    let mut o = EncodeOptions::default();
+    o.video.fps = fps;
+    let mut layout: Option<String> = None;
+    let mut corrections: Option<String> = None;
+    for (key, value) in options.into_iter().flat_map(|d| d.iter()) {
+        let key: String = key.extract()?;
+        match key.as_str() {
+            "codec" => {
+                o.codec = match value.extract::<String>()?.as_str() {
+                    "cgv" => CodecKind::Cgv,
+                    "gv" => CodecKind::Gv,
+                    c => return Err(invalid(format!("codec {c:?}: expected \"cgv\" or \"gv\""))),
+                }
+            }
+            "grid" => o.grid = value.extract()?,
+            "qp" => o.video.qp = value.extract()?,
+            "kbps" => o.video.kbps = value.extract()?,
+            "gop" => o.video.gop = value.extract()?,
+            "keyframes" => o.key_interval = value.extract()?,
+            "layers" => o.layers = value.extract()?,
+            "max_lag" => o.max_lag = value.extract()?,
+            "correction_layout" => layout = Some(value.extract()?),
+            "corrections" => corrections = Some(value.extract()?),
+            "correction_shrink" => o.correction_shrink = value.extract()?,
+            "source_mesh" => o.source_mesh = value.extract()?,
+            _ => {
+                return Err(PyTypeError::new_err(format!(
+                    "encode() got an unexpected keyword {key:?} (known: codec, grid, qp, kbps, gop, keyframes, layers, \
+                     max_lag, correction_layout, corrections, correction_shrink, source_mesh)"
+                )))
+            }
+        }
+    }
+    let mut o = o.with_auto_choices();
+    match layout.as_deref() {
+        None | Some("auto") => {}
+        Some("world") => o.normal_correction = false,
+        Some("normal") => o.normal_correction = true,
+        Some(l) => return Err(invalid(format!("correction_layout {l:?}: expected \"auto\", \"world\" or \"normal\""))),
+    }
+    match corrections.as_deref() {
+        None | Some("auto") => {}
+        Some("scaled") => o.corrections = cgv::format::CorrectionMode::Scaled,
+        Some("motion") => o.corrections = cgv::format::CorrectionMode::Motion,
+        Some(c) => return Err(invalid(format!("corrections {c:?}: expected \"auto\", \"scaled\" or \"motion\""))),
+    }
+    o.validate().map_err(raise)?;
+    Ok(o)
+}
+
+fn run_encode(py: Python<'_>, src: &dyn FrameSource, opts: &EncodeOptions) -> PyResult<Vec<u8>> {
+    py.detach(|| cgv::codec::encode(src, opts, &mut |_, _, _| {}))
+        .map(|(bytes, _report)| bytes)
+        .map_err(|e| invalid(format!("encoding {}: {e}", src.label().display())))
+}
+
+/// encode(frames, faces, *, fps=30.0, **options) -> bytes
+///
+/// Encodes a motion into the bytes of a .cgv file. `frames`: positions of
+/// shape (F, V, 3); `faces`: vertex indices of shape (M, 3), the same for
+/// every frame. Options, as `cgv encode`'s flags: codec ("cgv" or "gv"),
+/// grid (N, default 128), qp (default 20) or kbps (a budget the whole file
+/// keeps within 5 %, or an error), gop, keyframes, layers (1 or 2), max_lag,
+/// correction_layout ("auto", "world", "normal"), corrections ("auto",
+/// "scaled", "motion"), correction_shrink, source_mesh (default True: the
+/// file carries the input's own faces so that decode gives them back).
+#[pyfunction]
+#[pyo3(signature = (frames, faces, *, fps = 30.0, **options))]
+fn encode<'py>(
+    py: Python<'py>,
+    frames: PyArrayLike3<'py, f32, AllowTypeChange>,
+    faces: PyArrayLike2<'py, i64, AllowTypeChange>,
+    fps: f32,
+    options: Option<&Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyBytes>> {
+    let opts = encode_options(options, fps)?;
+    let mut owned = Vec::new();
+    let coords = flat(&frames, &mut owned)?;
+    let vertex_count = frames.shape()[1];
+    let topology = Topology { vertex_count, faces: faces_from(&faces, vertex_count)? };
+    let src = ArrayFrames { label: PathBuf::from("<numpy arrays>"), fps, topology, coords };
+    let bytes = run_encode(py, &src, &opts)?;
+    Ok(PyBytes::new(py, &bytes))
+}
+
+fn open_options(fps: f32, frames: Option<(usize, usize)>, fill_holes: bool, animation: Option<String>) -> OpenOptions {
+    let frames = frames.map(|(start, end)| cgv::mesh::FrameSelection { start, end: Some(end) });
+    OpenOptions { fps, animation, fill_holes, frames }
+}
+
+/// encode_file(path, *, fps=30.0, frames=None, fill_holes=False, animation=None, **options) -> bytes
+///
+/// Encodes a motion read from `path` (a folder of OBJ files, one OBJ, a
+/// glTF animation, or "builtin:walk") exactly as `cgv encode PATH` does
+/// with the same options: the same bytes. `frames`: (start, end), end
+/// excluded. Options as for `encode`.
+#[pyfunction]
+#[pyo3(signature = (path, *, fps = 30.0, frames = None, fill_holes = false, animation = None, **options))]
+fn encode_file<'py>(
+    py: Python<'py>,
+    path: PathBuf,
+    fps: f32,
+    frames: Option<(usize, usize)>,
+    fill_holes: bool,
+    animation: Option<String>,
+    options: Option<&Bound<'py, PyDict>>,
+) -> PyResult<Bound<'py, PyBytes>> {
+    let open = open_options(fps, frames, fill_holes, animation);
+    let src = py.detach(|| cgv::mesh::open_sequence(&path.to_string_lossy(), &open)).map_err(raise)?;
+    let opts = encode_options(options, src.fps())?;
+    let bytes = run_encode(py, src.as_ref(), &opts)?;
+    Ok(PyBytes::new(py, &bytes))
+}
+
+/// (F, V, 3) float32 and (M, 3) uint32 arrays of a motion, moved into numpy.
+type Arrays<'py> = (Bound<'py, PyAny>, Bound<'py, PyAny>);
+
+fn arrays<'py>(py: Python<'py>, coords: Vec<f32>, frames: usize, faces: &[[u32; 3]]) -> PyResult<Arrays<'py>> {
+    let v = coords.len() / (3 * frames.max(1));
+    let positions = PyArray1::from_vec(py, coords).reshape([frames, v, 3])?.into_any();
+    let flat_faces: Vec<u32> = faces.iter().flatten().copied().collect();
+    let faces = PyArray1::from_vec(py, flat_faces).reshape([faces.len(), 3])?.into_any();
+    Ok((positions, faces))
+}
+
+/// read_motion(path, *, fps=30.0, frames=None, fill_holes=False, animation=None) -> (positions, faces, fps)
+///
+/// Reads a motion as `cgv encode` does: positions (F, V, 3) float32, faces
+/// (M, 3) uint32, and its frame rate.
+#[pyfunction]
+#[pyo3(signature = (path, *, fps = 30.0, frames = None, fill_holes = false, animation = None))]
+fn read_motion<'py>(
+    py: Python<'py>,
+    path: PathBuf,
+    fps: f32,
+    frames: Option<(usize, usize)>,
+    fill_holes: bool,
+    animation: Option<String>,
+) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, f32)> {
+    let open = open_options(fps, frames, fill_holes, animation);
+    let (coords, count, src) = py
+        .detach(|| -> cgv::Result<_> {
+            let src = cgv::mesh::open_sequence(&path.to_string_lossy(), &open)?;
+            let mut coords = Vec::with_capacity(src.frame_count() * src.topology().vertex_count * 3);
+            for i in 0..src.frame_count() {
+                coords.extend(src.read_frame(i)?.iter().flat_map(|p| p.to_array()));
+            }
+            Ok((coords, src.frame_count(), src))
+        })
+        .map_err(raise)?;
+    let (positions, faces) = arrays(py, coords, count, &src.topology().faces)?;
+    Ok((positions, faces, src.fps()))
+}
+
+fn read_cgv(data: &[u8]) -> PyResult<cgv::format::CgvFile> {
+    cgv::format::read(data).map_err(|e| raise(cgv::Error::Container { path: PathBuf::from("<bytes>"), source: e }))
+}
+
+/// decode(data, *, mesh="auto", memory_limit_mib=1024) -> (positions, faces)
+///
+/// Decodes the bytes of a .cgv file: positions (F, V, 3) float32 and faces
+/// (M, 3) uint32 of the input's own mesh when the file carries it (mesh
+/// "auto" or "source"), else, or with mesh="grid", of the N x N grid mesh.
+#[pyfunction]
+#[pyo3(signature = (data, *, mesh = "auto", memory_limit_mib = 1024))]
+fn decode<'py>(py: Python<'py>, data: &[u8], mesh: &str, memory_limit_mib: u64) -> PyResult<Arrays<'py>> {
+    let file = read_cgv(data)?;
+    let solver = file.header.solver;
+    let mut dec = FileDecoder::with_memory_limit(file, solver, memory_limit_mib << 20).map_err(raise)?;
+    let source = match (mesh, dec.source_mesh()) {
+        ("grid", _) | ("auto", None) => None,
+        ("source" | "auto", Some(m)) => Some(m),
+        ("source", None) => {
+            return Err(invalid("the file carries no source mesh (encode with source_mesh=True)".into()))
+        }
+        (m, _) => return Err(invalid(format!("mesh {m:?}: expected \"auto\", \"source\" or \"grid\""))),
+    };
+    let faces = source.as_ref().map_or_else(|| dec.grid.topology().faces, |s| s.topology.faces.clone());
+    let frames = dec.frame_count();
+    let coords = py
+        .detach(|| -> cgv::Result<Vec<f32>> {
+            let mut coords = Vec::new();
+            for _ in 0..frames {
+                let (x, _) = dec.next_frame()?;
+                let x = match &source {
+                    Some(s) => s.vertices(&x),
+                    None => x,
+                };
+                coords.extend(x.iter().flat_map(|p| p.to_array()));
+            }
+            Ok(coords)
+        })
+        .map_err(raise)?;
+    arrays(py, coords, frames, &faces)
+}
+
+/// info(data) -> dict
+///
+/// What `cgv info FILE.cgv --json` says: version, size and bitrate, the
+/// header (grid, frames, fps, streams...), bytes per stream, and each
+/// frame's side data.
+#[pyfunction]
+fn info<'py>(py: Python<'py>, data: &[u8]) -> PyResult<Bound<'py, PyAny>> {
+    let summary = read_cgv(data)?.summary().to_string();
+    py.import("json")?.call_method1("loads", (summary,))
+}
+
+fn points(a: &PyArrayLike2<'_, f32, AllowTypeChange>, what: &str) -> PyResult<Vec<Vec3>> {
+    let a = a.as_array();
+    if a.ncols() != 3 {
+        return Err(invalid(format!("{what}: shape {:?}, expected (V, 3)", a.shape())));
+    }
+    Ok(a.rows().into_iter().map(|r| Vec3::new(r[0], r[1], r[2])).collect())
+}
+
+/// vertex_error(a, b) -> (rms, max)
+///
+/// Root-mean-square and largest distance between corresponding points of
+/// two (V, 3) arrays, in their units (divide by `diagonal` for the
+/// relative figures cgv reports).
+#[pyfunction]
+fn vertex_error(
+    a: PyArrayLike2<'_, f32, AllowTypeChange>,
+    b: PyArrayLike2<'_, f32, AllowTypeChange>,
+) -> PyResult<(f64, f64)> {
+    let (a, b) = (points(&a, "a")?, points(&b, "b")?);
+    if a.len() != b.len() {
+        return Err(invalid(format!("a has {} points and b {}: they must correspond", a.len(), b.len())));
+    }
+    Ok(cgv::metrics::vertex_error(&a, &b))
+}
+
+/// diagonal(points) -> float
+///
+/// The length of the bounding box's diagonal of a (V, 3) or (F, V, 3)
+/// array: what cgv's relative errors divide by.
+#[pyfunction]
+fn diagonal(points: PyArrayLikeDyn<'_, f32, AllowTypeChange>) -> PyResult<f64> {
+    let a = points.as_array();
+    if a.shape().last() != Some(&3) {
+        return Err(invalid(format!("points: shape {:?}, expected (..., 3)", a.shape())));
+    }
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    let coords: Vec<f32> = a.iter().copied().collect();
+    for c in coords.chunks_exact(3) {
+        let p = Vec3::new(c[0], c[1], c[2]);
+        (lo, hi) = (lo.min(p), hi.max(p));
+    }
+    Ok(if lo.x <= hi.x { (hi - lo).length() as f64 } else { 0.0 })
+}
+
+/// surface_distance(a, a_faces, b, b_faces) -> dict
+///
+/// The symmetric point-to-surface distance between two triangle meshes
+/// (area-weighted RMS and max, each way and the larger of the two), as
+/// `cgv eval` measures it.
+#[pyfunction]
+fn surface_distance<'py>(
+    py: Python<'py>,
+    a: PyArrayLike2<'py, f32, AllowTypeChange>,
+    a_faces: PyArrayLike2<'py, i64, AllowTypeChange>,
+    b: PyArrayLike2<'py, f32, AllowTypeChange>,
+    b_faces: PyArrayLike2<'py, i64, AllowTypeChange>,
+) -> PyResult<Bound<'py, PyDict>> {
+    let (pa, pb) = (points(&a, "a")?, points(&b, "b")?);
+    let (fa, fb) = (faces_from(&a_faces, pa.len())?, faces_from(&b_faces, pb.len())?);
+    let d = py.detach(|| cgv::metrics::surface::symmetric(&pa, &fa, &pb, &fb)).map_err(raise)?;
+    let out = PyDict::new(py);
+    for (k, v) in [
+        ("rms", d.rms),
+        ("max", d.max),
+        ("rms_a_to_b", d.rms_a_to_b),
+        ("rms_b_to_a", d.rms_b_to_a),
+        ("max_a_to_b", d.max_a_to_b),
+        ("max_b_to_a", d.max_b_to_a),
+    ] {
+        out.set_item(k, v)?;
+    }
+    Ok(out)
+}
+
+/// kg_error(original, decoded) -> (frame_centroid, temporal_mean)
+///
+/// The KG error (Karni and Gotsman) in percent of two (F, V, 3) sequences,
+/// by both definitions `cgv eval` reports: against each frame's centroid
+/// (the literature's) and against each vertex's mean over time.
+#[pyfunction]
+fn kg_error(
+    original: PyArrayLike3<'_, f32, AllowTypeChange>,
+    decoded: PyArrayLike3<'_, f32, AllowTypeChange>,
+) -> PyResult<(f64, f64)> {
+    let (o, d) = (original.as_array(), decoded.as_array());
+    if o.shape() != d.shape() || o.shape()[2] != 3 {
+        return Err(invalid(format!("shapes {:?} and {:?}: expected two equal (F, V, 3)", o.shape(), d.shape())));
+    }
+    let frame = |a: &numpy::ndarray::ArrayView3<f32>, i: usize| -> Vec<Vec3> {
+        a.index_axis(numpy::ndarray::Axis(0), i).rows().into_iter().map(|r| Vec3::new(r[0], r[1], r[2])).collect()
+    };
+    let mut kg = cgv::metrics::KgError::default();
+    for i in 0..o.shape()[0] {
+        kg.add_frame(&frame(&o, i), &frame(&d, i));
+    }
+    Ok((kg.value(), kg.temporal()))
+}
+
+#[pymodule]
+fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("Error", m.py().get_type::<Error>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add("FORMAT_VERSION", cgv::format::VERSION)?;
+    m.add_function(wrap_pyfunction!(encode, m)?)?;
+    m.add_function(wrap_pyfunction!(encode_file, m)?)?;
+    m.add_function(wrap_pyfunction!(read_motion, m)?)?;
+    m.add_function(wrap_pyfunction!(decode, m)?)?;
+    m.add_function(wrap_pyfunction!(info, m)?)?;
+    m.add_function(wrap_pyfunction!(vertex_error, m)?)?;
+    m.add_function(wrap_pyfunction!(diagonal, m)?)?;
+    m.add_function(wrap_pyfunction!(surface_distance, m)?)?;
+    m.add_function(wrap_pyfunction!(kg_error, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,120 @@
+"""The Python package: round trips, options, errors and metrics (small, fast runs)."""
+
+import subprocess
+
+import numpy as np
+import pytest
+
+import cgv
+
+
+@pytest.fixture(scope="module")
+def walk():
+    """Eight frames of the built-in walk: positions (F, V, 3), faces (M, 3), fps."""
+    return cgv.read_motion("builtin:walk", frames=(0, 8))
+
+
+def test_read_motion_gives_numpy_arrays(walk):
+    positions, faces, fps = walk
+    assert positions.dtype == np.float32 and positions.ndim == 3 and positions.shape[0] == 8
+    assert positions.shape[2] == 3 and faces.dtype == np.uint32 and faces.shape[1] == 3
+    assert faces.max() < positions.shape[1] and fps == 30.0
+
+
+def test_round_trip_gives_the_input_mesh_back_close(walk):
+    positions, faces, fps = walk
+    data = cgv.encode(positions, faces, fps=fps, grid=32, qp=16)
+    assert data[:8] == b"\x89CGV\r\n\x1a\n", "the .cgv magic number"
+    info = cgv.info(data)
+    assert info["version"] == cgv.FORMAT_VERSION and info["header"]["grid"] == 32
+    assert info["header"]["frames"] == 8 and info["bytes"] == len(data)
+    decoded, dfaces = cgv.decode(data)
+    assert decoded.shape == positions.shape and decoded.dtype == np.float32
+    assert np.array_equal(dfaces, faces), "the input's own faces come back"
+    diag = cgv.diagonal(positions)
+    for f in range(8):
+        rms, worst = cgv.vertex_error(positions[f], decoded[f])
+        # A 32 x 32 grid of the walk: its resampling floor is about 0.4 % of the diagonal.
+        assert rms / diag < 0.01 and worst / diag < 0.05, (f, rms / diag, worst / diag)
+    grid, gfaces = cgv.decode(data, mesh="grid")
+    assert grid.shape == (8, 32 * 32, 3) and gfaces.max() < 32 * 32
+
+
+def test_same_bytes_whatever_the_array_layout(walk):
+    positions, faces, fps = walk
+    a = cgv.encode(positions, faces, fps=fps, grid=16, source_mesh=False)
+    # float64, a non-contiguous view and Python lists are converted, not refused.
+    b = cgv.encode(positions.astype(np.float64), faces.astype(np.int64), fps=fps, grid=16, source_mesh=False)
+    wide = np.zeros(positions.shape[:2] + (6,), np.float32)
+    wide[..., ::2] = positions
+    c = cgv.encode(wide[..., ::2], faces.tolist(), fps=fps, grid=16, source_mesh=False)
+    assert a == b == c
+
+
+def test_gv_and_options(walk):
+    positions, faces, fps = walk
+    data = cgv.encode(positions, faces, fps=fps, grid=16, codec="gv", qp=30, source_mesh=False)
+    assert cgv.info(data)["header"]["codec"].lower() == "gv"
+    with pytest.raises(cgv.Error, match="carries no source mesh"):
+        cgv.decode(data, mesh="source")
+    normal = cgv.encode(positions, faces, fps=fps, grid=32, correction_layout="normal", source_mesh=False)
+    assert any(s["name"] == "dn" for s in cgv.info(normal)["header"]["streams"])
+
+
+def test_a_budget_is_kept_or_refused(walk):
+    positions, faces, _ = cgv.read_motion("builtin:walk", frames=(0, 60))
+    data = cgv.encode(positions, faces, fps=30.0, grid=32, kbps=200, source_mesh=False)
+    kbps = len(data) * 8 / 1000 / 2.0
+    assert abs(kbps / 200 - 1) <= 0.05, kbps
+    with pytest.raises(cgv.Error, match="kbit/s"):
+        cgv.encode(positions, faces, fps=30.0, grid=32, kbps=1, source_mesh=False)
+
+
+def test_bad_input_is_a_clear_error(walk):
+    positions, faces, fps = walk
+    with pytest.raises(cgv.Error, match=r"faces\[\d+\] names vertex"):
+        cgv.encode(positions, faces + positions.shape[1], grid=16)
+    bad = positions.copy()
+    bad[2, 7, 1] = np.nan
+    with pytest.raises(cgv.Error, match="frame|finite"):
+        cgv.encode(bad, faces, grid=16)
+    with pytest.raises(cgv.Error, match="shape"):
+        cgv.encode(positions[..., :2], faces, grid=16)
+    with pytest.raises(TypeError, match="unexpected keyword"):
+        cgv.encode(positions, faces, grd=16)
+    with pytest.raises(cgv.Error, match="grid"):
+        cgv.encode(positions, faces, grid=17)
+    with pytest.raises(cgv.Error, match="truncated|magic|not a"):
+        cgv.decode(b"CGV but not really a file")
+    with pytest.raises(OSError, match="no-such-folder"):
+        cgv.read_motion("no-such-folder/frames")
+    data = cgv.encode(positions, faces, fps=fps, grid=16, source_mesh=False)
+    corrupt = bytearray(data)
+    corrupt[len(data) // 2] ^= 0xFF
+    with pytest.raises(cgv.Error):
+        cgv.decode(bytes(corrupt))
+
+
+def test_metrics():
+    a = np.array([[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], np.float32)
+    faces = np.array([[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]])
+    b = a + np.float32([3, 4, 0])
+    assert cgv.vertex_error(a, b) == pytest.approx((5.0, 5.0))
+    assert cgv.diagonal(a) == pytest.approx(3**0.5)
+    assert cgv.diagonal(np.stack([a, b])) == pytest.approx(np.linalg.norm([4, 5, 1]))
+    d = cgv.surface_distance(a, faces, a, faces)
+    assert d["rms"] < 1e-6 and d["max"] < 1e-6
+    shifted = cgv.surface_distance(a, faces, a + np.float32([0, 0, 0.1]), faces)
+    assert 0 < shifted["rms"] <= 0.1 + 1e-6 and shifted["max"] == pytest.approx(0.1, rel=1e-4)
+    seq = np.stack([a, a * 2, a * 3])
+    assert cgv.kg_error(seq, seq) == (0.0, 0.0)
+    centroid, temporal = cgv.kg_error(seq, seq + np.float32([0.01, 0, 0]))
+    assert centroid > 0 and temporal > centroid
+
+
+def test_encode_file_gives_the_cli_bytes(cgv_bin, tmp_path):
+    ours = cgv.encode_file("builtin:walk", frames=(0, 5), grid=16, qp=30)
+    out = tmp_path / "walk.cgv"
+    subprocess.run([cgv_bin, "encode", "builtin:walk", "--frames", "0..5", "--grid", "16", "--qp", "30", "-o", str(out)],
+                   check=True, capture_output=True)
+    assert ours == out.read_bytes()
