@@ -504,3 +504,39 @@ fn a_bitrate_is_kept_by_the_whole_file_or_refused() {
     let e = budget(CodecKind::Cgv, 3.0, false).unwrap_err().to_string();
     assert!(e.contains("what is not video alone") && !e.contains("source mesh"), "{e}");
 }
+
+#[test]
+fn a_target_error_gives_the_coarsest_qp_within_it_or_is_refused() {
+    // Issue 20: --target-error. Twelve frames of the default motion at
+    // N = 32 (all twelve measured): the file kept is within the target,
+    // one QP coarser is not, and a target below the grid's reach is refused.
+    let src = cgv::mesh::builtin::motion(12);
+    let opts = EncodeOptions { grid: 32, source_mesh: false, ..Default::default() };
+    let image = cgv::codec::prepare(&src, &opts).unwrap();
+    let faces = image.map.surface_faces();
+    let diagonal = cgv::mesh::Bounds::of(&src.frames[0]).diagonal() as f64;
+    // The mean surface RMS of a file over all frames, measured here on its own.
+    let error = |bytes: &[u8]| {
+        let mut dec = cgv::codec::FileDecoder::new(cgv::format::read(bytes).unwrap(), SolverKind::Predictive).unwrap();
+        let sum: f64 = (0..12)
+            .map(|f| {
+                let (x, _) = dec.next_frame().unwrap();
+                cgv::metrics::surface::symmetric(&x, &faces, &src.frames[f], &src.topology.faces).unwrap().rms
+            })
+            .sum();
+        sum / 12.0 / diagonal
+    };
+    let target = 0.004;
+    let (bytes, report, t) =
+        cgv::eval::target::encode_to_error(&src, &opts, &image, target, &mut |_, _, _| {}).unwrap();
+    let got = error(&bytes);
+    eprintln!("target {target}: QP {} gives {got:.5} ({} encodes)", t.qp, t.encodes);
+    assert!((got - t.surface_rms).abs() < 1e-9 && got <= target, "{got} for {target}");
+    assert!(t.qp < 51 && report.passes == t.encodes && t.encodes <= 8);
+    let mut coarser = opts.clone();
+    coarser.video.qp = t.qp + 1;
+    let (b, _) = cgv::codec::encode_prepared(&src, &coarser.with_auto_choices(), &image, &mut |_, _, _| {}).unwrap();
+    assert!(error(&b) > target, "QP {} is within the target too", t.qp + 1);
+    let e = cgv::eval::target::encode_to_error(&src, &opts, &image, 1e-6, &mut |_, _, _| {}).unwrap_err().to_string();
+    assert!(e.contains("below what this grid reaches") && e.contains("at QP 0"), "{e}");
+}

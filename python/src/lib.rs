@@ -115,8 +115,12 @@ fn flat<'a>(frames: &'a PyArrayLike3<'_, f32, AllowTypeChange>, owned: &'a mut V
 
 /// The encoder's options from Python keywords, named as `cgv encode`'s
 /// flags are (with `_` for `-`); unknown keywords are a `TypeError`.
-fn encode_options(options: Option<&Bound<'_, PyDict>>, fps: f32) -> PyResult<EncodeOptions> {
+/// The encoder's options, and a target error (percent of the diagonal) if one is asked.
+type Options = (EncodeOptions, Option<f64>);
+
+fn encode_options(options: Option<&Bound<'_, PyDict>>, fps: f32) -> PyResult<Options> {
     let mut o = EncodeOptions::default();
+    let mut target = None;
     o.video.fps = fps;
     let mut layout: Option<String> = None;
     let mut corrections: Option<String> = None;
@@ -141,10 +145,11 @@ fn encode_options(options: Option<&Bound<'_, PyDict>>, fps: f32) -> PyResult<Enc
             "corrections" => corrections = Some(value.extract()?),
             "correction_shrink" => o.correction_shrink = value.extract()?,
             "source_mesh" => o.source_mesh = value.extract()?,
+            "target_error" => target = Some(value.extract::<f64>()?),
             _ => {
                 return Err(PyTypeError::new_err(format!(
                     "encode() got an unexpected keyword {key:?} (known: codec, grid, qp, kbps, gop, keyframes, layers, \
-                     max_lag, correction_layout, corrections, correction_shrink, source_mesh)"
+                     max_lag, correction_layout, corrections, correction_shrink, source_mesh, target_error)"
                 )))
             }
         }
@@ -162,14 +167,22 @@ fn encode_options(options: Option<&Bound<'_, PyDict>>, fps: f32) -> PyResult<Enc
         Some("motion") => o.corrections = cgv::format::CorrectionMode::Motion,
         Some(c) => return Err(invalid(format!("corrections {c:?}: expected \"auto\", \"scaled\" or \"motion\""))),
     }
+    if target.is_some() && o.video.kbps.is_some() {
+        return Err(invalid("kbps and target_error ask for the size two ways: give one".into()));
+    }
     o.validate().map_err(raise)?;
-    Ok(o)
+    Ok((o, target))
 }
 
-fn run_encode(py: Python<'_>, src: &dyn FrameSource, opts: &EncodeOptions) -> PyResult<Vec<u8>> {
-    py.detach(|| cgv::codec::encode(src, opts, &mut |_, _, _| {}))
-        .map(|(bytes, _report)| bytes)
-        .map_err(|e| invalid(format!("encoding {}: {e}", src.label().display())))
+fn run_encode(py: Python<'_>, src: &dyn FrameSource, (opts, target): &Options) -> PyResult<Vec<u8>> {
+    py.detach(|| match target {
+        None => cgv::codec::encode(src, opts, &mut |_, _, _| {}).map(|(bytes, _)| bytes),
+        Some(percent) => cgv::codec::prepare(src, opts).and_then(|image| {
+            cgv::eval::target::encode_to_error(src, opts, &image, percent / 100.0, &mut |_, _, _| {})
+                .map(|(bytes, _, _)| bytes)
+        }),
+    })
+    .map_err(|e| invalid(format!("encoding {}: {e}", src.label().display())))
 }
 
 /// encode(frames, faces, *, fps=30.0, **options) -> bytes
@@ -181,7 +194,10 @@ fn run_encode(py: Python<'_>, src: &dyn FrameSource, opts: &EncodeOptions) -> Py
 /// keeps within 5 %, or an error), gop, keyframes, layers (1 or 2), max_lag,
 /// correction_layout ("auto", "world", "normal"), corrections ("auto",
 /// "scaled", "motion"), correction_shrink, source_mesh (default True: the
-/// file carries the input's own faces so that decode gives them back).
+/// file carries the input's own faces so that decode gives them back),
+/// target_error (instead of qp or kbps: the smallest file whose surface RMS
+/// is at most this percentage of the diagonal, as `cgv encode
+/// --target-error` finds it).
 #[pyfunction]
 #[pyo3(signature = (frames, faces, *, fps = 30.0, **options))]
 fn encode<'py>(

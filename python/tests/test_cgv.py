@@ -70,6 +70,21 @@ def test_a_budget_is_kept_or_refused(walk):
         cgv.encode(positions, faces, fps=30.0, grid=32, kbps=1, source_mesh=False)
 
 
+def test_a_target_error_is_met(walk):
+    positions, faces, fps = walk
+    loose = cgv.encode(positions, faces, fps=fps, grid=32, target_error=0.8, source_mesh=False)
+    tight = cgv.encode(positions, faces, fps=fps, grid=32, target_error=0.5, source_mesh=False)
+    qp = [cgv.info(d)["header"]["settings"]["qp"] for d in (loose, tight)]
+    assert qp[1] < qp[0] < 51 and len(tight) > len(loose), qp
+    # The input's own vertices rebuilt from the tight file: within the target, give or take the offsets' step.
+    decoded, _ = cgv.decode(cgv.encode(positions, faces, fps=fps, grid=32, target_error=0.5))
+    diag = cgv.diagonal(positions[0])
+    errors = [cgv.surface_distance(decoded[f], faces, positions[f], faces)["rms"] / diag for f in range(8)]
+    assert np.mean(errors) < 0.5 / 100 * 1.2, errors
+    with pytest.raises(cgv.Error, match="ask for the size two ways"):
+        cgv.encode(positions, faces, grid=32, target_error=0.5, kbps=100)
+
+
 def test_bad_input_is_a_clear_error(walk):
     positions, faces, fps = walk
     with pytest.raises(cgv.Error, match=r"faces\[\d+\] names vertex"):

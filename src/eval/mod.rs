@@ -18,6 +18,7 @@ pub mod bdrate;
 pub mod plot;
 pub mod report;
 pub mod source;
+pub mod target;
 
 use crate::codec::{encode_prepared, EncodeOptions, FileDecoder};
 use crate::error::{Error, Result};

@@ -65,6 +65,13 @@ pub struct Args {
     /// codec cannot reach is refused with the range it can.
     #[arg(long)]
     kbps: Option<f32>,
+    /// The other way to ask for a size: the smallest file whose surface RMS
+    /// is at most this percentage of the bounding-box diagonal (0.05 for
+    /// 0.05 %), measured as `cgv eval` does on 12 frames spread over the
+    /// motion; the QP is searched (about seven encodes). A target below
+    /// what the grid reaches at QP 0 is refused with the error it reaches.
+    #[arg(long, value_name = "PERCENT", conflicts_with_all = ["kbps", "qp"])]
+    target_error: Option<f64>,
     /// A key frame (λ) every N frames; 0 for the first frame only.
     #[arg(long, default_value_t = 10)]
     keyframes: u32,
@@ -243,23 +250,43 @@ fn encode_one(args: &Args) -> Result<()> {
         bail!("--correction-interval applies to motion corrections, and these are scaled (add --corrections motion)");
     }
     let pb = super::progress(src.frame_count(), "encoding", args.json);
-    let (bytes, report) = encode(src.as_ref(), &opts, &mut |stage, done, _| {
+    let mut progress = |stage: &str, done: usize, _| {
         if done == 1 {
             pb.set_message(stage.to_string());
             pb.set_position(0);
         }
         pb.set_position(done as u64);
-    })
+    };
+    let (bytes, report, target) = match args.target_error {
+        None => encode(src.as_ref(), &opts, &mut progress).map(|(b, r)| (b, r, None)),
+        Some(percent) => cgv::codec::prepare(src.as_ref(), &opts).and_then(|image| {
+            let target = percent / 100.0;
+            cgv::eval::target::encode_to_error(src.as_ref(), &opts, &image, target, &mut progress)
+                .map(|(b, r, t)| (b, r, Some(t)))
+        }),
+    }
     .with_context(|| format!("encoding {}", src.label().display()))?;
     pb.finish_and_clear();
     cgv::fsutil::write_atomic(output, &bytes)?;
+    print_report(args, src.as_ref(), &opts, &report, target.as_ref())
+}
+
+/// What `cgv encode` prints of what it made.
+fn print_report(
+    args: &Args,
+    src: &dyn cgv::mesh::FrameSource,
+    opts: &EncodeOptions,
+    report: &cgv::codec::EncodeReport,
+    target: Option<&cgv::eval::target::TargetReport>,
+) -> Result<()> {
+    let output = &args.output;
     let seconds = report.frames as f64 / src.fps() as f64;
     let kbps = report.bytes as f64 * 8.0 / 1000.0 / seconds;
     if args.json {
         println!(
             "{}",
             serde_json::to_string_pretty(&serde_json::json!({
-                "output": output, "bytes": report.bytes, "kbps": kbps, "report": report
+                "output": output, "bytes": report.bytes, "kbps": kbps, "report": report, "target": target
             }))?
         );
     } else {
@@ -291,8 +318,20 @@ fn encode_one(args: &Args) -> Result<()> {
                 p.area_passes
             );
         }
-        let passes =
-            if report.passes > 1 { format!(" in {} passes for the budget", report.passes) } else { String::new() };
+        if let Some(t) = target {
+            println!(
+                "  surface RMS {:.4} % of the diagonal (target {:.4} %; mean over frames {:?}) at QP {}, the coarsest within it",
+                100.0 * t.surface_rms,
+                args.target_error.unwrap_or(0.0),
+                t.frames_measured,
+                t.qp
+            );
+        }
+        let passes = match (report.passes, target) {
+            (1, _) => String::new(),
+            (n, Some(_)) => format!(" in {n} passes for the target"),
+            (n, None) => format!(" in {n} passes for the budget"),
+        };
         println!(
             "  time: parameterize {:.2} s, coding {:.2} s{passes}, total {:.2} s ({:.1} ms/frame)",
             report.seconds_parameterize,

@@ -1,0 +1,149 @@
+//! `cgv encode --target-error E`: the smallest file whose surface RMS is at
+//! most E of the bounding-box diagonal, the other way to ask for a size,
+//! since the error is what a user knows.
+//!
+//! The error is measured as `cgv eval` measures it (the symmetric surface
+//! distance between the decoded grid, without the carrier's added faces,
+//! and the input's frame, relative to the first frame's diagonal; mean
+//! over frames), on [`SAMPLE_FRAMES`] frames spread over the motion, so
+//! that no more than those are held. The file is decoded as a decoder
+//! would, so the figure includes everything the decoder does. The QP is
+//! bisected (an error that falls as the QP falls): about seven encodes.
+
+use crate::codec::{encode_prepared, EncodeOptions, EncodeReport, FileDecoder};
+use crate::error::{Error, Result};
+use crate::geometry_image::GeometryImage;
+use crate::mesh::{Bounds, Frame, FrameSource};
+use crate::metrics::surface;
+
+/// Frames the error is measured on (all of a shorter motion).
+pub const SAMPLE_FRAMES: usize = 12;
+
+/// What [`encode_to_error`] made.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct TargetReport {
+    /// The file's surface RMS over the sampled frames, relative to the diagonal.
+    pub surface_rms: f64,
+    /// The QP of the file kept.
+    pub qp: u8,
+    /// The frames it was measured on.
+    pub frames_measured: Vec<usize>,
+    /// Encodes the search took.
+    pub encodes: usize,
+}
+
+/// The frames measured: evenly spread, first and last included.
+fn sample(frames: usize) -> Vec<usize> {
+    let k = SAMPLE_FRAMES.min(frames);
+    let mut s: Vec<usize> = (0..k).map(|i| if k > 1 { i * (frames - 1) / (k - 1) } else { 0 }).collect();
+    s.dedup();
+    s
+}
+
+/// The input's sampled frames and the diagonal errors are relative to.
+struct Truth {
+    frames: Vec<(usize, Frame)>,
+    diagonal: f64,
+}
+
+impl Truth {
+    fn read(src: &dyn FrameSource) -> Result<Truth> {
+        let frames =
+            sample(src.frame_count()).into_iter().map(|f| Ok((f, src.read_frame(f)?))).collect::<Result<Vec<_>>>()?;
+        let diagonal = frames.first().map_or(0.0, |(_, x)| Bounds::of(x).diagonal() as f64);
+        Ok(Truth { frames, diagonal })
+    }
+
+    /// The surface RMS of a file over the sampled frames, relative to the diagonal.
+    fn measure(&self, bytes: &[u8], src: &dyn FrameSource, image: &GeometryImage) -> Result<f64> {
+        let file =
+            crate::format::read(bytes).map_err(|e| Error::Container { path: src.label().to_path_buf(), source: e })?;
+        let solver = file.header.solver;
+        let mut dec = FileDecoder::new(file, solver)?;
+        let grid_faces = image.map.surface_faces();
+        let mut sum = 0.0;
+        let last = self.frames.last().map_or(0, |s| s.0);
+        let mut next = self.frames.iter().peekable();
+        for f in 0..=last {
+            let (x, _) = dec.next_frame()?;
+            if let Some((_, truth)) = next.next_if(|s| s.0 == f) {
+                sum += surface::symmetric(&x, &grid_faces, truth, &src.topology().faces)?.rms;
+            }
+        }
+        Ok(sum / self.frames.len().max(1) as f64 / self.diagonal.max(f64::MIN_POSITIVE))
+    }
+}
+
+/// Encodes at the coarsest QP whose file is within `target` (a fraction of
+/// the diagonal: 0.0005 for 0.05 %); refuses a target the finest QP misses,
+/// with the error it reaches.
+pub fn encode_to_error(
+    src: &dyn FrameSource,
+    opts: &EncodeOptions,
+    image: &GeometryImage,
+    target: f64,
+    progress: &mut dyn FnMut(&str, usize, usize),
+) -> Result<(Vec<u8>, EncodeReport, TargetReport)> {
+    if !(target.is_finite() && target > 0.0) {
+        return Err(Error::Argument(format!("the target error must be above 0, not {target}")));
+    }
+    let start = std::time::Instant::now();
+    let truth = Truth::read(src)?;
+    let (mut encodes, mut coding) = (0, 0.0);
+    let mut try_qp = |qp: u8| -> Result<(Vec<u8>, EncodeReport, f64)> {
+        let mut o = opts.clone();
+        (o.video.qp, o.video.kbps) = (qp, None);
+        let o = o.with_auto_choices();
+        let label = format!("QP {qp} for {:.4} %", 100.0 * target);
+        let (bytes, report) =
+            encode_prepared(src, &o, image, &mut |stage, d, t| progress(&format!("{stage} ({label})"), d, t))?;
+        encodes += 1;
+        coding += report.seconds_coding;
+        let error = truth.measure(&bytes, src, image)?;
+        Ok((bytes, report, error))
+    };
+    // The best file so far within the target, and the QPs known to miss and to meet it.
+    let mut kept: Option<(Vec<u8>, EncodeReport, f64, u8)> = None;
+    let (mut meets, mut misses) = (None::<u8>, 52u8);
+    let mut qp = 30u8;
+    loop {
+        let (bytes, report, error) = try_qp(qp)?;
+        if error <= target {
+            meets = Some(qp);
+            kept = Some((bytes, report, error, qp));
+        } else {
+            misses = qp;
+            if qp == 0 {
+                return Err(Error::Argument(format!(
+                    "a surface RMS of {:.4} % of the diagonal is below what this grid reaches: {:.4} % at QP 0 \
+                     (a larger --grid, or --layers 2, goes further)",
+                    100.0 * target,
+                    100.0 * error
+                )));
+            }
+        }
+        let lo = meets.unwrap_or(0);
+        if misses - lo <= 1 && meets.is_some() {
+            break;
+        }
+        qp = if meets.is_some() { (lo + misses) / 2 } else { misses / 2 };
+    }
+    let (bytes, mut report, surface_rms, qp) = kept.ok_or_else(|| Error::Argument("no encode was made".into()))?;
+    // The times add up every pass, measuring included.
+    (report.passes, report.seconds_coding) = (encodes, coding);
+    report.seconds_total = report.seconds_parameterize + start.elapsed().as_secs_f64();
+    Ok((bytes, report, TargetReport { surface_rms, qp, frames_measured: sample(src.frame_count()), encodes }))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_sampled_frames_span_the_motion() {
+        assert_eq!(sample(1), vec![0]);
+        assert_eq!(sample(5), vec![0, 1, 2, 3, 4]);
+        let s = sample(175);
+        assert_eq!((s.len(), s[0], s[s.len() - 1]), (SAMPLE_FRAMES, 0, 174));
+    }
+}
