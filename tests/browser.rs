@@ -193,11 +193,12 @@ fn figure_pixels(png_bytes: &[u8]) -> (usize, Vec<u8>) {
 }
 
 /// A folder with the viewer (www/ and its pkg/) and the fixtures, served.
-fn site() -> (PathBuf, Guard, u16) {
+fn site(name: &str) -> (PathBuf, Guard, u16) {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let pkg = root.join("www/pkg/cgv_bg.wasm");
     assert!(pkg.exists(), "{} is missing: build the web package with pkg-scripts/web.sh first", pkg.display());
-    let dir = common::temp_dir("browser-site");
+    // One folder per test: tests run in parallel, each with its own browser profile.
+    let dir = common::temp_dir(&format!("browser-site-{name}"));
     for f in ["index.html", "cgv-player.js"] {
         std::fs::copy(root.join("www").join(f), dir.join(f)).unwrap();
     }
@@ -272,7 +273,7 @@ const done = arguments[arguments.length - 1];
 
 #[test]
 fn viewer_plays_renders_and_recovers_in_headless_chromium() {
-    let (dir, _server, port) = site();
+    let (dir, _server, port) = site("viewer");
     let art = common::temp_dir("browser-artifacts");
     let browser = Browser::start(&dir.join("profile"));
     let base = format!("http://127.0.0.1:{port}");
@@ -393,6 +394,102 @@ fn viewer_plays_renders_and_recovers_in_headless_chromium() {
     eprintln!("screenshots in {}", art.display());
 }
 
+/// A page with one player of `src` (buffer 0.1 s: a window of 8 frames)
+/// that logs the element's events into `window.log`.
+const LONG_PAGE: &str = r#"<!doctype html><meta charset="utf-8">
+<cgv-player id="a" src="long.cgv" buffer="0.1" loop style="width:320px;height:280px"></cgv-player><div id="error"></div>
+<script type="module">
+import '/cgv-player.js';
+window.log = [];
+const p = document.getElementById('a');
+for (const e of ['loadedmetadata', 'progress', 'play', 'pause', 'timeupdate', 'seeking', 'seeked', 'ended', 'error'])
+  p.addEventListener(e, () => window.log.push(e));
+</script>"#;
+
+/// Worst difference between the page's frame `f` and the native decode's.
+fn page_frame_error(browser: &Browser, f: usize, native: &[Vec<glam::Vec3>]) -> f64 {
+    let got = browser.js(&format!("return Array.from(document.getElementById('a').frames[{f}] || []);"), json!([]));
+    let got: Vec<f64> = got.as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+    assert_eq!(got.len(), 3 * native[f].len(), "frame {f} is not held");
+    native[f].iter().flat_map(|p| p.to_array()).zip(&got).map(|(a, b)| (a as f64 - b).abs()).fold(0.0, f64::max)
+}
+
+#[test]
+fn the_player_seeks_loops_in_bounded_memory_and_behaves_like_video() {
+    // Issue 19: a motion longer than twice the decode-ahead window keeps
+    // only that window; looping and seeking back decode again from the
+    // bytes held; a seek lands on the native decoder's frame; the element
+    // offers <video>'s properties, events and keyboard controls.
+    let (dir, _server, port) = site("long");
+    let src = cgv::mesh::builtin::motion(40);
+    let opts = cgv::codec::EncodeOptions { grid: 16, source_mesh: false, ..Default::default() };
+    let (bytes, _) = cgv::codec::encode(&src, &opts, &mut |_, _, _| {}).unwrap();
+    std::fs::write(dir.join("long.cgv"), &bytes).unwrap();
+    std::fs::write(dir.join("long.html"), LONG_PAGE).unwrap();
+    let file = cgv::format::read(&bytes).unwrap();
+    let diag = file.header.source.diagonal as f64;
+    let mut dec = cgv::codec::FileDecoder::new(file, cgv::solve::SolverKind::Predictive).unwrap();
+    let native: Vec<Vec<glam::Vec3>> = (0..40).map(|_| dec.next_frame().unwrap().0).collect();
+
+    let browser = Browser::start(&dir.join("profile"));
+    browser.go(&format!("http://127.0.0.1:{port}/long.html"));
+    browser.wait("the first frame", "return document.getElementById('a').dataset.frame === '0';", 90);
+    let p = "const p = document.getElementById('a');";
+    let d = browser.js(&format!("{p} return [p.duration, p.paused, p.loop, p.currentTime];"), json!([]));
+    let duration = d[0].as_f64().unwrap();
+    assert!((duration - 40.0 / 30.0).abs() < 1e-9 && d[1] == json!(true) && d[2] == json!(true), "{d}");
+    assert_eq!(d[3].as_f64(), Some(0.0), "{d}");
+    // Playing, looping, at a quarter speed... then at full speed: the held
+    // frames stay within the window (8 ahead, 2 behind, the one shown).
+    browser.js(&format!("{p} p.playbackRate = 2; p.play(); return true;"), json!([]));
+    let (mut most, mut frames) = (0, Vec::new());
+    for _ in 0..60 {
+        let v = browser.js(&format!("{p} return [p.bufferedFrames, +p.dataset.frame];"), json!([]));
+        most = most.max(v[0].as_u64().unwrap());
+        frames.push(v[1].as_u64().unwrap());
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let wrapped = frames.windows(2).any(|w| w[1] + 20 < w[0]);
+    assert!(wrapped, "the motion did not loop: {frames:?}");
+    assert!(most <= 11, "{most} frames held for a window of 8");
+    // A seek forward and one back (to a frame long dropped) land on the
+    // native decoder's frames.
+    for f in [25usize, 5, 33] {
+        browser.js(&format!("{p} p.pause(); window.log = []; p.currentTime = {f} / 30; return true;"), json!([]));
+        browser.wait(&format!("the seek to frame {f}"), "return window.log.includes('seeked');", 60);
+        assert_eq!(browser.js(&format!("{p} return +p.dataset.frame;"), json!([])), json!(f));
+        let worst = page_frame_error(&browser, f, &native);
+        assert!(worst <= 1e-4 * diag, "frame {f}: {worst} from the native decode");
+    }
+    // Keyboard: arrows step, space plays and pauses.
+    browser.js(
+        &format!("{p} p.focus(); p.dispatchEvent(new KeyboardEvent('keydown', {{ key: 'ArrowRight' }})); return true;"),
+        json!([]),
+    );
+    browser.wait("the frame after 33", "return document.getElementById('a').dataset.frame === '34';", 30);
+    let key = |k: &str| {
+        browser.js(
+            &format!("{p} p.dispatchEvent(new KeyboardEvent('keydown', {{ key: '{k}' }})); return p.paused;"),
+            json!([]),
+        )
+    };
+    assert_eq!(key(" "), json!(false));
+    assert_eq!(key(" "), json!(true));
+    // Without loop: playing to the end stops there and says so.
+    browser.js(
+        &format!("{p} p.loop = false; window.log = []; p.currentTime = 37 / 30; p.play(); return true;"),
+        json!([]),
+    );
+    browser.wait("the ended event", "return window.log.includes('ended');", 60);
+    let log = browser.js("return window.log;", json!([]));
+    for e in ["seeking", "seeked", "play", "timeupdate", "pause", "ended"] {
+        assert!(log.as_array().unwrap().iter().any(|x| x == e), "no {e} event: {log}");
+    }
+    assert_eq!(browser.js(&format!("{p} return [+p.dataset.frame, p.paused];"), json!([])), json!([39, true]));
+    let labels = browser.js(&format!("{p} return [...p.shadowRoot.querySelectorAll('button, input, select')].every((e) => e.getAttribute('aria-label'));"), json!([]));
+    assert_eq!(labels, json!(true), "every control is labelled");
+}
+
 /// Playback speed in the browser against the native decoder on the same
 /// file (not pass/fail tests: speed is measured, not asserted). Run:
 /// `cargo test --release --test browser -- --ignored --nocapture --test-threads 1 viewer_speed`
@@ -400,7 +497,7 @@ fn viewer_plays_renders_and_recovers_in_headless_chromium() {
 /// frame, then per backend the time to first frame, WebCodecs and wasm
 /// reconstruction ms per frame, and the playback rate.
 fn viewer_speed(name: &str, grid: usize, qp: u8, fill_holes: bool) {
-    let (dir, _server, port) = site();
+    let (dir, _server, port) = site("speed");
     let path = common::real_sequence(name);
     let open = cgv::mesh::OpenOptions { fill_holes, ..Default::default() };
     let src = cgv::mesh::open_sequence(path.to_str().unwrap(), &open).unwrap();

@@ -3,7 +3,20 @@
 // frame; H.264 is decoded here with WebCodecs; the shared wgpu renderer draws
 // with WebGPU, or WebGL2 when the browser has no WebGPU adapter.
 //
-// Events: "cgv-status" (detail: stats), "cgv-error" (detail: message),
+// It behaves like <video> where that makes sense: currentTime (settable: a
+// seek), duration, paused, play() (a promise), pause(), playbackRate, loop,
+// autoplay, poster, loading="lazy"; events loadedmetadata, progress, play,
+// pause, timeupdate, seeking, seeked, ended, error. Keyboard (the element
+// takes focus): space or k plays and pauses, arrows step a frame (with
+// shift, a second), Home and End go to the ends.
+//
+// Memory is bounded: a motion longer than twice the decode-ahead window
+// (buffer="3", seconds) keeps only the frames from just behind the one
+// shown to a window ahead of it. The closed loop carries state from frame
+// 0, so looping and seeking back decode again from the start of the bytes
+// held (Player.rewind); the file is fetched once.
+//
+// Also: "cgv-status" (detail: stats), "cgv-error" (detail: message),
 // "cgv-frame" (detail: the frame shown) and "cgv-camera" (detail: camera
 // state), the last two for synchronizing views.
 
@@ -99,7 +112,7 @@ button, select { background: #2a2e38; color: #eee; border: 1px solid #444; borde
 `;
 
 export class CgvPlayer extends HTMLElement {
-  static get observedAttributes() { return ['src', 'mode']; }
+  static get observedAttributes() { return ['src', 'mode', 'poster']; }
 
   constructor() {
     super();
@@ -107,12 +120,12 @@ export class CgvPlayer extends HTMLElement {
     root.innerHTML = `<style>${STYLE}</style>
       <div class="wrap"><canvas></canvas><div class="stats"></div><div class="progress"></div><div class="msg"></div></div>
       <div class="bar">
-        <button class="play" title="play / pause">▶</button>
-        <input class="slider" type="range" min="0" max="0" value="0" title="frame">
-        <span class="counter">0 / 0</span>
-        <select class="speed" title="speed"><option value="0.25">¼×</option><option value="0.5">½×</option><option value="1" selected>1×</option><option value="2">2×</option></select>
-        <label title="loop"><input class="loop" type="checkbox"> loop</label>
-        <select class="mode" title="colour"><option>shaded</option><option value="lambda">λ</option><option value="h">H</option><option>error</option></select>
+        <button class="play" title="play / pause" aria-label="play">▶</button>
+        <input class="slider" type="range" min="0" max="0" value="0" title="frame" aria-label="frame">
+        <span class="counter" aria-live="off">0 / 0</span>
+        <select class="speed" title="speed" aria-label="playback speed"><option value="0.25">¼×</option><option value="0.5">½×</option><option value="1" selected>1×</option><option value="2">2×</option></select>
+        <label title="loop"><input class="loop" type="checkbox" aria-label="loop"> loop</label>
+        <select class="mode" title="colour" aria-label="colour"><option>shaded</option><option value="lambda">λ</option><option value="h">H</option><option>error</option></select>
       </div>`;
     this.$ = (s) => root.querySelector(s);
     this.canvas = this.$('canvas');
@@ -121,21 +134,26 @@ export class CgvPlayer extends HTMLElement {
     this.current = 0;
     this.generation = 0;
     this.stats = { backend: '–', fps: 0, decodeMs: 0, reconstructMs: 0, kbps: 0, grid: 0, frames: 0, decoded: 0, firstFrameMs: null };
+    this.rate = 1;
     this.$('.play').onclick = () => (this.playing ? this.pause() : this.play());
-    this.$('.slider').oninput = (e) => { this.pause(); this.show(+e.target.value); };
+    this.$('.slider').oninput = (e) => { this.pause(); this.seekFrame(+e.target.value); };
+    this.$('.speed').onchange = (e) => { this.rate = +e.target.value; };
+    this.addEventListener('keydown', (e) => this._key(e));
     this.$('.loop').onchange = (e) => this.toggleAttribute('loop', e.target.checked);
     this.$('.mode').onchange = (e) => this.setAttribute('mode', e.target.value);
     this._pointers();
   }
 
   connectedCallback() {
+    if (!this.hasAttribute('tabindex')) this.tabIndex = 0;
     this.$('.loop').checked = this.hasAttribute('loop');
     if (this.getAttribute('mode')) this.$('.mode').value = this.getAttribute('mode');
     new ResizeObserver(() => this._resize()).observe(this.canvas);
   }
 
   attributeChangedCallback(name, _old, value) {
-    if (name === 'src' && value) this.load(value);
+    if (name === 'src' && value) this._loadWhenVisible(value);
+    if (name === 'poster') this.$('.wrap').style.background = value ? `center / contain no-repeat url("${value}")` : '';
     if (name === 'mode') { this.$('.mode').value = value; this.show(this.current); }
   }
 
@@ -145,7 +163,50 @@ export class CgvPlayer extends HTMLElement {
     const m = this.$('.msg');
     m.textContent = text || '';
     m.className = 'msg' + (text ? ' on' : '') + (isError ? ' error' : '');
-    if (isError) this.dispatchEvent(new CustomEvent('cgv-error', { detail: text, bubbles: true }));
+    if (isError) {
+      this.dispatchEvent(new CustomEvent('cgv-error', { detail: text, bubbles: true }));
+      this.dispatchEvent(new Event('error'));
+    }
+  }
+
+  // --- what <video> offers ---
+  get duration() { return this.header ? this.header.frames / this.header.fps : NaN; }
+  get currentTime() { return this.header ? this.current / this.header.fps : 0; }
+  set currentTime(t) { if (this.header) this.seekFrame(Math.floor(t * this.header.fps + 1e-6)); }
+  get paused() { return !this.playing; }
+  get playbackRate() { return this.rate; }
+  set playbackRate(r) {
+    this.rate = +r > 0 ? +r : 1;
+    const o = [...this.$('.speed').options].find((x) => +x.value === this.rate);
+    if (o) this.$('.speed').value = o.value;
+  }
+  get loop() { return this.hasAttribute('loop'); }
+  set loop(on) { this.toggleAttribute('loop', !!on); this.$('.loop').checked = !!on; }
+  get autoplay() { return this.hasAttribute('autoplay'); }
+  set autoplay(on) { this.toggleAttribute('autoplay', !!on); }
+  get src() { return this.getAttribute('src') || ''; }
+  set src(v) { this.setAttribute('src', v); }
+  /** Frames held in memory now (decoded, not yet dropped). */
+  get bufferedFrames() { return this.held || 0; }
+
+  /** loading="lazy": the file is fetched once the element nears the viewport. */
+  _loadWhenVisible(src) {
+    this.lazy?.disconnect();
+    if (this.getAttribute('loading') !== 'lazy' || typeof IntersectionObserver === 'undefined') return this.load(src);
+    this.lazy = new IntersectionObserver((entries) => {
+      if (entries.some((e) => e.isIntersecting)) { this.lazy.disconnect(); this.lazy = null; this.load(src); }
+    }, { rootMargin: '200px' });
+    this.lazy.observe(this);
+  }
+
+  _key(e) {
+    if (!this.header || e.target !== this) return;
+    const n = this.header.frames, step = e.shiftKey ? Math.round(this.header.fps) : 1;
+    const go = { ArrowRight: this.current + step, ArrowLeft: this.current - step, Home: 0, End: n - 1 }[e.key];
+    if (e.key === ' ' || e.key === 'k') this.playing ? this.pause() : this.play();
+    else if (go !== undefined) { this.pause(); this.seekFrame(go); }
+    else return;
+    e.preventDefault();
   }
 
   /** Loads a URL (streamed), a File/Blob, or an ArrayBuffer. */
@@ -153,6 +214,10 @@ export class CgvPlayer extends HTMLElement {
     const gen = ++this.generation;
     this.pause();
     this.frames = [];
+    this.held = 0;
+    this.seekTo = null;
+    this.rewindWanted = false;
+    this.header = null;
     this.shown = null;
     this.texture = undefined;
     this.view?.reframe();
@@ -169,7 +234,12 @@ export class CgvPlayer extends HTMLElement {
       this.player = new Player('');
       this.decoders?.forEach((d) => d.close());
       this.decoders = null;
-      const feed = async (bytes) => { this.player.push(bytes); this._header(gen); this._pump(gen); };
+      const feed = async (bytes) => {
+        this.player.push(bytes);
+        this._header(gen);
+        this.dispatchEvent(new Event('progress'));
+        this._pump(gen);
+      };
       if (typeof source === 'string') {
         const resp = await fetch(source);
         if (!resp.ok) throw new Error(`${source}: HTTP ${resp.status}`);
@@ -190,9 +260,63 @@ export class CgvPlayer extends HTMLElement {
     }
   }
 
-  async _header(gen) {
-    if (this.header || !this.player.header_json()) return;
-    this.header = JSON.parse(this.player.header_json());
+  _header(gen) {
+    if (this.header || gen !== this.generation || !this.player.header_json()) return;
+    const h = JSON.parse(this.player.header_json());
+    this.header = h;
+    // Frames held ahead of the one shown, and whether the motion is long
+    // enough that the rest are dropped (else every frame is kept).
+    const seconds = +(this.getAttribute('buffer') || 3);
+    this.window = Math.max(8, Math.ceil((seconds > 0 ? seconds : 3) * h.fps));
+    this.bounded = h.frames > 2 * this.window + 4;
+    this.dispatchEvent(new Event('loadedmetadata'));
+  }
+
+  /** How far frame k lies ahead of the one shown (around the loop). */
+  _ahead(k) {
+    const n = this.header.frames;
+    return k >= this.current ? k - this.current : k + n - this.current;
+  }
+
+  /** Whether the pump should decode frame k now, and keep it. */
+  _wants(k) {
+    if (!this.bounded) return { go: true, keep: true };
+    const seeking = this.seekTo !== null && k < this.seekTo;
+    const d = this._ahead(k);
+    return { go: seeking || d <= this.window, keep: !seeking && d <= this.window };
+  }
+
+  /** Drops the frames outside [shown - 2, shown + window] (a long motion only). */
+  _evict() {
+    if (!this.bounded) return;
+    const n = this.header.frames;
+    for (const key in this.frames) {
+      const k = +key, behind = (this.current - k + n) % n;
+      if (behind > 2 && this._ahead(k) > this.window) { delete this.frames[k]; this.held--; }
+    }
+  }
+
+  /** Starts decoding from frame 0 again (a loop, or a seek back). */
+  _rewind(h) {
+    this.decoders?.forEach((d) => d.close());
+    this.decoders = h.streams.map((s) => new LumaDecoder(h.grid >> (s.shrink || 0)));
+    this.player.rewind();
+    this.rewindWanted = false;
+  }
+
+  /** Shows frame f, decoding from the start of the bytes held if it is not here (a seek). */
+  seekFrame(f) {
+    if (!this.header) return;
+    const n = this.header.frames;
+    f = Math.max(0, Math.min(Math.round(f), n - 1));
+    this.dispatchEvent(new Event('seeking'));
+    if (this.frames[f]) { this.show(f); this.dispatchEvent(new Event('seeked')); return; }
+    this.current = f;
+    this.seekTo = f;
+    // Behind the decoder: decode again from 0 (ahead: decode on to it).
+    if (this.player.next_frame() > f) this.rewindWanted = true;
+    this._evict();
+    this._pump(this.generation);
   }
 
   async _pump(gen) {
@@ -218,28 +342,45 @@ export class CgvPlayer extends HTMLElement {
       this.$('.slider').max = h.frames - 1;
       this.stats.grid = h.grid;
       this.stats.frames = h.frames;
-      while (gen === this.generation && this.player.next_frame() < this.player.complete_frames()) {
-        const f = this.player.next_frame();
+      for (;;) {
+        if (gen !== this.generation) return;
+        if (this.rewindWanted) this._rewind(h);
+        let f = this.player.next_frame();
+        if (f >= h.frames) {
+          // The end of a lap: a long looping motion starts the next one.
+          if (!(this.bounded && this.hasAttribute('loop'))) break;
+          this._rewind(h);
+          f = 0;
+        }
+        if (f >= this.player.complete_frames()) break;
+        const want = this._wants(f);
+        if (!want.go) break; // the window is full; show() wakes the pump
         const t = performance.now();
         const lumas = await Promise.all(h.streams.map((_, s) =>
           this.player.has_frame(s, f) ? this.decoders[s].decode(this.player.access_unit(s, f), f) : null));
         const t1 = performance.now();
+        if (gen !== this.generation) return;
         lumas.forEach((l, s) => { if (l) this.player.supply_luma(s, l); });
         const x = this.player.decode_next();
         const t2 = performance.now();
-        if (gen !== this.generation) return;
-        const k = this.frames.length;
+        const k = this.stats.decoded;
         this.stats.decodeMs = (this.stats.decodeMs * k + (t1 - t)) / (k + 1);
         this.stats.reconstructMs = (this.stats.reconstructMs * k + (t2 - t1)) / (k + 1);
-        this.frames.push(x);
-        this.stats.decoded = this.frames.length;
-        this.stats.kbps = this.player.bytes() * 8 / 1000 / (this.frames.length / h.fps);
-        this.$('.progress').style.width = `${100 * this.frames.length / h.frames}%`;
-        if (this.frames.length === 1) {
+        this.stats.decoded = k + 1;
+        if (want.keep && !this.frames[f]) { this.frames[f] = x; this.held++; }
+        this.stats.kbps = this.player.bytes() * 8 / 1000 / (Math.max(1, this.player.complete_frames()) / h.fps);
+        this.$('.progress').style.width = `${100 * this.player.complete_frames() / h.frames}%`;
+        if (this.stats.firstFrameMs === null) {
           this.message('');
           this.show(0);
           this.stats.firstFrameMs = performance.now() - this.t0;
+          this.$('.wrap').style.background = '';
           if (this.hasAttribute('autoplay')) this.play();
+        }
+        if (f === this.seekTo) {
+          this.seekTo = null;
+          this.show(f);
+          this.dispatchEvent(new Event('seeked'));
         }
         this._status();
         // Let the page breathe between frames.
@@ -272,15 +413,20 @@ export class CgvPlayer extends HTMLElement {
     }
     if (gen !== this.generation) return;
     this.texture = t;
-    if (this.frames.length) this.show(this.current || 0);
+    if (this.frames[this.current]) this.show(this.current);
   }
 
   /** Shows frame f. The view keeps the frame it was given: only a new
    * frame, colour mode or reference is handed to wasm again. */
   show(f) {
-    if (!this.view || !this.frames.length) return;
-    f = Math.max(0, Math.min(f, this.frames.length - 1));
+    if (!this.view || !this.header) return;
+    f = Math.max(0, Math.min(f, this.header.frames - 1));
+    if (!this.frames[f]) return;
+    const moved = f !== this.current;
     this.current = f;
+    this._evict();
+    // Room in the window again: decode on.
+    if (this.bounded && !this.pumping) this._pump(this.generation);
     try {
       // The error map measures against the same frame of a reference player
       // (el.reference = otherPlayer), e.g. GV against CGV of one motion.
@@ -310,6 +456,7 @@ export class CgvPlayer extends HTMLElement {
     this.$('.counter').textContent = `${f + 1} / ${this.header ? this.header.frames : 0}`;
     this.dataset.frame = f;
     this.dispatchEvent(new CustomEvent('cgv-frame', { detail: f }));
+    if (moved) this.dispatchEvent(new Event('timeupdate'));
   }
 
   /** Shows the frame at a shared clock time (seconds), for synchronized views. */
@@ -318,41 +465,55 @@ export class CgvPlayer extends HTMLElement {
     const n = this.header.frames;
     let f = Math.floor(seconds * this.header.fps);
     f = this.hasAttribute('loop') ? f % n : Math.min(f, n - 1);
-    if (f < this.frames.length) this.show(f);
+    if (this.frames[f]) this.show(f);
   }
 
+  /** Plays from the frame shown; resolves at once (as <video>'s play() does once it can play). */
   play() {
-    if (this.playing || !this.frames.length) return;
+    if (this.playing || !this.header) return Promise.resolve();
+    const n = this.header.frames;
+    if (this.current >= n - 1 && !this.hasAttribute('loop')) this.seekFrame(0);
     this.playing = true;
     this.$('.play').textContent = '❚❚';
+    this.$('.play').setAttribute('aria-label', 'pause');
+    this.dispatchEvent(new Event('play'));
     let last = performance.now();
-    let clock = this.current / (this.header?.fps || 30);
+    let clock = this.current / this.header.fps;
     let drawn = 0, fpsStart = last;
     const tick = (now) => {
       if (!this.playing) return;
-      const speed = +this.$('.speed').value;
-      const n = this.header.frames;
-      const target = Math.floor((clock + (now - last) / 1000 * speed) * this.header.fps);
-      if (target < this.frames.length || this.frames.length === n) {
-        clock += (now - last) / 1000 * speed;
-        let f = Math.floor(clock * this.header.fps);
-        if (f >= n) {
-          if (this.hasAttribute('loop')) { clock = 0; f = 0; } else { this.pause(); return; }
+      const fps = this.header.fps;
+      let next = clock + (now - last) / 1000 * this.rate;
+      let f = Math.floor(next * fps);
+      if (f >= n) {
+        if (!this.hasAttribute('loop')) {
+          this.show(n - 1);
+          this.pause();
+          this.dispatchEvent(new Event('ended'));
+          return;
         }
-        this.show(Math.min(f, this.frames.length - 1));
-        drawn++;
+        next -= n / fps;
+        f = Math.max(0, f - n);
       }
-      // else: reconstruction is behind; hold the frame until it catches up.
+      if (this.frames[f]) {
+        clock = next;
+        if (f !== this.current) { this.show(f); drawn++; }
+      }
+      // else: decoding is behind; hold the frame until it catches up.
       last = now;
       if (now - fpsStart > 1000) { this.stats.fps = drawn * 1000 / (now - fpsStart); drawn = 0; fpsStart = now; this._status(); }
       requestAnimationFrame(tick);
     };
     requestAnimationFrame(tick);
+    return Promise.resolve();
   }
 
   pause() {
+    const was = this.playing;
     this.playing = false;
     this.$('.play').textContent = '▶';
+    this.$('.play').setAttribute('aria-label', 'play');
+    if (was) this.dispatchEvent(new Event('pause'));
   }
 
   _status() {
@@ -360,7 +521,7 @@ export class CgvPlayer extends HTMLElement {
     this.$('.stats').textContent =
       `${s.backend} · ${s.fps.toFixed(0)} fps\n` +
       `decode ${s.decodeMs.toFixed(1)} ms · rebuild ${s.reconstructMs.toFixed(1)} ms /frame\n` +
-      `${s.kbps.toFixed(0)} kbit/s · N=${s.grid} · ${s.decoded}/${s.frames} frames`;
+      `${s.kbps.toFixed(0)} kbit/s · N=${s.grid} · ${Math.min(s.decoded, s.frames)}/${s.frames} frames`;
     this.dispatchEvent(new CustomEvent('cgv-status', { detail: { ...s, frame: this.current }, bubbles: true }));
   }
 

@@ -141,6 +141,18 @@ impl Player {
         Ok(())
     }
 
+    /// Starts the sequence again from frame 0, from the bytes already here
+    /// (nothing is fetched again): a player that keeps only a window of
+    /// frames loops or seeks back this way. The page starts its H.264
+    /// decoders again too, since frame 0's pictures are where they start.
+    pub fn rewind(&mut self) -> std::result::Result<(), JsError> {
+        let header = self.reader.header().ok_or_else(|| JsError::new("the header has not arrived"))?.clone();
+        let solver = self.solver.unwrap_or(header.solver);
+        self.lumas = vec![None; header.streams.len()];
+        self.dec = Some(SequenceDecoder::new(header, solver, self.memory_limit).map_err(js)?);
+        Ok(())
+    }
+
     /// Rebuilds the next frame from the pictures supplied: x, y, z per grid sample.
     pub fn decode_next(&mut self) -> std::result::Result<Vec<f32>, JsError> {
         let dec = self.dec.as_mut().ok_or_else(|| JsError::new("the header has not arrived"))?;
