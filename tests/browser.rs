@@ -34,6 +34,8 @@ const CHROME_ARGS: &[&str] = &[
     "--use-vulkan=swiftshader",
     "--use-angle=swiftshader",
     "--window-size=800,640",
+    // performance.memory to the byte (the memory measurement).
+    "--enable-precise-memory-info",
 ];
 
 /// Kills a child process when dropped.
@@ -559,4 +561,54 @@ fn viewer_speed_on_samba_at_128() {
 #[ignore]
 fn viewer_speed_on_horse_gallop_at_256() {
     viewer_speed("horse-gallop", 256, 30, true);
+}
+
+/// Page memory over a long motion (a measurement, like the speed runs):
+/// `CGV_LONG=out/long/samba-10min.cgv cargo test --release --test browser
+/// -- --ignored --nocapture viewer_memory` (docs/scripts/long/run.sh makes
+/// the file). Plays a minute, sampling the JS heap (Chromium's
+/// performance.memory, precise) and the wasm memory every 5 s, then seeks
+/// to 90 % of the motion and back to 10 %, timing each seek.
+#[test]
+#[ignore]
+fn viewer_memory_on_a_long_motion() {
+    let Ok(long) = std::env::var("CGV_LONG") else { panic!("set CGV_LONG to a long .cgv file") };
+    let (dir, _server, port) = site("memory");
+    std::fs::copy(&long, dir.join("long.cgv")).unwrap();
+    std::fs::write(dir.join("long.html"), LONG_PAGE.replace(" buffer=\"0.1\"", "")).unwrap();
+    let browser = Browser::start(&dir.join("profile"));
+    browser.go(&format!("http://127.0.0.1:{port}/long.html"));
+    browser.wait("the first frame", "return document.getElementById('a').dataset.frame === '0';", 120);
+    let sample = "const p = document.getElementById('a'); const m = performance.memory; \
+        return import('/cgv-player.js').then((x) => x.loadWasm()).then((w) => [m.usedJSHeapSize / 1048576, \
+        m.totalJSHeapSize / 1048576, w.memory.buffer.byteLength / 1048576, p.bufferedFrames, +p.dataset.frame]);";
+    let sample = format!("const done = arguments[arguments.length - 1]; (() => {{ {sample} }})().then(done);");
+    browser.js("document.getElementById('a').play(); return true;", json!([]));
+    for k in 0..=12 {
+        let v = browser.js_async(&sample, json!([]));
+        println!(
+            "{:>3} s: JS heap used {:.1} MiB (total {:.1}), wasm memory {:.1} MiB, {} frames held, frame {}",
+            5 * k,
+            v[0].as_f64().unwrap_or(0.0),
+            v[1].as_f64().unwrap_or(0.0),
+            v[2].as_f64().unwrap_or(0.0),
+            v[3],
+            v[4]
+        );
+        std::thread::sleep(Duration::from_secs(5));
+    }
+    let n = browser.js("return document.getElementById('a').header.frames;", json!([])).as_u64().unwrap();
+    for f in [n * 9 / 10, n / 10] {
+        let t = Instant::now();
+        browser.js(&format!("const p = document.getElementById('a'); p.pause(); window.log = []; p.currentTime = {f} / p.header.fps; return true;"), json!([]));
+        browser.wait(&format!("the seek to {f}"), "return window.log.includes('seeked');", 900);
+        let v = browser.js_async(&sample, json!([]));
+        println!(
+            "seek to frame {f} of {n}: {:.1} s; JS heap {:.1} MiB, wasm {:.1} MiB, {} frames held",
+            t.elapsed().as_secs_f64(),
+            v[0].as_f64().unwrap_or(0.0),
+            v[2].as_f64().unwrap_or(0.0),
+            v[3]
+        );
+    }
 }
