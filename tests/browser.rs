@@ -201,7 +201,7 @@ fn site(name: &str) -> (PathBuf, Guard, u16) {
     assert!(pkg.exists(), "{} is missing: build the web package with pkg-scripts/web.sh first", pkg.display());
     // One folder per test: tests run in parallel, each with its own browser profile.
     let dir = common::temp_dir(&format!("browser-site-{name}"));
-    for f in ["index.html", "cgv-player.js"] {
+    for f in ["index.html", "cgv-player.js", "cgv-stream.js"] {
         std::fs::copy(root.join("www").join(f), dir.join(f)).unwrap();
     }
     std::fs::create_dir_all(dir.join("pkg")).unwrap();
@@ -279,7 +279,9 @@ fn viewer_plays_renders_and_recovers_in_headless_chromium() {
     let art = common::temp_dir("browser-artifacts");
     let browser = Browser::start(&dir.join("profile"));
     let base = format!("http://127.0.0.1:{port}");
-    let frames_loaded = "const p = document.getElementById('a'); return (p.frames || []).length === 4;";
+    // Decoded, and the first frame shown (the view is made while frames decode).
+    let frames_loaded =
+        "const p = document.getElementById('a'); return (p.frames || []).length === 4 && p.dataset.frame !== undefined;";
 
     for (backend, query) in [("WebGPU", ""), ("WebGL2", "&webgl")] {
         browser.go(&format!("{base}/?src=walk-cgv.cgv&autoplay{query}"));
@@ -322,7 +324,7 @@ fn viewer_plays_renders_and_recovers_in_headless_chromium() {
 
     // A version-6 file: the input's own mesh drawn when shaded, the grid for λ.
     browser.js("document.getElementById('a').load('walk-source.cgv'); return true;", json!([]));
-    browser.wait("the v6 fixture's 3 frames", "return (document.getElementById('a').frames || []).length === 3;", 60);
+    browser.wait("the v6 fixture's 3 frames", "const p = document.getElementById('a'); return (p.frames || []).length === 3 && p.dataset.frame !== undefined;", 60);
     browser.js("const p = document.getElementById('a'); p.pause(); p.show(2); return true;", json!([]));
     std::thread::sleep(Duration::from_millis(300));
     let surface = "return document.getElementById('a').dataset.surface;";
@@ -350,7 +352,7 @@ fn viewer_plays_renders_and_recovers_in_headless_chromium() {
     // A version-9 file: x, y, z corrections at 16 x 16 beside a 32 x 32
     // normal picture, each stream's WebCodecs decoder at its own size.
     browser.js("document.getElementById('a').load('normal.cgv'); return true;", json!([]));
-    browser.wait("the v9 fixture's 6 frames", "return (document.getElementById('a').frames || []).length === 6;", 60);
+    browser.wait("the v9 fixture's 6 frames", "const p = document.getElementById('a'); return (p.frames || []).length === 6 && p.dataset.frame !== undefined;", 60);
     browser.js("const p = document.getElementById('a'); p.pause(); p.show(5); return true;", json!([]));
     std::thread::sleep(Duration::from_millis(300));
     let (fig, _) = figure_pixels(&browser.screenshot(&art.join("normal-correction.png")));
@@ -529,7 +531,7 @@ fn viewer_speed(name: &str, grid: usize, qp: u8, fill_holes: bool) {
         browser.go(&format!("http://127.0.0.1:{port}/?src={file_name}{query}"));
         browser.wait(
             &format!("all of {name}"),
-            &format!("const p = document.getElementById('a'); return (p.frames || []).length === {frames};"),
+            &format!("const p = document.getElementById('a'); return (p.frames || []).length === {frames} && p.dataset.frame !== undefined;"),
             600,
         );
         let s = browser.js("return Object.assign({}, document.getElementById('a').stats);", json!([]));

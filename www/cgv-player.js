@@ -20,82 +20,11 @@
 // "cgv-frame" (detail: the frame shown) and "cgv-camera" (detail: camera
 // state), the last two for synchronizing views.
 
-import init, { Player, View } from './pkg/cgv.js';
+import { View } from './pkg/cgv.js';
+import { MotionStream, loadWasm } from './cgv-stream.js';
 
-let ready = null;
-/** Loads the wasm module once per page. */
-export function loadWasm(url) {
-  if (!ready) ready = init(url ? { module_or_path: url } : undefined);
-  return ready;
-}
-
-/** The WebCodecs codec string of the SPS in an Annex-B access unit. */
-export function codecString(au) {
-  for (let i = 0; i + 4 < au.length; i++) {
-    if (au[i] === 0 && au[i + 1] === 0 && au[i + 2] === 1 && (au[i + 3] & 0x1f) === 7) {
-      const hex = (b) => b.toString(16).padStart(2, '0');
-      return `avc1.${hex(au[i + 4])}${hex(au[i + 5])}${hex(au[i + 6])}`;
-    }
-  }
-  return 'avc1.42001f';
-}
-
-/** Whether an access unit holds an IDR picture (a key frame for WebCodecs). */
-export function isKey(au) {
-  for (let i = 0; i + 3 < au.length; i++) {
-    if (au[i] === 0 && au[i + 1] === 0 && au[i + 2] === 1 && (au[i + 3] & 0x1f) === 5) return true;
-  }
-  return false;
-}
-
-/** One H.264 stream through WebCodecs, picture by picture, luma only. */
-export class LumaDecoder {
-  constructor(size) {
-    this.size = size;
-    this.waiting = [];
-    this.ready = [];
-    this.error = null;
-    this.decoder = null;
-  }
-  async decode(au, timestamp) {
-    if (!this.decoder) {
-      this.decoder = new VideoDecoder({
-        output: (frame) => this._output(frame),
-        error: (e) => { this.error = e; this.waiting.splice(0).forEach((w) => w.reject(e)); },
-      });
-      const config = { codec: codecString(au), optimizeForLatency: true };
-      const support = await VideoDecoder.isConfigSupported(config);
-      if (!support.supported) throw new Error(`this browser cannot decode ${config.codec} with WebCodecs`);
-      this.decoder.configure(config);
-    }
-    if (this.error) throw this.error;
-    const got = new Promise((resolve, reject) => this.waiting.push({ resolve, reject }));
-    this.decoder.decode(new EncodedVideoChunk({ type: isKey(au) ? 'key' : 'delta', timestamp, data: au }));
-    return got;
-  }
-  async _output(frame) {
-    try {
-      // The coded size can exceed the picture (64x66 for 64x64): take the visible rect.
-      const n = this.size;
-      const rect = { x: frame.visibleRect.x, y: frame.visibleRect.y, width: n, height: n };
-      const buf = new Uint8Array(frame.allocationSize({ rect }));
-      const layout = await frame.copyTo(buf, { rect });
-      const y = layout[0];
-      const luma = new Uint8Array(n * n);
-      for (let r = 0; r < n; r++) luma.set(buf.subarray(y.offset + r * y.stride, y.offset + r * y.stride + n), r * n);
-      const w = this.waiting.shift();
-      if (w) w.resolve(luma);
-    } catch (e) {
-      const w = this.waiting.shift();
-      if (w) w.reject(e);
-    } finally {
-      frame.close();
-    }
-  }
-  close() {
-    if (this.decoder && this.decoder.state !== 'closed') this.decoder.close();
-  }
-}
+// What pages imported from here before the pipeline had its own module.
+export { loadWasm, codecString, isKey, LumaDecoder } from './cgv-stream.js';
 
 const STYLE = `
 :host { display: block; position: relative; background: #12141a; color: #ddd; font: 13px system-ui, sans-serif; min-height: 200px; }
@@ -112,7 +41,7 @@ button, select { background: #2a2e38; color: #eee; border: 1px solid #444; borde
 `;
 
 export class CgvPlayer extends HTMLElement {
-  static get observedAttributes() { return ['src', 'mode', 'poster']; }
+  static get observedAttributes() { return ['src', 'mode', 'poster', 'loop']; }
 
   constructor() {
     super();
@@ -129,7 +58,6 @@ export class CgvPlayer extends HTMLElement {
       </div>`;
     this.$ = (s) => root.querySelector(s);
     this.canvas = this.$('canvas');
-    this.frames = [];
     this.playing = false;
     this.current = 0;
     this.generation = 0;
@@ -152,6 +80,10 @@ export class CgvPlayer extends HTMLElement {
   }
 
   attributeChangedCallback(name, _old, value) {
+    if (name === 'loop') {
+      this.$('.loop').checked = value !== null;
+      if (this.stream) { this.stream.loop = value !== null; this.stream.pump(); }
+    }
     if (name === 'src' && value) this._loadWhenVisible(value);
     if (name === 'poster') this.$('.wrap').style.background = value ? `center / contain no-repeat url("${value}")` : '';
     if (name === 'mode') { this.$('.mode').value = value; this.show(this.current); }
@@ -181,13 +113,19 @@ export class CgvPlayer extends HTMLElement {
     if (o) this.$('.speed').value = o.value;
   }
   get loop() { return this.hasAttribute('loop'); }
-  set loop(on) { this.toggleAttribute('loop', !!on); this.$('.loop').checked = !!on; }
+  set loop(on) { this.toggleAttribute('loop', !!on); }
   get autoplay() { return this.hasAttribute('autoplay'); }
   set autoplay(on) { this.toggleAttribute('autoplay', !!on); }
   get src() { return this.getAttribute('src') || ''; }
   set src(v) { this.setAttribute('src', v); }
   /** Frames held in memory now (decoded, not yet dropped). */
-  get bufferedFrames() { return this.held || 0; }
+  get bufferedFrames() { return this.stream?.held || 0; }
+  /** The decoded frames held (sparse: a long motion keeps a window). */
+  get frames() { return this.stream?.frames || []; }
+  /** The file's header, once it has arrived. */
+  get header() { return this.stream?.header || null; }
+  /** The wasm Player under the stream (the input's mesh, its texture). */
+  get player() { return this.stream?.player; }
 
   /** loading="lazy": the file is fetched once the element nears the viewport. */
   _loadWhenVisible(src) {
@@ -213,11 +151,9 @@ export class CgvPlayer extends HTMLElement {
   async load(source) {
     const gen = ++this.generation;
     this.pause();
-    this.frames = [];
-    this.held = 0;
-    this.seekTo = null;
-    this.rewindWanted = false;
-    this.header = null;
+    this.stream?.close();
+    const stream = new MotionStream({ buffer: +(this.getAttribute('buffer') || 3), loop: this.hasAttribute('loop') });
+    this.stream = stream;
     this.shown = null;
     this.texture = undefined;
     this.view?.reframe();
@@ -226,172 +162,73 @@ export class CgvPlayer extends HTMLElement {
     this.stats.firstFrameMs = null;
     this.t0 = performance.now();
     this.message('loading…');
+    const mine = (fn) => (e) => { if (gen === this.generation) fn(e); };
+    const fail = (text) => this.message(`Cannot play this file: ${text}`, true);
+    stream.addEventListener('loadedmetadata', mine(() => this._metadata(gen)));
+    stream.addEventListener('progress', mine(() => {
+      const h = stream.header;
+      if (h) this.$('.progress').style.width = `${100 * stream.player.complete_frames() / h.frames}%`;
+      this.dispatchEvent(new Event('progress'));
+    }));
+    stream.addEventListener('frame', mine((e) => this._decoded(e.detail)));
+    stream.addEventListener('seeked', mine((e) => { this.show(e.detail); this.dispatchEvent(new Event('seeked')); }));
+    stream.addEventListener('error', mine((e) => fail(e.detail)));
     try {
-      if (typeof VideoDecoder === 'undefined') {
-        throw new Error('This browser has no WebCodecs VideoDecoder, which the viewer needs to decode H.264. Try a recent Chrome, Edge or Safari.');
-      }
-      await loadWasm();
-      this.player = new Player('');
-      this.decoders?.forEach((d) => d.close());
-      this.decoders = null;
-      const feed = async (bytes) => {
-        this.player.push(bytes);
-        this._header(gen);
-        this.dispatchEvent(new Event('progress'));
-        this._pump(gen);
-      };
-      if (typeof source === 'string') {
-        const resp = await fetch(source);
-        if (!resp.ok) throw new Error(`${source}: HTTP ${resp.status}`);
-        const reader = resp.body.getReader();
-        for (;;) {
-          const { done, value } = await reader.read();
-          if (gen !== this.generation) return;
-          if (done) break;
-          await feed(value);
-        }
-      } else {
-        const buf = source instanceof ArrayBuffer ? source : await source.arrayBuffer();
-        await feed(new Uint8Array(buf));
-      }
-      if (!this.player.is_complete()) throw new Error('the file ended early (truncated)');
+      await stream.open(source);
     } catch (e) {
-      if (gen === this.generation) this.message(`Cannot play this file: ${e.message || e}`, true);
+      if (gen === this.generation) fail(e.message || e);
     }
   }
 
-  _header(gen) {
-    if (this.header || gen !== this.generation || !this.player.header_json()) return;
-    const h = JSON.parse(this.player.header_json());
-    this.header = h;
-    // Frames held ahead of the one shown, and whether the motion is long
-    // enough that the rest are dropped (else every frame is kept).
-    const seconds = +(this.getAttribute('buffer') || 3);
-    this.window = Math.max(8, Math.ceil((seconds > 0 ? seconds : 3) * h.fps));
-    this.bounded = h.frames > 2 * this.window + 4;
+  /** The header has arrived: the view for its grid, the controls, the texture. */
+  async _metadata(gen) {
+    const h = this.header;
+    this.$('.slider').max = h.frames - 1;
+    this.stats.grid = h.grid;
+    this.stats.frames = h.frames;
     this.dispatchEvent(new Event('loadedmetadata'));
-  }
-
-  /** How far frame k lies ahead of the one shown (around the loop). */
-  _ahead(k) {
-    const n = this.header.frames;
-    return k >= this.current ? k - this.current : k + n - this.current;
-  }
-
-  /** Whether the pump should decode frame k now, and keep it. */
-  _wants(k) {
-    if (!this.bounded) return { go: true, keep: true };
-    const seeking = this.seekTo !== null && k < this.seekTo;
-    const d = this._ahead(k);
-    return { go: seeking || d <= this.window, keep: !seeking && d <= this.window };
-  }
-
-  /** Drops the frames outside [shown - 2, shown + window] (a long motion only). */
-  _evict() {
-    if (!this.bounded) return;
-    const n = this.header.frames;
-    for (const key in this.frames) {
-      const k = +key, behind = (this.current - k + n) % n;
-      if (behind > 2 && this._ahead(k) > this.window) { delete this.frames[k]; this.held--; }
-    }
-  }
-
-  /** Starts decoding from frame 0 again (a loop, or a seek back). */
-  _rewind(h) {
-    this.decoders?.forEach((d) => d.close());
-    this.decoders = h.streams.map((s) => new LumaDecoder(h.grid >> (s.shrink || 0)));
-    this.player.rewind();
-    this.rewindWanted = false;
-  }
-
-  /** Shows frame f, decoding from the start of the bytes held if it is not here (a seek). */
-  seekFrame(f) {
-    if (!this.header) return;
-    const n = this.header.frames;
-    f = Math.max(0, Math.min(Math.round(f), n - 1));
-    this.dispatchEvent(new Event('seeking'));
-    if (this.frames[f]) { this.show(f); this.dispatchEvent(new Event('seeked')); return; }
-    this.current = f;
-    this.seekTo = f;
-    // Behind the decoder: decode again from 0 (ahead: decode on to it).
-    if (this.player.next_frame() > f) this.rewindWanted = true;
-    this._evict();
-    this._pump(this.generation);
-  }
-
-  async _pump(gen) {
-    if (this.pumping || gen !== this.generation) return;
-    this.pumping = true;
     try {
-      const h = JSON.parse(this.player.header_json() || 'null');
-      if (!h) return;
-      this.header = h;
       if (!this.view || this.viewGrid !== h.grid) {
         this._resize();
-        this.view = await View.create(this.canvas, h.grid, this.hasAttribute('webgl'));
-        this.shown = null;
+        this.view = null;
+        const view = await View.create(this.canvas, h.grid, this.hasAttribute('webgl'));
+        if (gen !== this.generation) return;
+        this.view = view;
         this.viewGrid = h.grid;
-        this.stats.backend = this.view.backend();
+        this.stats.backend = view.backend();
       }
-      // A stream may be coded on a coarser grid (format v9: `shrink` halvings).
-      if (!this.decoders) this.decoders = h.streams.map((s) => new LumaDecoder(h.grid >> (s.shrink || 0)));
+      this.shown = null;
       if (h.appearance && this.texture === undefined && this.player.source_uvs().length) {
         this.texture = null;
         this._texture(h.appearance, gen);
       }
-      this.$('.slider').max = h.frames - 1;
-      this.stats.grid = h.grid;
-      this.stats.frames = h.frames;
-      for (;;) {
-        if (gen !== this.generation) return;
-        if (this.rewindWanted) this._rewind(h);
-        let f = this.player.next_frame();
-        if (f >= h.frames) {
-          // The end of a lap: a long looping motion starts the next one.
-          if (!(this.bounded && this.hasAttribute('loop'))) break;
-          this._rewind(h);
-          f = 0;
-        }
-        if (f >= this.player.complete_frames()) break;
-        const want = this._wants(f);
-        if (!want.go) break; // the window is full; show() wakes the pump
-        const t = performance.now();
-        const lumas = await Promise.all(h.streams.map((_, s) =>
-          this.player.has_frame(s, f) ? this.decoders[s].decode(this.player.access_unit(s, f), f) : null));
-        const t1 = performance.now();
-        if (gen !== this.generation) return;
-        lumas.forEach((l, s) => { if (l) this.player.supply_luma(s, l); });
-        const x = this.player.decode_next();
-        const t2 = performance.now();
-        const k = this.stats.decoded;
-        this.stats.decodeMs = (this.stats.decodeMs * k + (t1 - t)) / (k + 1);
-        this.stats.reconstructMs = (this.stats.reconstructMs * k + (t2 - t1)) / (k + 1);
-        this.stats.decoded = k + 1;
-        if (want.keep && !this.frames[f]) { this.frames[f] = x; this.held++; }
-        this.stats.kbps = this.player.bytes() * 8 / 1000 / (Math.max(1, this.player.complete_frames()) / h.fps);
-        this.$('.progress').style.width = `${100 * this.player.complete_frames() / h.frames}%`;
-        if (this.stats.firstFrameMs === null) {
-          this.message('');
-          this.show(0);
-          this.stats.firstFrameMs = performance.now() - this.t0;
-          this.$('.wrap').style.background = '';
-          if (this.hasAttribute('autoplay')) this.play();
-        }
-        if (f === this.seekTo) {
-          this.seekTo = null;
-          this.show(f);
-          this.dispatchEvent(new Event('seeked'));
-        }
-        this._status();
-        // Let the page breathe between frames.
-        await new Promise((r) => setTimeout(r, 0));
-      }
-      if (this.player.is_complete()) this.stats.kbps = this.player.bytes() * 8 / 1000 / (h.frames / h.fps);
+      if (this.frames[0]) this._decoded(0);
     } catch (e) {
-      if (gen === this.generation) this.message(`Cannot play this file: ${e.message || e}`, true);
-    } finally {
-      this.pumping = false;
+      if (gen === this.generation) this.message(`Cannot draw: ${e.message || e}`, true);
     }
+  }
+
+  /** Frame f was decoded: the first one is shown (and starts autoplay). */
+  _decoded(f) {
+    const s = this.stream.stats;
+    Object.assign(this.stats, { decodeMs: s.decodeMs, reconstructMs: s.reconstructMs, decoded: s.decoded, kbps: s.kbps });
+    if (this.stats.firstFrameMs === null && this.view && this.frames[0]) {
+      this.message('');
+      this.show(0);
+      this.stats.firstFrameMs = performance.now() - this.t0;
+      this.$('.wrap').style.background = '';
+      if (this.hasAttribute('autoplay')) this.play();
+    }
+    if (f % 8 === 0 || f === this.header.frames - 1) this._status();
+  }
+
+  /** Shows frame f, decoding up to it first if it is not held (a seek). */
+  seekFrame(f) {
+    if (!this.header) return;
+    f = Math.max(0, Math.min(Math.round(f), this.header.frames - 1));
+    this.dispatchEvent(new Event('seeking'));
+    this.current = f;
+    if (this.stream.seek(f)) { this.show(f); this.dispatchEvent(new Event('seeked')); }
   }
 
   /** Decodes the file's base colour texture (format v8) with the browser's
@@ -424,9 +261,8 @@ export class CgvPlayer extends HTMLElement {
     if (!this.frames[f]) return;
     const moved = f !== this.current;
     this.current = f;
-    this._evict();
-    // Room in the window again: decode on.
-    if (this.bounded && !this.pumping) this._pump(this.generation);
+    // Frames behind may go; room in the window again: decoding goes on.
+    this.stream.setCurrent(f);
     try {
       // The error map measures against the same frame of a reference player
       // (el.reference = otherPlayer), e.g. GV against CGV of one motion.

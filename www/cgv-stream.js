@@ -1,0 +1,259 @@
+// The decode pipeline under <cgv-player> and the three.js module, without
+// any drawing: a .cgv file streamed in, its H.264 access units decoded with
+// WebCodecs, each frame rebuilt by the wasm core, and a bounded window of
+// decoded frames kept.
+//
+// A motion longer than twice the decode-ahead window (buffer seconds)
+// keeps only the frames from two behind the one shown (`current`) to the
+// window ahead of it; a shorter one keeps them all. The closed loop carries
+// state from frame 0, so looping and seeking back rewind the decoder and
+// decode forward again from the bytes held; the file is fetched once.
+//
+// Events: loadedmetadata (the header is here), progress (bytes came),
+// frame (detail: a frame just decoded and kept), seeked (detail: the
+// frame a seek asked for, now held), error (detail: the message).
+
+import init, { Player } from './pkg/cgv.js';
+
+let ready = null;
+/** Loads the wasm module once per page; resolves to its exports. */
+export function loadWasm(url) {
+  if (!ready) ready = init(url ? { module_or_path: url } : undefined);
+  return ready;
+}
+
+/** The WebCodecs codec string of the SPS in an Annex-B access unit. */
+export function codecString(au) {
+  for (let i = 0; i + 4 < au.length; i++) {
+    if (au[i] === 0 && au[i + 1] === 0 && au[i + 2] === 1 && (au[i + 3] & 0x1f) === 7) {
+      const hex = (b) => b.toString(16).padStart(2, '0');
+      return `avc1.${hex(au[i + 4])}${hex(au[i + 5])}${hex(au[i + 6])}`;
+    }
+  }
+  return 'avc1.42001f';
+}
+
+/** Whether an access unit holds an IDR picture (a key frame for WebCodecs). */
+export function isKey(au) {
+  for (let i = 0; i + 3 < au.length; i++) {
+    if (au[i] === 0 && au[i + 1] === 0 && au[i + 2] === 1 && (au[i + 3] & 0x1f) === 5) return true;
+  }
+  return false;
+}
+
+/** One H.264 stream through WebCodecs, picture by picture, luma only. */
+export class LumaDecoder {
+  constructor(size) {
+    this.size = size;
+    this.waiting = [];
+    this.error = null;
+    this.decoder = null;
+  }
+  async decode(au, timestamp) {
+    if (!this.decoder) {
+      this.decoder = new VideoDecoder({
+        output: (frame) => this._output(frame),
+        error: (e) => { this.error = e; this.waiting.splice(0).forEach((w) => w.reject(e)); },
+      });
+      const config = { codec: codecString(au), optimizeForLatency: true };
+      const support = await VideoDecoder.isConfigSupported(config);
+      if (!support.supported) throw new Error(`this browser cannot decode ${config.codec} with WebCodecs`);
+      this.decoder.configure(config);
+    }
+    if (this.error) throw this.error;
+    const got = new Promise((resolve, reject) => this.waiting.push({ resolve, reject }));
+    this.decoder.decode(new EncodedVideoChunk({ type: isKey(au) ? 'key' : 'delta', timestamp, data: au }));
+    return got;
+  }
+  async _output(frame) {
+    try {
+      // The coded size can exceed the picture (64x66 for 64x64): take the visible rect.
+      const n = this.size;
+      const rect = { x: frame.visibleRect.x, y: frame.visibleRect.y, width: n, height: n };
+      const buf = new Uint8Array(frame.allocationSize({ rect }));
+      const layout = await frame.copyTo(buf, { rect });
+      const y = layout[0];
+      const luma = new Uint8Array(n * n);
+      for (let r = 0; r < n; r++) luma.set(buf.subarray(y.offset + r * y.stride, y.offset + r * y.stride + n), r * n);
+      const w = this.waiting.shift();
+      if (w) w.resolve(luma);
+    } catch (e) {
+      const w = this.waiting.shift();
+      if (w) w.reject(e);
+    } finally {
+      frame.close();
+    }
+  }
+  close() {
+    if (this.decoder && this.decoder.state !== 'closed') this.decoder.close();
+  }
+}
+
+export class MotionStream extends EventTarget {
+  /** buffer: seconds decoded ahead; loop: whether a long motion's decoder starts over at its end. */
+  constructor({ buffer = 3, loop = false } = {}) {
+    super();
+    this.buffer = buffer > 0 ? buffer : 3;
+    this.loop = loop;
+    this.frames = [];
+    this.held = 0;
+    this.current = 0;
+    this.seekTo = null;
+    this.rewindWanted = false;
+    this.header = null;
+    this.player = null;
+    this.decoders = null;
+    this.closed = false;
+    this.pumping = false;
+    this.stats = { decodeMs: 0, reconstructMs: 0, decoded: 0, kbps: 0 };
+  }
+
+  /** Streams a URL, a Blob or an ArrayBuffer in; resolves once every byte has arrived. */
+  async open(source) {
+    if (typeof VideoDecoder === 'undefined') {
+      throw new Error('This browser has no WebCodecs VideoDecoder, which the viewer needs to decode H.264. Try a recent Chrome, Edge or Safari.');
+    }
+    await loadWasm();
+    this.player = new Player('');
+    const feed = (bytes) => {
+      this.player.push(bytes);
+      this._metadata();
+      this.dispatchEvent(new Event('progress'));
+      this.pump();
+    };
+    if (typeof source === 'string') {
+      const resp = await fetch(source);
+      if (!resp.ok) throw new Error(`${source}: HTTP ${resp.status}`);
+      const reader = resp.body.getReader();
+      for (;;) {
+        const { done, value } = await reader.read();
+        if (this.closed) return;
+        if (done) break;
+        feed(value);
+      }
+    } else {
+      const buf = source instanceof ArrayBuffer ? source : await source.arrayBuffer();
+      feed(new Uint8Array(buf));
+    }
+    if (!this.player.is_complete()) throw new Error('the file ended early (truncated)');
+  }
+
+  close() {
+    this.closed = true;
+    this.decoders?.forEach((d) => d.close());
+  }
+
+  _metadata() {
+    if (this.header || !this.player.header_json()) return;
+    const h = JSON.parse(this.player.header_json());
+    this.header = h;
+    this.window = Math.max(8, Math.ceil(this.buffer * h.fps));
+    this.bounded = h.frames > 2 * this.window + 4;
+    // A stream may be coded on a coarser grid (format v9: `shrink` halvings).
+    this.decoders = h.streams.map((s) => new LumaDecoder(h.grid >> (s.shrink || 0)));
+    this.dispatchEvent(new Event('loadedmetadata'));
+  }
+
+  /** How far frame k lies ahead of the current one (around the loop). */
+  _ahead(k) {
+    return k >= this.current ? k - this.current : k + this.header.frames - this.current;
+  }
+
+  /** Whether to decode frame k now, and to keep it. */
+  _wants(k) {
+    if (!this.bounded) return { go: true, keep: true };
+    const seeking = this.seekTo !== null && k < this.seekTo;
+    const d = this._ahead(k);
+    return { go: seeking || d <= this.window, keep: !seeking && d <= this.window };
+  }
+
+  /** Drops the frames outside [current - 2, current + window] (a long motion only). */
+  _evict() {
+    if (!this.bounded) return;
+    const n = this.header.frames;
+    for (const key in this.frames) {
+      const k = +key, behind = (this.current - k + n) % n;
+      if (behind > 2 && this._ahead(k) > this.window) { delete this.frames[k]; this.held--; }
+    }
+  }
+
+  /** Starts decoding from frame 0 again. */
+  _rewind() {
+    const h = this.header;
+    this.decoders.forEach((d) => d.close());
+    this.decoders = h.streams.map((s) => new LumaDecoder(h.grid >> (s.shrink || 0)));
+    this.player.rewind();
+    this.rewindWanted = false;
+  }
+
+  /** The consumer now shows frame f: frames behind it may go, decoding goes on. */
+  setCurrent(f) {
+    if (f === this.current) return;
+    this.current = f;
+    this._evict();
+    if (this.bounded) this.pump();
+  }
+
+  /** Makes frame f the current one; true if it is held now, else a
+   * "seeked" event follows once it is (decoding from 0 if it lies behind). */
+  seek(f) {
+    this.current = f;
+    this._evict();
+    if (this.frames[f]) return true;
+    this.seekTo = f;
+    if (this.player.next_frame() > f) this.rewindWanted = true;
+    this._evict();
+    this.pump();
+    return false;
+  }
+
+  async pump() {
+    if (this.pumping || this.closed || !this.header) return;
+    this.pumping = true;
+    const h = this.header;
+    try {
+      for (;;) {
+        if (this.closed) return;
+        if (this.rewindWanted) this._rewind();
+        let f = this.player.next_frame();
+        if (f >= h.frames) {
+          // The end of a lap: a long looping motion starts the next one.
+          if (!(this.bounded && this.loop)) break;
+          this._rewind();
+          f = 0;
+        }
+        if (f >= this.player.complete_frames()) break;
+        const want = this._wants(f);
+        if (!want.go) break; // the window is full; setCurrent wakes the pump
+        const t = performance.now();
+        const lumas = await Promise.all(h.streams.map((_, s) =>
+          this.player.has_frame(s, f) ? this.decoders[s].decode(this.player.access_unit(s, f), f) : null));
+        const t1 = performance.now();
+        if (this.closed) return;
+        lumas.forEach((l, s) => { if (l) this.player.supply_luma(s, l); });
+        const x = this.player.decode_next();
+        const t2 = performance.now();
+        const st = this.stats, k = st.decoded;
+        st.decodeMs = (st.decodeMs * k + (t1 - t)) / (k + 1);
+        st.reconstructMs = (st.reconstructMs * k + (t2 - t1)) / (k + 1);
+        st.decoded = k + 1;
+        st.kbps = this.player.bytes() * 8 / 1000 / (Math.max(1, this.player.complete_frames()) / h.fps);
+        if (want.keep && !this.frames[f]) {
+          this.frames[f] = x;
+          this.held++;
+          this.dispatchEvent(new CustomEvent('frame', { detail: f }));
+        }
+        if (f === this.seekTo) {
+          this.seekTo = null;
+          this.dispatchEvent(new CustomEvent('seeked', { detail: f }));
+        }
+        // Let the page breathe between frames.
+        await new Promise((r) => setTimeout(r, 0));
+      }
+    } catch (e) {
+      if (!this.closed) this.dispatchEvent(new CustomEvent('error', { detail: e.message || String(e) }));
+    } finally {
+      this.pumping = false;
+    }
+  }
+}
