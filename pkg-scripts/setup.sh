@@ -5,10 +5,11 @@
 #   rustup target wasm32-unknown-unknown     the web build
 #   wasm-bindgen-cli, pinned to Cargo.lock   the web package (installed under ~/.cache/cgv)
 #   nasm                                     openh264's assembly (2-5x faster H.264)
-#   binaryen                                 wasm-opt for the web package (1.46 -> 1.29 MB gzipped)
 #   chromium, chromium-driver                browser tests
 #   mesa-vulkan-drivers                      lavapipe, for rendering without a GPU
 #   nodejs, npm; tests/node (npm ci)         the Khronos glTF-Validator the tests run on our GLBs
+#   www (npm ci)                             three.js, for www/three/ (the three.js module's demo), and
+#                                            binaryen's wasm-opt for the web package (1.46 -> 1.29 MB gzipped)
 #   python3-venv; python/requirements-dev.txt the Python package's build (maturin) and tests (numpy,
 #                                            pytest, Ray), in a virtual environment under ~/.cache/cgv
 set -euo pipefail
@@ -34,7 +35,6 @@ fi
 
 missing=()
 command -v nasm >/dev/null || missing+=(nasm)
-command -v wasm-opt >/dev/null || missing+=(binaryen)
 command -v chromium >/dev/null || missing+=(chromium)
 command -v chromedriver >/dev/null || missing+=(chromium-driver)
 command -v xz >/dev/null || missing+=(xz-utils)
@@ -60,6 +60,12 @@ if [ -n "$want" ] && [ "$have" != "$want" ]; then
   # --locked: its lock file pins a crate release the registry lacks.
   CARGO_TARGET_DIR="$cache/wasm-bindgen-build" cargo install -q wasm-bindgen-cli --version "$want" --root "$cache/tools"
   rm -rf "$cache/wasm-bindgen-build"
+fi
+
+# three.js (the three.js module's demo page and its test) and wasm-opt, pinned by www/package-lock.json.
+if [ ! -d "$here/www/node_modules/three" ] || [ ! -x "$here/www/node_modules/.bin/wasm-opt" ]; then
+  say "installing three.js and binaryen (npm ci in www)"
+  (cd "$here/www" && npm ci --no-audit --no-fund --silent)
 fi
 
 # The glTF-Validator for the tests, pinned by tests/node/package-lock.json.

@@ -204,6 +204,18 @@ fn site(name: &str) -> (PathBuf, Guard, u16) {
     for f in ["index.html", "cgv-player.js", "cgv-stream.js"] {
         std::fs::copy(root.join("www").join(f), dir.join(f)).unwrap();
     }
+    // The three.js module, its demo page, and the parts of three.js it loads.
+    std::fs::create_dir_all(dir.join("three")).unwrap();
+    for f in ["three/cgv-three.js", "three/index.html"] {
+        std::fs::copy(root.join("www").join(f), dir.join(f)).unwrap();
+    }
+    let three = root.join("www/node_modules/three");
+    assert!(three.exists(), "{} is missing: run pkg-scripts/setup.sh (npm ci in www)", three.display());
+    for f in ["build/three.module.js", "build/three.core.js", "examples/jsm/controls/OrbitControls.js"] {
+        let to = dir.join("node_modules/three").join(f);
+        std::fs::create_dir_all(to.parent().unwrap()).unwrap();
+        std::fs::copy(three.join(f), to).unwrap();
+    }
     std::fs::create_dir_all(dir.join("pkg")).unwrap();
     for e in std::fs::read_dir(root.join("www/pkg")).unwrap() {
         let e = e.unwrap();
@@ -492,6 +504,66 @@ fn the_player_seeks_loops_in_bounded_memory_and_behaves_like_video() {
     assert_eq!(browser.js(&format!("{p} return [+p.dataset.frame, p.paused];"), json!([])), json!([39, true]));
     let labels = browser.js(&format!("{p} return [...p.shadowRoot.querySelectorAll('button, input, select')].every((e) => e.getAttribute('aria-label'));"), json!([]));
     assert_eq!(labels, json!(true), "every control is labelled");
+}
+
+/// The three.js demo page's state: the frame its mesh holds, a checksum
+/// of its positions, its vertex count, and an error if it had one.
+const THREE_STATE: &str = "const m = window.cgvMesh; if (!m) return { error: window.cgvError || null }; \
+    const p = m.geometry.getAttribute('position').array; let sum = 0; for (let i = 0; i < p.length; i += 7) sum += p[i]; \
+    return { frame: m.frame, sum, vertices: p.length / 3, textured: !!m.material.map };";
+
+#[test]
+fn the_three_js_module_plays_a_motion_in_a_scene() {
+    // Issue 19: www/three/cgv-three.js gives a THREE.Mesh whose positions
+    // follow the motion, decoded by our wasm; its demo page lights it in a
+    // scene with OrbitControls. The figure is drawn, animates, and the
+    // input's own mesh comes textured when the file carries a texture.
+    let (_dir, _server, port) = site("three");
+    let art = common::temp_dir("browser-three");
+    let browser = Browser::start(&_dir.join("profile"));
+    let bright = |png: &[u8]| {
+        let (px, ch) = common::decode_png(png);
+        px.chunks_exact(ch).filter(|p| p[..3].iter().map(|&c| c as u32).sum::<u32>() > 3 * 120).count()
+    };
+    for (file, vertices) in [("walk-source.cgv", 6274), ("walk-cgv.cgv", 16 * 16)] {
+        browser.go(&format!("http://127.0.0.1:{port}/three/index.html?src=../{file}"));
+        browser.wait(&format!("{file} in three.js"), "return !!window.cgvMesh || !!window.cgvError;", 90);
+        let s = browser.js(THREE_STATE, json!([]));
+        assert!(s["error"].is_null(), "{file}: {s}");
+        assert_eq!(s["vertices"], json!(vertices), "{file}: the input's own mesh, or the grid without one: {s}");
+        // It animates: left to its clock, the frame moves.
+        let mut seen = std::collections::BTreeSet::new();
+        for _ in 0..20 {
+            seen.insert(browser.js(THREE_STATE, json!([]))["frame"].to_string());
+            std::thread::sleep(Duration::from_millis(30));
+        }
+        assert!(seen.len() >= 2, "{file}: the mesh stayed on one frame ({seen:?})");
+        // Held at two times: two frames, other positions, another picture, the figure lit in both.
+        let mut shots = Vec::new();
+        for f in [0, 2] {
+            browser.js(&format!("window.cgvTime = {f} / 30 + 0.001; return true;"), json!([]));
+            browser.wait(&format!("{file} frame {f}"), &format!("return window.cgvMesh.frame === {f};"), 30);
+            std::thread::sleep(Duration::from_millis(200));
+            let png = browser.screenshot(&art.join(format!("{file}-{f}.png")));
+            shots.push((browser.js(THREE_STATE, json!([])), png));
+        }
+        browser.js("window.cgvTime = undefined; return true;", json!([]));
+        assert_ne!(shots[0].0["sum"], shots[1].0["sum"], "{file}: two frames with the same positions");
+        for (st, png) in &shots {
+            let lit = bright(png);
+            assert!(lit > 1500, "{file} frame {}: {lit} lit pixels (see {})", st["frame"], art.display());
+        }
+        assert!(shots[0].1 != shots[1].1, "{file}: frames 0 and 2 look the same (see {})", art.display());
+    }
+    // Fox (format v8): the input's mesh with its texture, orange fur in the picture.
+    browser.go(&format!("http://127.0.0.1:{port}/three/index.html?src=../fox.cgv"));
+    browser.wait("fox.cgv in three.js", "return !!window.cgvMesh || !!window.cgvError;", 90);
+    let s = browser.js(THREE_STATE, json!([]));
+    assert_eq!(s["textured"], json!(true), "{s}");
+    std::thread::sleep(Duration::from_millis(500));
+    let (px, ch) = common::decode_png(&browser.screenshot(&art.join("fox.png")));
+    let orange = px.chunks_exact(ch).filter(|p| p[0] as i32 > p[2] as i32 + 60 && p[0] > 120).count();
+    assert!(orange > 1000, "the textured fox shows {orange} orange pixels in three.js (see {})", art.display());
 }
 
 /// Playback speed in the browser against the native decoder on the same

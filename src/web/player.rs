@@ -61,6 +61,13 @@ impl Player {
         Ok(())
     }
 
+    /// The grid mesh's faces (three sample indices each, N x N samples in
+    /// the order [`decode_next`](Self::decode_next) gives them), once the
+    /// header has arrived: what to draw a file without the input's mesh with.
+    pub fn grid_faces(&self) -> Vec<u32> {
+        self.dec.as_ref().map_or_else(Vec::new, |d| d.grid().topology().faces.iter().flatten().copied().collect())
+    }
+
     /// The input's own faces (three vertex indices each) when the file
     /// carries its mesh (format version 6), else empty: draw these with
     /// [`source_vertices`](Self::source_vertices) to show the user's mesh
