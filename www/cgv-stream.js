@@ -149,8 +149,7 @@ export class MotionStream extends EventTarget {
     this.header = h;
     this.window = Math.max(8, Math.ceil(this.buffer * h.fps));
     this.bounded = h.frames > 2 * this.window + 4;
-    // A stream may be coded on a coarser grid (format v9: `shrink` halvings).
-    this.decoders = h.streams.map((s) => new LumaDecoder(h.grid >> (s.shrink || 0)));
+    this._newDecoders();
     this.dispatchEvent(new Event('loadedmetadata'));
   }
 
@@ -177,11 +176,17 @@ export class MotionStream extends EventTarget {
     }
   }
 
+  /** One WebCodecs decoder per stream, each at its stream's size (format
+   * v9 may code a stream on a grid halved `shrink` times). */
+  _newDecoders() {
+    const h = this.header;
+    this.decoders?.forEach((d) => d.close());
+    this.decoders = h.streams.map((s) => new LumaDecoder(h.grid >> (s.shrink || 0)));
+  }
+
   /** Starts decoding from frame 0 again. */
   _rewind() {
-    const h = this.header;
-    this.decoders.forEach((d) => d.close());
-    this.decoders = h.streams.map((s) => new LumaDecoder(h.grid >> (s.shrink || 0)));
+    this._newDecoders();
     this.player.rewind();
     this.rewindWanted = false;
   }

@@ -217,9 +217,18 @@ fn encode<'py>(
     Ok(PyBytes::new(py, &bytes))
 }
 
-fn open_options(fps: f32, frames: Option<(usize, usize)>, fill_holes: bool, animation: Option<String>) -> OpenOptions {
+/// Opens `path` as `cgv encode PATH` does, with the GIL released.
+fn open(
+    py: Python<'_>,
+    path: &Path,
+    fps: f32,
+    frames: Option<(usize, usize)>,
+    fill_holes: bool,
+    animation: Option<String>,
+) -> PyResult<Box<dyn FrameSource>> {
     let frames = frames.map(|(start, end)| cgv::mesh::FrameSelection { start, end: Some(end) });
-    OpenOptions { fps, animation, fill_holes, frames }
+    let opts = OpenOptions { fps, animation, fill_holes, frames };
+    py.detach(|| cgv::mesh::open_sequence(&path.to_string_lossy(), &opts)).map_err(raise)
 }
 
 /// encode_file(path, *, fps=30.0, frames=None, fill_holes=False, animation=None, **options) -> bytes
@@ -239,8 +248,7 @@ fn encode_file<'py>(
     animation: Option<String>,
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyBytes>> {
-    let open = open_options(fps, frames, fill_holes, animation);
-    let src = py.detach(|| cgv::mesh::open_sequence(&path.to_string_lossy(), &open)).map_err(raise)?;
+    let src = open(py, &path, fps, frames, fill_holes, animation)?;
     let opts = encode_options(options, src.fps())?;
     let bytes = run_encode(py, src.as_ref(), &opts)?;
     Ok(PyBytes::new(py, &bytes))
@@ -271,18 +279,17 @@ fn read_motion<'py>(
     fill_holes: bool,
     animation: Option<String>,
 ) -> PyResult<(Bound<'py, PyAny>, Bound<'py, PyAny>, f32)> {
-    let open = open_options(fps, frames, fill_holes, animation);
-    let (coords, count, src) = py
-        .detach(|| -> cgv::Result<_> {
-            let src = cgv::mesh::open_sequence(&path.to_string_lossy(), &open)?;
+    let src = open(py, &path, fps, frames, fill_holes, animation)?;
+    let coords = py
+        .detach(|| -> cgv::Result<Vec<f32>> {
             let mut coords = Vec::with_capacity(src.frame_count() * src.topology().vertex_count * 3);
             for i in 0..src.frame_count() {
                 coords.extend(src.read_frame(i)?.iter().flat_map(|p| p.to_array()));
             }
-            Ok((coords, src.frame_count(), src))
+            Ok(coords)
         })
         .map_err(raise)?;
-    let (positions, faces) = arrays(py, coords, count, &src.topology().faces)?;
+    let (positions, faces) = arrays(py, coords, src.frame_count(), &src.topology().faces)?;
     Ok((positions, faces, src.fps()))
 }
 
@@ -374,13 +381,9 @@ fn diagonal(points: PyArrayLikeDyn<'_, f32, AllowTypeChange>) -> PyResult<f64> {
     if a.shape().last() != Some(&3) {
         return Err(invalid(format!("points: shape {:?}, expected (..., 3)", a.shape())));
     }
-    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
     let coords: Vec<f32> = a.iter().copied().collect();
-    for c in coords.chunks_exact(3) {
-        let p = Vec3::new(c[0], c[1], c[2]);
-        (lo, hi) = (lo.min(p), hi.max(p));
-    }
-    Ok(if lo.x <= hi.x { (hi - lo).length() as f64 } else { 0.0 })
+    let p: Vec<Vec3> = coords.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2])).collect();
+    Ok(if p.is_empty() { 0.0 } else { cgv::mesh::Bounds::of(&p).diagonal() as f64 })
 }
 
 /// surface_distance(a, a_faces, b, b_faces) -> dict

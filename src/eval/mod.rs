@@ -654,8 +654,8 @@ impl Ctx<'_> {
         let stream_bytes = h
             .streams
             .iter()
-            .zip(&dec.file.units)
-            .map(|(s, u)| (format!("{}{}", s.name, if s.layer == 2 { "/2" } else { "" }), u.iter().map(Vec::len).sum()))
+            .zip(dec.file.stream_bytes())
+            .map(|(s, b)| (format!("{}{}", s.name, if s.layer == 2 { "/2" } else { "" }), b))
             .collect();
         let st = Stencils::new(self.grid);
         let grid_faces = self.prepared.map.surface_faces();

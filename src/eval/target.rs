@@ -113,13 +113,12 @@ pub fn encode_to_error(
     // 26 on), and the error can jump there (samba at N = 128: 0.067 % at
     // QP 25, 0.168 % at 26): so past such a boundary the coarser QPs are
     // searched again with the kept file's corrections.
-    if let Some(m) = missed.filter(|m| m.qp == kept.qp + 1 && differs(&m.options, &kept.options)) {
+    if missed.as_ref().is_some_and(|m| m.qp == kept.qp + 1 && differs(&m.options, &kept.options)) {
         let pin = kept.options.clone();
         let (coarser, _) = bisect(target, kept.qp, (kept.qp + 52) / 2, &mut |qp| try_qp(qp, Some(&pin)))?;
         if let Some(c) = coarser.filter(|c| c.bytes.len() < kept.bytes.len()) {
             kept = c;
         }
-        drop(m);
     }
     let Found { bytes, mut report, error: surface_rms, qp, .. } = kept;
     // The times add up every pass, measuring included.

@@ -659,13 +659,18 @@ pub struct CgvFile {
 }
 
 impl CgvFile {
+    /// Bytes of H.264 per stream, in the header's order.
+    pub fn stream_bytes(&self) -> Vec<usize> {
+        self.units.iter().map(|u| u.iter().map(Vec::len).sum()).collect()
+    }
+
     /// What `cgv info --json` says of the file (and the Python package's
     /// `info`): version, size, header, bytes per stream, and each frame's
     /// side data.
     pub fn summary(&self) -> serde_json::Value {
         let h = &self.header;
         let seconds = h.frames as f64 / h.fps as f64;
-        let stream_bytes: Vec<usize> = self.units.iter().map(|u| u.iter().map(Vec::len).sum()).collect();
+        let stream_bytes = self.stream_bytes();
         let f = &self.frames;
         serde_json::json!({
             "version": self.version, "bytes": self.bytes, "kbps": self.bytes as f64 * 8.0 / 1000.0 / seconds,

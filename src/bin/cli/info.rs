@@ -180,8 +180,7 @@ fn cgv_info(args: &Args) -> Result<()> {
             a.texture.as_ref().map_or("no texture".into(), |t| format!("texture ({}, {} bytes)", t.mime, t.bytes));
         println!("  appearance    texture coordinates, base colour {:?}, {texture}", a.base_color);
     }
-    let stream_bytes: Vec<usize> = file.units.iter().map(|u| u.iter().map(Vec::len).sum()).collect();
-    print_streams(h, &stream_bytes);
+    print_streams(h, &file.stream_bytes());
     if h.stream(StreamName::Dx).is_some() {
         // How the encoder chose to predict each frame (see src/solve/predictor.rs).
         let mut counts = [0usize; 4];
