@@ -420,6 +420,9 @@ window.log = [];
 const p = document.getElementById('a');
 for (const e of ['loadedmetadata', 'progress', 'play', 'pause', 'timeupdate', 'seeking', 'seeked', 'ended', 'error'])
   p.addEventListener(e, () => window.log.push(e));
+// Frames the stream had decoded when a seek landed (random access: a seek
+// decodes from the point before the frame, not from frame 0).
+p.addEventListener('seeked', () => { window.decodedAtSeek = p.stream.stats.decoded; });
 </script>"#;
 
 /// Worst difference between the page's frame `f` and the native decode's.
@@ -433,12 +436,14 @@ fn page_frame_error(browser: &Browser, f: usize, native: &[Vec<glam::Vec3>]) -> 
 #[test]
 fn the_player_seeks_loops_in_bounded_memory_and_behaves_like_video() {
     // Issue 19: a motion longer than twice the decode-ahead window keeps
-    // only that window; looping and seeking back decode again from the
-    // bytes held; a seek lands on the native decoder's frame; the element
+    // only that window; looping and seeking decode again from the bytes
+    // held, from the random-access point before the frame (one every 10
+    // frames here); a seek lands on the native decoder's frame; the element
     // offers <video>'s properties, events and keyboard controls.
     let (dir, _server, port) = site("long");
     let src = cgv::mesh::builtin::motion(40);
-    let opts = cgv::codec::EncodeOptions { grid: 16, source_mesh: false, ..Default::default() };
+    let opts =
+        cgv::codec::EncodeOptions { grid: 16, source_mesh: false, random_access: 10.0 / 30.0, ..Default::default() };
     let (bytes, _) = cgv::codec::encode(&src, &opts, &mut |_, _, _| {}).unwrap();
     std::fs::write(dir.join("long.cgv"), &bytes).unwrap();
     std::fs::write(dir.join("long.html"), LONG_PAGE).unwrap();
@@ -471,11 +476,21 @@ fn the_player_seeks_loops_in_bounded_memory_and_behaves_like_video() {
     // A seek forward and one back (to a frame long dropped) land on the
     // native decoder's frames.
     for f in [25usize, 5, 33] {
-        browser.js(&format!("{p} p.pause(); window.log = []; p.currentTime = {f} / 30; return true;"), json!([]));
+        let before = browser.js(
+            &format!(
+                "{p} p.pause(); window.log = []; const d = p.stream.stats.decoded; p.currentTime = {f} / 30; return d;"
+            ),
+            json!([]),
+        );
         browser.wait(&format!("the seek to frame {f}"), "return window.log.includes('seeked');", 60);
         assert_eq!(browser.js(&format!("{p} return +p.dataset.frame;"), json!([])), json!(f));
         let worst = page_frame_error(&browser, f, &native);
         assert!(worst <= 1e-4 * diag, "frame {f}: {worst} from the native decode");
+        // From the point at or before f: f % 10 + 1 frames (and at most one
+        // the pump had in hand when the seek came).
+        let decoded =
+            browser.js("return window.decodedAtSeek;", json!([])).as_u64().unwrap() - before.as_u64().unwrap();
+        assert!(decoded as usize <= f % 10 + 2, "the seek to {f} decoded {decoded} frames");
     }
     // Keyboard: arrows step, space plays and pauses.
     browser.js(

@@ -348,6 +348,7 @@ fn greedy_file() -> Vec<u8> {
         max_lag: 255,
         source_mesh: None,
         appearance: None,
+        random_access: None,
     };
     let mut bytes = format::write_header(&header).unwrap();
     bytes.extend(format::write_frame(0, &FrameInfo::default(), &[&[1u8][..]; 6]));

@@ -546,3 +546,50 @@ fn a_target_error_gives_the_coarsest_qp_within_it_or_is_refused() {
     let e = cgv::eval::target::encode_to_error(&src, &opts, &image, 1e-6, &mut |_, _, _| {}).unwrap_err().to_string();
     assert!(e.contains("below what this grid reaches") && e.contains("at QP 0"), "{e}");
 }
+
+/// Whether an Annex-B access unit holds an IDR picture (NAL type 5).
+fn is_idr(au: &[u8]) -> bool {
+    au.windows(4).any(|w| w[..3] == [0, 0, 1] && w[3] & 0x1f == 5)
+}
+
+#[test]
+fn random_access_points_decode_the_same_frames_from_anywhere() {
+    // 20 frames with a point every 8 (format v10): a decoder that seeks to
+    // any frame, forward or back, gives exactly the frame a decoder from 0
+    // gives, having decoded at most the frames since the point before it.
+    let src = cgv::mesh::builtin::motion(20);
+    for corrections in [CorrectionMode::Motion, CorrectionMode::Scaled] {
+        let opts = EncodeOptions { grid: 32, corrections, random_access: 8.0 / src.fps(), ..Default::default() };
+        let (bytes, _) = encode(&src, &opts, &mut |_, _, _| {}).unwrap();
+        let file = format::read(&bytes).unwrap();
+        let h = &file.header;
+        assert_eq!((file.version, h.random_access, &file.index.len()), (10, Some(8), &3));
+        for s in 0..h.streams.len() {
+            for f in [0, 8, 16] {
+                assert!(is_idr(&file.units[s][f]), "{corrections:?}: stream {s} frame {f} is not an IDR picture");
+            }
+        }
+        let mut dec = FileDecoder::new(file.clone(), SolverKind::Predictive).unwrap();
+        let all: Vec<Vec<Vec3>> = (0..20).map(|_| dec.next_frame().unwrap().0).collect();
+        let mut dec = FileDecoder::new(file.clone(), SolverKind::Predictive).unwrap();
+        for target in [13, 3, 16, 19, 8, 0, 9, 9] {
+            let decoded = dec.seek(target).unwrap();
+            assert!(decoded <= target % 8, "{corrections:?}: seeking to {target} decoded {decoded} frames");
+            assert_eq!(dec.next_frame().unwrap().0, all[target as usize], "{corrections:?}: frame {target}");
+        }
+        // And it is faithful like any other file (the points restart the loop).
+        let first = src.read_frame(0).unwrap();
+        let map = cgv::codec::prepare(&src, &opts).unwrap().map;
+        let diag = Bounds::of(&first).diagonal() as f64;
+        for (f, x) in all.iter().enumerate() {
+            let (rms, _) = cgv::metrics::vertex_error(x, &map.apply(&src.read_frame(f).unwrap()));
+            assert!(rms / diag < 2e-3, "{corrections:?}: frame {f} at {} of the diagonal", rms / diag);
+        }
+    }
+    // A seek to a frame that is not there is an error, not a panic.
+    let (bytes, _) = encode(&src, &EncodeOptions { grid: 32, ..Default::default() }, &mut |_, _, _| {}).unwrap();
+    let mut dec = FileDecoder::new(format::read(&bytes).unwrap(), SolverKind::Predictive).unwrap();
+    assert!(dec.seek(20).is_err());
+    // Without points (a motion shorter than the interval), frame 0 alone is one.
+    assert_eq!((dec.file.header.random_access, dec.seek(19).unwrap()), (None, 19));
+}

@@ -52,6 +52,7 @@ fn header() -> Header {
         max_lag: 0,
         source_mesh: None,
         appearance: None,
+        random_access: None,
     }
 }
 
@@ -132,9 +133,9 @@ fn bad_magic_and_versions() {
     assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::BadMagic);
     assert_eq!(format::read(b"GIF89a").unwrap_err(), ContainerError::BadMagic);
     let mut bytes = file(&header());
-    bytes[8] = 10;
-    assert_eq!(format::VERSION, 9);
-    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 10 });
+    bytes[8] = 11;
+    assert_eq!(format::VERSION, 10);
+    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 11 });
     bytes[8] = 0;
     assert!(matches!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 0 }));
 }
@@ -682,7 +683,8 @@ fn a_normal_correction_and_shrunk_streams_need_version_nine() {
     h.streams.push(dn);
     let bytes = file(&h);
     let f = format::read(&bytes).unwrap();
-    assert_eq!((f.version, &f.header), (9, &h));
+    assert_eq!((f.version, h.min_version(), &f.header), (format::VERSION, 9, &h));
+    assert_eq!(format::read(&with_version(bytes.clone(), 9)).unwrap().header, h);
     assert_eq!(f.header.correction_streams().unwrap().len(), 4);
     assert_eq!(f.header.streams[2].size(32), 16);
     assert!(String::from_utf8_lossy(&bytes).contains("\"shrink\":1"));
@@ -715,4 +717,115 @@ fn a_normal_correction_and_shrunk_streams_need_version_nine() {
     let mut bad = h.clone();
     bad.streams.retain(|s| s.name.axis().is_none() || !s.name.is_correction());
     refused(&bad, "with or without dn");
+}
+
+/// A motion header with a seed stream (`first`) and random-access points
+/// every 3 of 7 frames (format version 10), each a key frame.
+fn random_access_header() -> Header {
+    let mut h = motion_header();
+    h.frames = 7;
+    h.max_lag = 3;
+    h.key_frames = vec![0, 2, 3, 6];
+    h.random_access = Some(3);
+    h.streams.push(StreamInfo {
+        name: StreamName::SeedX,
+        layer: 1,
+        refines: None,
+        quant: Quantizer::new(-1.0, 1.0),
+        coverage: Coverage::First,
+        scaled: false,
+        shrink: 0,
+    });
+    h
+}
+
+/// A file of `h` whose frames predict with `predictor(f)`, with the
+/// random-access index if `h` has points (offsets as written unless `lie`
+/// changes them).
+fn file_with_points(h: &Header, predictor: impl Fn(u32) -> PredictorCode, lie: impl Fn(&mut Vec<u64>)) -> Vec<u8> {
+    let mut out = format::write_header(h).unwrap();
+    let mut index = Vec::new();
+    for f in 0..h.frames {
+        if h.is_random_access_point(f) {
+            index.push(out.len() as u64);
+        }
+        let info = format::FrameInfo { predictor: predictor(f), ..frame_info(h, f) };
+        let units: Vec<Vec<u8>> =
+            (0..h.streams.len()).filter(|&s| h.stream_has_frame(s, f)).map(|s| unit(f, s)).collect();
+        out.extend(format::write_frame(f, &info, &units.iter().map(Vec::as_slice).collect::<Vec<_>>()));
+    }
+    lie(&mut index);
+    if h.random_access.is_some() {
+        out.extend(format::write_index(&index));
+    }
+    out.extend(format::write_chunk(format::TAG_END, 0, h.frames, &[]));
+    out
+}
+
+#[test]
+fn random_access_points_and_their_index_from_version_ten() {
+    let h = random_access_header();
+    let bytes = file_with_points(&h, |_| code(1, 0), |_| {});
+    let f = format::read(&bytes).unwrap();
+    assert_eq!((f.version, h.min_version(), h.random_access_points()), (10, 10, 3));
+    // The seed has a picture at each point (0, 3, 6) and nowhere else.
+    let seed = h.stream(StreamName::SeedX).unwrap();
+    assert_eq!(f.units[seed].iter().map(|u| !u.is_empty()).collect::<Vec<_>>(), [1, 0, 0, 1, 0, 0, 1].map(|b| b == 1));
+    assert_eq!((h.random_access_point(5), h.random_access_point(6)), (3, 6));
+    // The index the reader checked: each offset is its point's frame chunk,
+    // and a player holding the header finds it in the file's tail.
+    assert_eq!(f.index.len(), 3);
+    for (k, &o) in f.index.iter().enumerate() {
+        let o = o as usize;
+        assert_eq!(&bytes[o..o + 4], b"FRAM");
+        assert_eq!(u32::from_le_bytes(bytes[o + 8..o + 12].try_into().unwrap()), 3 * k as u32);
+    }
+    let tail = &bytes[bytes.len() - format::index_tail_bytes(&h) as usize..];
+    assert_eq!(format::parse_index_tail(&h, tail).unwrap(), f.index);
+    assert!(format::parse_index_tail(&h, &tail[1..]).is_err());
+    streams_byte_by_byte(&h, &bytes);
+    // A version-9 file cannot have them.
+    let e = format::read(&with_version(bytes.clone(), 9)).unwrap_err();
+    assert!(matches!(&e, ContainerError::Header(m) if m.contains("version 10")), "{e}");
+    // Every truncation and flipped byte is caught.
+    for len in 0..bytes.len() {
+        assert!(format::read(&bytes[..len]).is_err(), "length {len}");
+    }
+    for i in 0..bytes.len() {
+        let mut b = bytes.clone();
+        b[i] ^= 0x10;
+        assert!(format::read(&b).is_err(), "flipping byte {i} went unnoticed");
+    }
+}
+
+#[test]
+fn a_wrong_or_missing_index_and_bad_points_are_refused() {
+    let h = random_access_header();
+    // An index whose offsets (CRC and all) do not match the chunks.
+    for lie in [|i: &mut Vec<u64>| i[1] += 1, |i: &mut Vec<u64>| i.truncate(2), |i: &mut Vec<u64>| i.push(1 << 40)] {
+        let e = format::read(&file_with_points(&h, |_| code(1, 0), lie)).unwrap_err();
+        assert!(matches!(&e, ContainerError::Chunk { msg, .. } if msg.contains("random-access index")), "{e}");
+    }
+    // No index before the end chunk.
+    let mut bytes = file(&h);
+    let e = format::read(&bytes).unwrap_err();
+    assert!(matches!(&e, ContainerError::Chunk { msg, .. } if msg.contains("the random-access index")), "{e}");
+    // A point that is not a key frame, and an interval of 0.
+    let mut bad = h.clone();
+    bad.key_frames = vec![0, 2, 6];
+    let e = format::write_header(&bad).unwrap_err();
+    assert!(matches!(&e, ContainerError::Header(m) if m.contains("point 3 is not a key frame")), "{e}");
+    bad.random_access = Some(0);
+    assert!(format::write_header(&bad).is_err());
+    // A cycle prediction may not reach back past the last point: at frame
+    // 5 (point 3) lag 2 would read frame 2's velocity.
+    let lagged = |at: u32, lag: u8| move |f: u32| if f == at { code(3, lag) } else { code(1, 0) };
+    bytes = file_with_points(&h, lagged(5, 2), |_| {});
+    let e = format::read(&bytes).unwrap_err();
+    assert!(matches!(&e, ContainerError::Chunk { msg, .. } if msg.contains("[3, 2, 0, 0] at frame 5")), "{e}");
+    assert!(format::read(&file_with_points(&h, lagged(2, 2), |_| {})).is_err());
+    // Without points, the same lag at frame 5 reads.
+    let mut plain = h.clone();
+    plain.random_access = None;
+    assert!(format::read(&file_with_points(&plain, lagged(5, 2), |_| {})).is_ok());
 }

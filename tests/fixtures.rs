@@ -201,3 +201,26 @@ fn v9_relaxation_fixture_decodes_as_frozen() {
     assert!(f.frames.iter().any(|i| i.relax > 0), "{:?}", f.frames.iter().map(|i| i.relax).collect::<Vec<_>>());
     check("v9/walk-cgv-relax.cgv", SolverKind::Predictive, 1e-5);
 }
+
+#[test]
+fn v10_random_access_fixture_decodes_as_frozen_from_every_point() {
+    let f = open("v10/walk-cgv-random-access.cgv");
+    assert_eq!((f.version, f.header.corrections, f.header.random_access), (10, CorrectionMode::Motion, Some(6)));
+    assert_eq!(f.index.len(), 3);
+    check("v10/walk-cgv-random-access.cgv", SolverKind::Predictive, 1e-5);
+    // A decoder that starts at a later point gives the frozen frames from there.
+    let diag = f.header.source.diagonal as f64;
+    let n = (f.header.grid * f.header.grid) as usize * 3;
+    let frames = f.header.frames as usize;
+    let mut dec = FileDecoder::new(f, SolverKind::Predictive).unwrap();
+    for start in [12, 6] {
+        assert_eq!(dec.seek(start as u32).unwrap(), 0);
+        let got: Vec<f32> =
+            (start..frames).flat_map(|_| dec.next_frame().unwrap().0).flat_map(|p| p.to_array()).collect();
+        let expected = std::fs::read(fixture("v10/walk-cgv-random-access.cgv.cgv.positions")).unwrap();
+        let want = expected[4 * start * n..].chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]));
+        assert_eq!(got.len(), want.len());
+        let worst = got.iter().zip(want).map(|(a, b)| (a - b).abs() as f64).fold(0.0, f64::max);
+        assert!(worst <= 1e-5 * diag, "from frame {start}: differs by {worst}");
+    }
+}

@@ -6,8 +6,10 @@
 // A motion longer than twice the decode-ahead window (buffer seconds)
 // keeps only the frames from two behind the one shown (`current`) to the
 // window ahead of it; a shorter one keeps them all. The closed loop carries
-// state from frame 0, so looping and seeking back rewind the decoder and
-// decode forward again from the bytes held; the file is fetched once.
+// state from the last random-access point (format v10: one every 2 s by
+// default; before v10 frame 0 only), so a seek restarts the decoder at the
+// point before the frame it wants and decodes forward from the bytes held;
+// the file is fetched once.
 //
 // Events: loadedmetadata (the header is here), progress (bytes came),
 // frame (detail: a frame just decoded and kept), seeked (detail: the
@@ -99,7 +101,7 @@ export class MotionStream extends EventTarget {
     this.held = 0;
     this.current = 0;
     this.seekTo = null;
-    this.rewindWanted = false;
+    this.restartAt = null;
     this.header = null;
     this.player = null;
     this.decoders = null;
@@ -184,11 +186,11 @@ export class MotionStream extends EventTarget {
     this.decoders = h.streams.map((s) => new LumaDecoder(h.grid >> (s.shrink || 0)));
   }
 
-  /** Starts decoding from frame 0 again. */
-  _rewind() {
+  /** Starts decoding again at random-access point r (0: the start). */
+  _restart(r) {
     this._newDecoders();
-    this.player.rewind();
-    this.rewindWanted = false;
+    if (r === 0) this.player.rewind(); else this.player.seek(r);
+    this.restartAt = null;
   }
 
   /** The consumer now shows frame f: frames behind it may go, decoding goes on. */
@@ -200,13 +202,15 @@ export class MotionStream extends EventTarget {
   }
 
   /** Makes frame f the current one; true if it is held now, else a
-   * "seeked" event follows once it is (decoding from 0 if it lies behind). */
+   * "seeked" event follows once it is (decoding from the random-access
+   * point before it when f lies behind the decoder or past that point). */
   seek(f) {
     this.current = f;
     this._evict();
     if (this.frames[f]) return true;
     this.seekTo = f;
-    if (this.player.next_frame() > f) this.rewindWanted = true;
+    const next = this.player.next_frame(), r = this.player.random_access_point(f);
+    if (next > f || r > next) this.restartAt = r;
     this._evict();
     this.pump();
     return false;
@@ -219,12 +223,12 @@ export class MotionStream extends EventTarget {
     try {
       for (;;) {
         if (this.closed) return;
-        if (this.rewindWanted) this._rewind();
+        if (this.restartAt !== null) this._restart(this.restartAt);
         let f = this.player.next_frame();
         if (f >= h.frames) {
           // The end of a lap: a long looping motion starts the next one.
           if (!(this.bounded && this.loop)) break;
-          this._rewind();
+          this._restart(0);
           f = 0;
         }
         if (f >= this.player.complete_frames()) break;

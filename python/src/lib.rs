@@ -145,11 +145,13 @@ fn encode_options(options: Option<&Bound<'_, PyDict>>, fps: f32) -> PyResult<Opt
             "corrections" => corrections = Some(value.extract()?),
             "correction_shrink" => o.correction_shrink = value.extract()?,
             "source_mesh" => o.source_mesh = value.extract()?,
+            "random_access" => o.random_access = value.extract()?,
             "target_error" => target = Some(value.extract::<f64>()?),
             _ => {
                 return Err(PyTypeError::new_err(format!(
                     "encode() got an unexpected keyword {key:?} (known: codec, grid, qp, kbps, gop, keyframes, layers, \
-                     max_lag, correction_layout, corrections, correction_shrink, source_mesh, target_error)"
+                     max_lag, correction_layout, corrections, correction_shrink, source_mesh, random_access, \
+                     target_error)"
                 )))
             }
         }
@@ -195,7 +197,8 @@ fn run_encode(py: Python<'_>, src: &dyn FrameSource, (opts, target): &Options) -
 /// correction_layout ("auto", "world", "normal"), corrections ("auto",
 /// "scaled", "motion"), correction_shrink, source_mesh (default True: the
 /// file carries the input's own faces so that decode gives them back),
-/// target_error (instead of qp or kbps: the smallest file whose surface RMS
+/// random_access (seconds between random-access points, default 2; 0 for
+/// frame 0 only), target_error (instead of qp or kbps: the smallest file whose surface RMS
 /// is at most this percentage of the diagonal, as `cgv encode
 /// --target-error` finds it).
 #[pyfunction]

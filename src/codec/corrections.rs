@@ -205,6 +205,11 @@ impl Corrections {
         best.1
     }
 
+    /// Forgets the previous pictures, as at frame 0 (a random-access point).
+    pub fn reset(&mut self) {
+        self.prev = None;
+    }
+
     /// Records a frame's pictures as decoded without applying them (the
     /// encoder's uncoded loop, which commits the true frame instead).
     pub fn record(&mut self, decoded: Pictures) {

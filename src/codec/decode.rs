@@ -32,6 +32,14 @@ impl UnitDecoder {
         self.sequence.next_index()
     }
 
+    /// Restarts at random-access point `f` (see [`SequenceDecoder::seek`]),
+    /// with new H.264 decoders: `f`'s pictures are IDR pictures.
+    pub fn seek(&mut self, f: u32) -> Result<()> {
+        self.sequence.seek(f)?;
+        self.videos = self.videos.iter().map(|_| H264Decoder::new()).collect::<Result<Vec<_>>>()?;
+        Ok(())
+    }
+
     /// Decodes the next frame from its side data and each stream's access
     /// unit (`None` where the stream has no picture at this frame).
     pub fn push_frame(&mut self, info: &FrameInfo, units: &[Option<&[u8]>]) -> Result<(Vec<Vec3>, FrameStats)> {
@@ -81,6 +89,29 @@ impl FileDecoder {
     /// The frame [`next_frame`](Self::next_frame) decodes next.
     pub fn next_index(&self) -> u32 {
         self.units.next_index()
+    }
+
+    /// Makes `frame` the one [`next_frame`](Self::next_frame) decodes next:
+    /// from the last random-access point at or before it when that lies
+    /// ahead of the decoder or `frame` lies behind it (a file without
+    /// random-access points restarts from frame 0), decoding and dropping
+    /// the frames in between. Returns how many frames it decoded.
+    pub fn seek(&mut self, frame: u32) -> Result<u32> {
+        let h = &self.file.header;
+        if frame >= h.frames {
+            return Err(Error::Argument(format!("frame {frame} is past the last frame {}", h.frames - 1)));
+        }
+        let rap = h.random_access_point(frame);
+        let next = self.units.next_index();
+        if frame < next || rap > next {
+            self.units.seek(rap)?;
+        }
+        let mut decoded = 0;
+        while self.units.next_index() < frame {
+            self.next_frame()?;
+            decoded += 1;
+        }
+        Ok(decoded)
     }
 
     /// Decodes the next frame: grid positions and what it took.

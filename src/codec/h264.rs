@@ -210,6 +210,19 @@ impl Encoder {
     }
 }
 
+impl Encoder {
+    /// Makes the next picture an IDR picture (with its SPS and PPS), where a
+    /// decoder can start: a random-access point.
+    pub fn force_idr(&mut self) -> Result<()> {
+        // SAFETY: `enc` is a live encoder; ForceIntraFrame only sets a flag.
+        unsafe {
+            let vt = &**self.enc;
+            let force = vt.ForceIntraFrame.ok_or_else(|| Error::Video("OpenH264 vtable incomplete".into()))?;
+            check(force(self.enc, true), "ForceIntraFrame")
+        }
+    }
+}
+
 impl Drop for Encoder {
     fn drop(&mut self) {
         // SAFETY: `enc` was created by WelsCreateSVCEncoder and is destroyed once.

@@ -34,7 +34,8 @@ pub use decode::{FileDecoder, UnitDecoder};
 #[cfg(not(target_arch = "wasm32"))]
 pub use encode::{
     auto_corrections, auto_normal_correction, encode, encode_on_budget, encode_prepared, prepare, EncodeOptions,
-    EncodeReport, AUTO_MOTION_QP, AUTO_SCALED_BITS, BUDGET_TOLERANCE, MOTION_MARGIN, PAPER_ANCHORS,
+    EncodeReport, AUTO_MOTION_QP, AUTO_SCALED_BITS, BUDGET_TOLERANCE, DEFAULT_RANDOM_ACCESS, MOTION_MARGIN,
+    PAPER_ANCHORS,
 };
 pub use reconstruct::{
     frame_values, FrameStats, Reconstructor, SequenceDecoder, SourceMeshDecoder, DEFAULT_MEMORY_LIMIT,

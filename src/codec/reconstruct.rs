@@ -94,6 +94,14 @@ impl Predictive {
         Predictive { predictor, corrections: Corrections::of(header, st) }
     }
 
+    /// Starts afresh, as at frame 0: at a random-access point (format
+    /// version 10) the decoder forgets the decoded past and the previous
+    /// correction pictures.
+    pub fn reset(&mut self) {
+        self.predictor.reset();
+        self.corrections.reset();
+    }
+
     /// The decoder's prediction of a frame with the file's predictor `code`.
     pub fn predict(&mut self, code: PredictorCode, values: &Values, anchors: &[Vec3]) -> Result<Vec<Vec3>> {
         let seed = values.xyz(SEED);
@@ -183,6 +191,15 @@ impl Reconstructor {
         Ok(Reconstructor { rebuild })
     }
 
+    /// Forgets the frames rebuilt so far (a random-access point).
+    pub fn reset(&mut self) {
+        match &mut self.rebuild {
+            Rebuild::Gv => {}
+            Rebuild::Predictive(p) => p.reset(),
+            Rebuild::Paper(s) => s.reset(),
+        }
+    }
+
     /// Frame `f`'s positions from its side data and values.
     pub fn frame(&mut self, f: u32, info: &FrameInfo, values: &Values) -> Result<(Vec<Vec3>, SolveStats)> {
         let anchors: Vec<Vec3> = info.anchors.iter().map(|p| Vec3::from(*p)).collect();
@@ -253,6 +270,23 @@ impl SequenceDecoder {
         self.next
     }
 
+    /// Makes random-access point `f` the frame [`push_frame`](Self::push_frame)
+    /// rebuilds next, forgetting the frames rebuilt so far: a seek. The
+    /// caller's H.264 decoders restart there too (each stream's picture at
+    /// `f` is an IDR picture).
+    pub fn seek(&mut self, f: u32) -> Result<()> {
+        let h = &self.header;
+        if f >= h.frames || !h.is_random_access_point(f) {
+            return Err(Error::Argument(format!(
+                "frame {f} is not a random-access point (the file has one every {} frames)",
+                h.random_access.unwrap_or(h.frames)
+            )));
+        }
+        self.reconstructor.reset();
+        self.next = f;
+        Ok(())
+    }
+
     /// Rebuilds the next frame from its side data and each stream's decoded
     /// luma plane (the stream's size squared, row-major, see
     /// [`StreamInfo::size`](crate::format::StreamInfo::size); `None` where the
@@ -274,6 +308,9 @@ impl SequenceDecoder {
                 _ => continue,
             };
             return Err(Error::Video(format!("stream {s} frame {f}: {problem}")));
+        }
+        if f > 0 && h.is_random_access_point(f) {
+            self.reconstructor.reset();
         }
         let vals = frame_values(h, lumas, info.correction_scale)?;
         let out = self.reconstructor.frame(f, info, &Values::new(h, &vals))?;

@@ -11,12 +11,15 @@
 //! field `source_mesh`); version 7 its vertices' offsets from the grid mesh;
 //! version 8 how it looks ([`appearance`]: UVs, base colour, texture).
 //! Version 9 may code `dx`, `dy`, `dz` on a coarser grid (`shrink`) and
-//! what they leave along the surface's normal (`dn`).
-//! This writer writes version 9; the reader reads all nine.
+//! what they leave along the surface's normal (`dn`). Version 10 may have
+//! random-access points ([`Header::random_access`]): every stream restarts
+//! there and the decoder's state resets, and an `RIDX` chunk before the end
+//! lists their byte offsets, so a player seeks without decoding from frame 0.
+//! This writer writes version 10; the reader reads all ten.
 //!
 //! ```text
 //! magic    8 bytes   89 43 47 56 0D 0A 1A 0A   ("\x89CGV\r\n\x1a\n")
-//! version  u16 LE    1 to 9
+//! version  u16 LE    1 to 10
 //! flags    u16 LE    0
 //! length   u32 LE    header length L (at most 1 MiB)
 //! header   L bytes   UTF-8 JSON (serde), see [`Header`]
@@ -30,7 +33,8 @@
 //! [`FrameInfo`]; from version 2 followed by the frame's access units, each
 //! after its LEB128 length), `AUNT` (version 1: one H.264 access unit,
 //! Annex-B, of `stream` at `frame`), `SMSH` (version 6: the input's mesh,
-//! once, before frame 0), `CEND` (end of file). Chunks are
+//! once, before frame 0), `RIDX` (version 10: the random-access points'
+//! offsets, right before the end), `CEND` (end of file). Chunks are
 //! ordered by frame, so a reader can start on frame 0 before the rest of the
 //! file has arrived.
 
@@ -50,7 +54,7 @@ pub use stream::StreamName;
 
 pub const MAGIC: [u8; 8] = [0x89, b'C', b'G', b'V', b'\r', b'\n', 0x1A, b'\n'];
 /// The newest version this reader reads and this writer writes.
-pub const VERSION: u16 = 9;
+pub const VERSION: u16 = 10;
 /// Largest header accepted.
 pub const MAX_HEADER: usize = 1 << 20;
 /// Largest chunk payload accepted (an access unit of a 2160² frame at QP 0
@@ -83,6 +87,9 @@ pub const TAG_END: [u8; 4] = *b"CEND";
 pub const TAG_SOURCE_MESH: [u8; 4] = *b"SMSH";
 /// Version 8: how the source mesh looks, right after it.
 pub const TAG_APPEARANCE: [u8; 4] = *b"APPR";
+/// Version 10: the byte offsets of the random-access points' frame chunks,
+/// right before the end chunk.
+pub const TAG_INDEX: [u8; 4] = *b"RIDX";
 
 /// What is wrong with a `.cgv` file, with the byte offset where it was found.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -204,9 +211,10 @@ impl FrameInfo {
             return Err(bad(format!("frame chunk has {} bytes, expected {}", payload.len(), 8 + anchors * 12)));
         }
         // A cycle prediction names a lag the header allows and the frames
-        // before it can serve.
+        // since the last random-access point can serve.
+        let since = frame - header.random_access_point(frame);
         let predictor = PredictorCode::from_bytes(payload[0], payload[1])
-            .filter(|c| c.lag == 0 || (c.lag <= header.max_lag && u32::from(c.lag) < frame));
+            .filter(|c| c.lag == 0 || (c.lag <= header.max_lag && u32::from(c.lag) < since));
         let filter = payload[2];
         let filter_ok = filter == 0 || (version >= 5 && filter <= MAX_FILTER);
         let relax = payload[3];
@@ -251,18 +259,19 @@ pub enum Coverage {
     All,
     /// The key frames.
     Key,
-    /// Frame 0 only.
+    /// Frame 0, and (version 10) every random-access point.
     First,
 }
 
 impl Coverage {
-    /// Whether a stream of this coverage has frame `f` (`key`: whether `f`
-    /// is a key frame). The one rule the encoder and the reader share.
-    pub fn has(self, f: u32, key: bool) -> bool {
+    /// Whether a stream of this coverage has a frame that is or is not a
+    /// key frame (`key`) and a random-access point (`rap`; frame 0 always
+    /// is). The one rule the encoder and the reader share.
+    pub fn has(self, key: bool, rap: bool) -> bool {
         match self {
             Coverage::All => true,
             Coverage::Key => key,
-            Coverage::First => f == 0,
+            Coverage::First => rap,
         }
     }
 }
@@ -325,6 +334,13 @@ pub struct Header {
     /// are in the `APPR` chunk (absent: they are not).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub appearance: Option<AppearanceInfo>,
+    /// Version 10: a random-access point every this many frames (frames
+    /// 0, K, 2K, ...; absent: frame 0 only). At each, every stream's picture
+    /// is an IDR picture, the `first` streams (the seed) have a picture, the
+    /// decoder's state starts afresh as at frame 0, and the file ends with an
+    /// `RIDX` chunk of their offsets.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub random_access: Option<u32>,
 }
 
 fn is_scaled(m: &CorrectionMode) -> bool {
@@ -425,17 +441,33 @@ impl Header {
             }
             a.validate().map_err(ContainerError::Header)?;
         }
+        self.validate_random_access()
+    }
+
+    /// Random-access points: an interval of at least 1 frame, and each
+    /// point a key frame (the key-frame streams restart there too).
+    fn validate_random_access(&self) -> Result<(), ContainerError> {
+        let Some(k) = self.random_access else { return Ok(()) };
+        if k == 0 || k > MAX_FRAMES {
+            return Err(ContainerError::Header(format!("random_access {k} is not in 1..={MAX_FRAMES}")));
+        }
+        if let Some(r) = (0..self.frames).step_by(k as usize).find(|&r| !self.is_key_frame(r)) {
+            return Err(ContainerError::Header(format!("random-access point {r} is not a key frame")));
+        }
         Ok(())
     }
 
-    /// The oldest format version that can hold this header: 9 for a normal
+    /// The oldest format version that can hold this header: 10 for
+    /// random-access points, 9 for a normal
     /// correction or a shrunk stream, 8 for an
     /// appearance, 7 for the
     /// source mesh's vertex offsets, 6 for the source mesh, 4 for cycle
     /// predictions, 3 for a CGV file without H, 2 for motion corrections,
     /// else 1.
     pub fn min_version(&self) -> u16 {
-        if self.stream(StreamName::Dn).is_some() || self.streams.iter().any(|s| s.shrink > 0) {
+        if self.random_access.is_some() {
+            10
+        } else if self.stream(StreamName::Dn).is_some() || self.streams.iter().any(|s| s.shrink > 0) {
             9
         } else if self.appearance.is_some() {
             8
@@ -458,9 +490,25 @@ impl Header {
         self.key_frames.binary_search(&f).is_ok()
     }
 
+    /// Whether frame `f` is a random-access point (frame 0 always is).
+    pub fn is_random_access_point(&self, f: u32) -> bool {
+        f == 0 || self.random_access.is_some_and(|k| f % k == 0)
+    }
+
+    /// The last random-access point at or before frame `f`: where a decoder
+    /// that wants frame `f` starts.
+    pub fn random_access_point(&self, f: u32) -> u32 {
+        self.random_access.map_or(0, |k| f - f % k)
+    }
+
+    /// The random-access points' count (the `RIDX` chunk's entries).
+    pub fn random_access_points(&self) -> u32 {
+        self.random_access.map_or(1, |k| self.frames.div_ceil(k))
+    }
+
     /// Whether stream `s` has an access unit at frame `f`.
     pub fn stream_has_frame(&self, s: usize, f: u32) -> bool {
-        self.streams[s].coverage.has(f, self.is_key_frame(f))
+        self.streams[s].coverage.has(self.is_key_frame(f), self.is_random_access_point(f))
     }
 
     /// The stream named `name` in layer 1, if present.
@@ -537,6 +585,46 @@ pub fn write_chunk(tag: [u8; 4], stream: u16, frame: u32, payload: &[u8]) -> Vec
     out
 }
 
+/// Version 10: the index of the random-access points, the byte offset of
+/// each one's frame chunk from the start of the file (u64 LE each, in frame
+/// order), written right before the end chunk.
+pub fn write_index(offsets: &[u64]) -> Vec<u8> {
+    let payload: Vec<u8> = offsets.iter().flat_map(|o| o.to_le_bytes()).collect();
+    write_chunk(TAG_INDEX, 0, 0, &payload)
+}
+
+/// The size of a version-10 file's tail, its `RIDX` and `CEND` chunks: what
+/// a reader that has the header fetches from the end to learn where each
+/// random-access point starts.
+pub fn index_tail_bytes(header: &Header) -> u64 {
+    let index = if header.random_access.is_some() { 20 + 8 * u64::from(header.random_access_points()) } else { 0 };
+    index + 20
+}
+
+/// The offsets in an `RIDX` chunk at the end of `tail` (the last
+/// [`index_tail_bytes`] bytes of a file with this header), checked.
+pub fn parse_index_tail(header: &Header, tail: &[u8]) -> Result<Vec<u64>, ContainerError> {
+    let want = index_tail_bytes(header) as usize;
+    let bad = |msg: String| ContainerError::Chunk { offset: 0, msg };
+    if header.random_access.is_none() || tail.len() < want {
+        return Err(bad(format!("the file's tail has {} bytes, not the {want} of an index and end chunk", tail.len())));
+    }
+    let tail = &tail[tail.len() - want..];
+    let (chunk, _) = parse_chunk(tail, 0)?.ok_or_else(|| bad("a truncated index chunk".into()))?;
+    if chunk.tag != TAG_INDEX {
+        return Err(bad("no random-access index before the end chunk".into()));
+    }
+    let offsets: Vec<u64> = chunk.payload.chunks_exact(8).map(|b| u64_at(b, 0)).collect();
+    if offsets.len() as u32 != header.random_access_points() || offsets.windows(2).any(|w| w[1] <= w[0]) {
+        return Err(bad(format!(
+            "an index of {} offsets, not {} increasing ones",
+            offsets.len(),
+            header.random_access_points()
+        )));
+    }
+    Ok(offsets)
+}
+
 /// A version-2 frame chunk: the frame's side data, then each access unit
 /// the frame has (streams in header order) after its LEB128 length.
 pub fn write_frame(frame: u32, info: &FrameInfo, units: &[&[u8]]) -> Vec<u8> {
@@ -558,6 +646,9 @@ fn u16_at(b: &[u8], o: usize) -> u16 {
 }
 fn u32_at(b: &[u8], o: usize) -> u32 {
     u32::from_le_bytes([b[o], b[o + 1], b[o + 2], b[o + 3]])
+}
+fn u64_at(b: &[u8], o: usize) -> u64 {
+    u64::from(u32_at(b, o)) | u64::from(u32_at(b, o + 4)) << 32
 }
 
 /// Parses the file prefix from the start of `bytes`. Returns `Ok(None)` when
@@ -629,7 +720,7 @@ pub fn parse_chunk(bytes: &[u8], offset: usize) -> Result<Option<(Chunk<'_>, usi
         return Err(ContainerError::BadCrc { offset, what: "a chunk" });
     }
     let tag = [b[0], b[1], b[2], b[3]];
-    if ![TAG_ACCESS_UNIT, TAG_FRAME, TAG_END, TAG_SOURCE_MESH, TAG_APPEARANCE].contains(&tag) {
+    if ![TAG_ACCESS_UNIT, TAG_FRAME, TAG_END, TAG_SOURCE_MESH, TAG_APPEARANCE, TAG_INDEX].contains(&tag) {
         return Err(ContainerError::Chunk {
             offset,
             msg: format!("unknown chunk tag {:?}", String::from_utf8_lossy(&tag)),
@@ -654,6 +745,10 @@ pub struct CgvFile {
     pub source_mesh: Option<SourceMesh>,
     /// Version 8: how it looks, when the file says.
     pub appearance: Option<Appearance>,
+    /// The byte offset of each random-access point's first chunk, as read
+    /// (frame 0's alone before version 10); a version-10 file's `RIDX`
+    /// chunk was checked against them.
+    pub index: Vec<u64>,
     /// Size of the file in bytes.
     pub bytes: usize,
 }
@@ -705,6 +800,8 @@ pub struct StreamReader {
     /// The next chunk expected: frame `frame`, slot 0 its FRAM chunk, slot 1 + s stream s.
     frame: u32,
     slot: usize,
+    /// Version 10: the `RIDX` chunk has been read.
+    indexed: bool,
     ended: bool,
 }
 
@@ -759,6 +856,7 @@ impl StreamReader {
                         frames: Vec::new(),
                         source_mesh: None,
                         appearance: None,
+                        index: Vec::new(),
                         bytes: 0,
                     });
                     at = len;
@@ -822,6 +920,14 @@ impl StreamReader {
         let header = &file.header;
         let nstreams = header.streams.len();
         if self.frame >= header.frames {
+            if header.random_access.is_some() && !self.indexed {
+                if chunk.tag != TAG_INDEX {
+                    return Err(unexpected(&chunk, offset, "the random-access index", header.frames));
+                }
+                check_index(chunk.payload, &file.index, offset)?;
+                self.indexed = true;
+                return Ok(());
+            }
             if chunk.tag != TAG_END {
                 return Err(ContainerError::Chunk { offset, msg: "chunk after the last frame".into() });
             }
@@ -829,6 +935,9 @@ impl StreamReader {
             return Ok(());
         }
         let frame = self.frame;
+        if self.slot == 0 && chunk.tag == TAG_FRAME && chunk.frame == frame && header.is_random_access_point(frame) {
+            file.index.push(offset as u64);
+        }
         let expect = |what: &str| unexpected(&chunk, offset, what, frame);
         if chunk.frame != frame {
             return Err(expect(if self.slot > 0 { "stream data" } else { "the frame chunk" }));
@@ -932,6 +1041,23 @@ impl StreamReader {
             _ => Err(ContainerError::Truncated { offset: self.consumed + self.pending.len(), what, needed: 1 }),
         }
     }
+}
+
+/// An `RIDX` payload must list exactly the offsets the reader saw.
+fn check_index(payload: &[u8], seen: &[u64], offset: usize) -> Result<(), ContainerError> {
+    let listed: Vec<u64> = payload.chunks_exact(8).map(|b| u64_at(b, 0)).collect();
+    if payload.len() % 8 != 0 || listed != seen {
+        return Err(ContainerError::Chunk {
+            offset,
+            msg: format!(
+                "the random-access index lists {} offsets {:?}..., but the points are at {:?}...",
+                payload.len() / 8,
+                &listed[..listed.len().min(4)],
+                &seen[..seen.len().min(4)]
+            ),
+        });
+    }
+    Ok(())
 }
 
 /// A chunk that is not the one expected next.

@@ -38,6 +38,12 @@ impl PaperSolver {
         PaperSolver { st, anchors, is_anchor, lambda: Vec::new(), prev: None }
     }
 
+    /// Forgets the previous frame (a random-access point, whose seed is the
+    /// next frame's guess).
+    pub fn reset(&mut self) {
+        self.prev = None;
+    }
+
     /// Sets the conformal factor of the current key frame.
     pub fn set_lambda(&mut self, lambda: &[f32]) {
         self.lambda = lambda.to_vec();

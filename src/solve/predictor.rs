@@ -127,6 +127,16 @@ impl Predictor {
         self
     }
 
+    /// Forgets the decoded past, as at frame 0 (a random-access point); the
+    /// factorization, which depends on the grid and anchors only, is kept.
+    pub fn reset(&mut self) {
+        self.past.clear();
+        self.velocities.clear();
+        self.prev_anchors.clear();
+        self.a.clear();
+        self.b.clear();
+    }
+
     /// x₋₁ + S(x₋ₗ − x₋ₗ₋₁), if that far a past has been decoded.
     fn cycle(&self, lag: u8) -> Result<Vec<Vec3>> {
         match (self.past.front(), self.velocities.get((lag as usize).wrapping_sub(1))) {

@@ -160,6 +160,22 @@ impl Player {
         Ok(())
     }
 
+    /// The last random-access point at or before `frame` (format version
+    /// 10; 0 in older files): where a seek to `frame` starts decoding.
+    pub fn random_access_point(&self, frame: u32) -> u32 {
+        self.reader.header().map_or(0, |h| h.random_access_point(frame.min(h.frames.saturating_sub(1))))
+    }
+
+    /// Makes random-access point `frame` the next frame to rebuild, from the
+    /// bytes already here: a seek. The page starts its H.264 decoders
+    /// again too, since the point's pictures are IDR pictures.
+    pub fn seek(&mut self, frame: u32) -> std::result::Result<(), JsError> {
+        let dec = self.dec.as_mut().ok_or_else(|| JsError::new("the header has not arrived"))?;
+        dec.seek(frame).map_err(js)?;
+        self.lumas = vec![None; dec.header().streams.len()];
+        Ok(())
+    }
+
     /// Rebuilds the next frame from the pictures supplied: x, y, z per grid sample.
     pub fn decode_next(&mut self) -> std::result::Result<Vec<f32>, JsError> {
         let dec = self.dec.as_mut().ok_or_else(|| JsError::new("the header has not arrived"))?;

@@ -138,6 +138,14 @@ pub struct Args {
     /// Grid size N: each frame is N x N samples (even, 16..=2160).
     #[arg(long, default_value_t = 128)]
     grid: usize,
+    /// Seconds between random-access points, where a player can start
+    /// decoding (a seek decodes at most this much before the frame it
+    /// wants): each restarts every stream with an IDR picture and the
+    /// closed loop from a new seed (format version 10; its cost is in
+    /// docs/RESULTS.md, "Random access"). 0: frame 0 only, as before
+    /// version 10.
+    #[arg(long, value_name = "SECONDS", default_value_t = cgv::codec::DEFAULT_RANDOM_ACCESS)]
+    random_access: f32,
     /// Frames between H.264 intra frames.
     #[arg(long, default_value_t = 30)]
     gop: u32,
@@ -188,6 +196,7 @@ fn options(args: &Args, fps: f32) -> EncodeOptions {
         param: ParamOptions { area_correction: args.area_correction, area_passes: args.area_passes, cones: None },
         reference: 0,
         source_mesh: !args.no_source_mesh,
+        random_access: args.random_access,
         ..EncodeOptions::default()
     }
     .with_auto_choices();

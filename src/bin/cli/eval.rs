@@ -41,6 +41,10 @@ pub struct Args {
     /// Frames between H.264 intra frames.
     #[arg(long, default_value_t = 30)]
     gop: u32,
+    /// Seconds between random-access points, as in `cgv encode` (0: frame
+    /// 0 only, as files before format version 10).
+    #[arg(long, value_name = "SECONDS", default_value_t = cgv::codec::DEFAULT_RANDOM_ACCESS)]
+    random_access: f32,
     /// CGV: a key frame (λ) every N frames; 0 for the first frame only.
     #[arg(long, default_value_t = 10)]
     keyframes: u32,
@@ -98,6 +102,7 @@ pub fn run(args: Args) -> Result<()> {
         correction_filter: !args.no_correction_filter,
         normal_correction: args.layout.normal_correction,
         correction_shrink: args.layout.correction_shrink,
+        random_access: args.random_access,
         ..Default::default()
     };
     base.video.gop = args.gop;

@@ -155,6 +155,15 @@ fn cgv_info(args: &Args) -> Result<()> {
     println!("  grid          {0} x {0} ({1})", h.grid, h.seam);
     println!("  size          {} bytes, {:.1} kbit/s", file.bytes, file.bytes as f64 * 8.0 / 1000.0 / seconds);
     println!("  key frames    {} ({:?}...)", h.key_frames.len(), &h.key_frames[..h.key_frames.len().min(5)]);
+    match h.random_access {
+        Some(k) => println!(
+            "  random access every {k} frames ({:.2} s): {} points, a seek decodes at most {} frames",
+            k as f64 / h.fps as f64,
+            h.random_access_points(),
+            k - 1
+        ),
+        None => println!("  random access frame 0 only (a seek decodes from the start)"),
+    }
     println!("  anchors       {:?}", h.anchors);
     if h.stream(StreamName::Dx).is_some() {
         println!(

@@ -1,6 +1,6 @@
 //! Step 2: every frame resampled on the grid once, for each stream's range
 //! (the corrections are ranged by the simulation or scaled per frame
-//! instead), the first grid frame, and the anchors chosen on it.
+//! instead), and the anchors chosen on the first grid frame.
 
 use super::plan::Plan;
 use crate::codec::choose_anchors;
@@ -15,7 +15,6 @@ use glam::Vec3;
 pub(super) struct Analysis {
     /// Per layer-1 stream, in the plan's order.
     pub ranges: Vec<Range>,
-    pub first_grid: Vec<Vec3>,
     pub anchors: Vec<u32>,
 }
 
@@ -57,9 +56,9 @@ pub(super) fn analyse(
     for fi in 0..plan.frames {
         let g = map.apply(&src.read_frame(fi)?);
         let feats = features(plan, st, &g);
-        let key = plan.is_key(fi);
+        let (key, rap) = (plan.is_key(fi), plan.is_rap(fi));
         for (k, &(name, coverage)) in plan.names.iter().enumerate() {
-            if coverage.has(fi as u32, key) && !name.is_correction() {
+            if coverage.has(key, rap) && !name.is_correction() {
                 ranges[k].add(values(name, &feats, &g, &mut scratch));
             }
         }
@@ -70,5 +69,5 @@ pub(super) fn analyse(
     }
     let anchors =
         if plan.codec == CodecKind::Cgv { choose_anchors(&first_grid, plan.anchor_count) } else { Vec::new() };
-    Ok(Analysis { ranges, first_grid, anchors })
+    Ok(Analysis { ranges, anchors })
 }

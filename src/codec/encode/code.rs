@@ -45,7 +45,7 @@ fn open_streams(header: &Header, opts: &EncodeOptions, plan: &Plan) -> Result<Ve
     let weight = |c: Coverage| match c {
         Coverage::All => 1.0,
         Coverage::Key => plan.key_frames.len() as f32 / frames,
-        Coverage::First => 1.0 / frames,
+        Coverage::First => plan.raps() as f32 / frames,
     };
     // ... and by how many samples its pictures have.
     let share = |i: &StreamInfo| weight(i.coverage) / 4f32.powi(i.shrink.into());
@@ -90,10 +90,20 @@ pub(super) fn code(
         let base = streams[k].info.refines.map_or(k, usize::from);
         !streams[base].info.name.is_correction()
     });
+    let mut index = Vec::new();
     for fi in 0..plan.frames {
         let g = map.apply(&src.read_frame(fi)?);
         let feats = features(plan, st, &g);
         let t = std::time::Instant::now();
+        if plan.is_rap(fi) {
+            // A random-access point: every stream restarts with an IDR
+            // picture, and the closed loop from the seed, as the decoder will.
+            index.push(out.len() as u64);
+            predictive.reset();
+            for s in &mut streams {
+                s.enc.force_idr()?;
+            }
+        }
         let mut coder = FrameCoder {
             header,
             frame: fi as u32,
@@ -115,6 +125,9 @@ pub(super) fn code(
         side_bytes += chunk.len() - units.iter().map(|u| u.len()).sum::<usize>();
         out.extend_from_slice(&chunk);
         progress("encoding", fi + 1, plan.frames);
+    }
+    if header.random_access.is_some() {
+        out.extend_from_slice(&format::write_index(&index));
     }
     out.extend_from_slice(&format::write_chunk(format::TAG_END, 0, plan.frames as u32, &[]));
     let stream_bytes = streams

@@ -38,6 +38,10 @@ use crate::solve::SolverKind;
 pub const SEED_QP_OFFSET: u8 = 24;
 pub const SEED_MIN_QP: u8 = 8;
 
+/// Seconds between random-access points by default: a seek decodes at
+/// most this much motion before the frame it wants.
+pub const DEFAULT_RANDOM_ACCESS: f32 = 2.0;
+
 /// Anchors per frame for the paper's solver, by default.
 pub const PAPER_ANCHORS: usize = 16;
 
@@ -98,6 +102,11 @@ pub struct EncodeOptions {
     /// Carry the input's own mesh (format version 6), so that a decoder
     /// gives back the user's vertices and faces, not only the grid mesh.
     pub source_mesh: bool,
+    /// Seconds between random-access points (format version 10), where a
+    /// player can start decoding: each restarts every stream and the
+    /// closed loop, at the cost of a seed and intra pictures; 0 for frame 0
+    /// only. Rounded to whole frames.
+    pub random_access: f32,
 }
 
 impl Default for EncodeOptions {
@@ -122,6 +131,7 @@ impl Default for EncodeOptions {
             param: ParamOptions::default(),
             reference: 0,
             source_mesh: true,
+            random_access: DEFAULT_RANDOM_ACCESS,
         }
     }
 }
@@ -157,6 +167,9 @@ impl EncodeOptions {
         }
         if self.max_steps > MAX_STEPS {
             return bad(format!("max_steps {} is above {MAX_STEPS}", self.max_steps));
+        }
+        if !(self.random_access.is_finite() && self.random_access >= 0.0) {
+            return bad(format!("random-access points {} s apart: give 0 (none) or more", self.random_access));
         }
         if self.motion() && self.correction_interval == 0 {
             return bad("the correction interval must be at least 1".into());
@@ -240,7 +253,7 @@ pub fn encode_prepared(
 ) -> Result<(Vec<u8>, EncodeReport)> {
     let t_start = std::time::Instant::now();
     opts.validate()?;
-    let plan = plan::Plan::new(opts, src.frame_count())?;
+    let plan = plan::Plan::new(opts, src.frame_count(), src.fps())?;
     if image.map.grid != plan.grid {
         return Err(Error::Argument("the geometry image is for another grid size".into()));
     }
@@ -248,7 +261,7 @@ pub fn encode_prepared(
     let source = if opts.source_mesh { Some(source_mesh_chunk(src, image)?) } else { None };
     let st = Stencils::new(plan.grid);
     let analysis = analyse::analyse(src, &plan, &image.map, &st, progress)?;
-    let simulation = simulate::simulate(src, &plan, opts, &image.map, &st, &analysis.first_grid)?;
+    let simulation = simulate::simulate(src, &plan, opts, &image.map, &st)?;
     let diagonal = Bounds::of(&src.read_frame(opts.reference)?).diagonal();
     let (source_chunk, source_info) = source.map_or((None, None), |(chunk, info)| (Some(chunk), Some(info)));
     let mut header = plan.header(src, opts, &analysis, &simulation, diagonal, source_info);

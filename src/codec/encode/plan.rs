@@ -36,11 +36,15 @@ pub(super) struct Plan {
     pub allowed: &'static [Extrapolation],
     /// What the correction pictures mean.
     pub layout: Layout,
+    /// A random-access point every this many frames (none but frame 0
+    /// when absent).
+    pub random_access: Option<u32>,
 }
 
 impl Plan {
-    /// The plan of `opts` (already validated) for a motion of `frames` frames.
-    pub fn new(opts: &EncodeOptions, frames: usize) -> Result<Plan> {
+    /// The plan of `opts` (already validated) for a motion of `frames`
+    /// frames at `fps`.
+    pub fn new(opts: &EncodeOptions, frames: usize, fps: f32) -> Result<Plan> {
         let (closed_loop, motion) = (opts.closed_loop(), opts.motion());
         // Motion files have no λ: their key frames are the frames with
         // corrections, 0, 1 (which has no velocity to predict with yet), then
@@ -58,11 +62,14 @@ impl Plan {
             anchor_count: opts.anchor_count(),
             allowed: if motion { &MOTION_EXTRAPOLATIONS } else { &ALL_EXTRAPOLATIONS },
             layout: correction_layout(opts)?,
+            random_access: random_access_interval(opts.random_access, fps, frames),
         };
+        // Every random-access point is a key frame, and the key frames'
+        // rhythm starts again at each.
         plan.key_frames = match (interval, motion) {
-            (0, _) | (1, true) => vec![0],
+            (0, _) | (1, true) => (0..frames).filter(|&f| plan.is_rap(f)).map(|f| f as u32).collect(),
             (_, true) => (0..frames as u32).filter(|&f| plan.corrected(f as usize)).collect(),
-            _ => (0..frames as u32).step_by(interval as usize).collect(),
+            _ => (0..frames).filter(|&f| (f - plan.rap(f)) % interval as usize == 0).map(|f| f as u32).collect(),
         };
         plan.names = plan.stream_names();
         Ok(plan)
@@ -96,9 +103,26 @@ impl Plan {
     }
 
     /// Whether frame `f` has corrections (every frame but in motion files
-    /// with a correction interval).
+    /// with a correction interval: there the random-access point and the
+    /// frame after it, then every `interval`-th).
     pub fn corrected(&self, f: usize) -> bool {
-        !self.motion || f == 0 || (f - 1) % self.interval as usize == 0
+        let d = f - self.rap(f);
+        !self.motion || d == 0 || (d - 1) % self.interval as usize == 0
+    }
+
+    /// The last random-access point at or before frame `f`.
+    pub fn rap(&self, f: usize) -> usize {
+        self.random_access.map_or(0, |k| f - f % k as usize)
+    }
+
+    /// Whether frame `f` is a random-access point.
+    pub fn is_rap(&self, f: usize) -> bool {
+        self.rap(f) == f
+    }
+
+    /// How many random-access points the motion has.
+    pub fn raps(&self) -> usize {
+        (0..self.frames).filter(|&f| self.is_rap(f)).count()
     }
 
     pub fn is_key(&self, f: usize) -> bool {
@@ -182,8 +206,16 @@ impl Plan {
             max_lag: simulation.max_lag,
             source_mesh,
             appearance: None,
+            random_access: self.random_access,
         }
     }
+}
+
+/// Frames between random-access points for `seconds` at `fps` (at least
+/// 1); none when the motion has no frame past the first interval.
+fn random_access_interval(seconds: f32, fps: f32, frames: usize) -> Option<u32> {
+    let k = (seconds * fps).round().max(1.0) as u64;
+    (seconds > 0.0 && (k as usize) < frames).then_some(k as u32)
 }
 
 /// The correction pictures' layout the options ask for: with a normal

@@ -30,7 +30,6 @@ pub(super) fn simulate(
     opts: &EncodeOptions,
     map: &SampleMap,
     st: &Stencils,
-    seed: &[Vec3],
 ) -> Result<Simulation> {
     if !(plan.closed_loop && (plan.motion || opts.max_lag > 0)) {
         return Ok(Simulation { max_lag: 0, motion_quant: Vec::new() });
@@ -38,8 +37,8 @@ pub(super) fn simulate(
     // Without cycles, and with them where allowed: cycle predictions only
     // where the motion repeats (see CYCLE_GAIN).
     let lags: &[u8] = if opts.max_lag > 0 { &[0, opts.max_lag] } else { &[0] };
-    let corrected = |f: usize| plan.corrected(f);
-    let mut runs = uncoded_loops(src, (map, st, plan.layout), seed, plan.allowed, lags, &corrected)?.into_iter();
+    let frames = Frames { corrected: &|f| plan.corrected(f), rap: &|f| plan.is_rap(f) };
+    let mut runs = uncoded_loops(src, (map, st, plan.layout), plan.allowed, lags, &frames)?.into_iter();
     let without = runs.next().ok_or_else(|| Error::Numerical("no uncoded loop".into()))?;
     let kept = match runs.next() {
         Some(w) if w.energy < CYCLE_GAIN * without.energy => w,
@@ -100,17 +99,23 @@ impl UncodedLoop {
     }
 }
 
+/// Which frames have corrections, and which are random-access points.
+struct Frames<'a> {
+    corrected: &'a dyn Fn(usize) -> bool,
+    rap: &'a dyn Fn(usize) -> bool,
+}
+
 /// Runs the loop without coding (no anchors, no H steps: what the motion
 /// predictor uses), once for each longest lag in `lags`, over one reading
-/// of the frames: the frames with corrections (`corrected`) are decoded as
-/// the true ones, the others as their prediction.
+/// of the frames: the frames with corrections are decoded as the true
+/// ones, the others as their prediction; at each random-access point the
+/// loop starts afresh from the true frame, as the decoder does from its seed.
 fn uncoded_loops(
     src: &dyn FrameSource,
     (map, st, layout): (&SampleMap, &Stencils, Layout),
-    seed: &[Vec3],
     allowed: &[Extrapolation],
     lags: &[u8],
-    corrected: &dyn Fn(usize) -> bool,
+    frames: &Frames,
 ) -> Result<Vec<UncodedLoop>> {
     struct Run {
         sim: Predictor,
@@ -132,10 +137,16 @@ fn uncoded_loops(
         .collect();
     for fi in 0..src.frame_count() {
         let g = map.apply(&src.read_frame(fi)?);
+        let rap = (frames.rap)(fi);
         for Run { sim, sum, out } in &mut runs {
-            let (code, pred): (PredictorCode, _) = sim.closest(allowed, 0, Some(seed), None, &[], &g)?;
+            if rap {
+                sim.reset();
+                sum.reset();
+            }
+            let seed = rap.then_some(g.as_slice());
+            let (code, pred): (PredictorCode, _) = sim.closest(allowed, 0, seed, None, &[], &g)?;
             out.longest_lag = out.longest_lag.max(code.lag);
-            if !corrected(fi) {
+            if !(frames.corrected)(fi) {
                 sim.commit(pred, &[]);
                 continue;
             }
