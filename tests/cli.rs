@@ -156,10 +156,11 @@ fn encode_info_and_decode_motion_corrections() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let info = cgv(&["info", f.to_str().unwrap()]);
     let text = String::from_utf8_lossy(&info.stdout);
-    assert!(text.contains("format version 9") && text.contains("corrections   motion"), "{text}");
+    assert!(text.contains("format version 10") && text.contains("corrections   motion"), "{text}");
+    assert!(text.contains("random access frame 0 only"), "{text}");
     let info = cgv(&["info", f.to_str().unwrap(), "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
-    assert_eq!((v["version"].as_u64(), v["header"]["corrections"].as_str()), (Some(9), Some("motion")));
+    assert_eq!((v["version"].as_u64(), v["header"]["corrections"].as_str()), (Some(10), Some("motion")));
     assert_eq!(v["filters"].as_array().map(Vec::len), Some(8));
     // At a coarse QP the encoder filters corrections, and info says so;
     // --no-correction-filter leaves every frame's filter at 0.
@@ -184,6 +185,38 @@ fn encode_info_and_decode_motion_corrections() {
     assert!(dec.status.success(), "{}", String::from_utf8_lossy(&dec.stderr));
     let zero = cgv(&[&args[..], &["--correction-interval", "0", "-o", sparse.to_str().unwrap()]].concat());
     assert!(!zero.status.success());
+    // Random-access points every 0.1 s (3 frames): the points restart the
+    // key frames; decoding frames 5..8 starts at point 3 and says so.
+    let points = dir.join("points.cgv");
+    let out =
+        cgv(&[&args[..], &["--correction-interval", "2", "--random-access", "0.1"], &["-o", points.to_str().unwrap()]]
+            .concat());
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let text = String::from_utf8_lossy(&cgv(&["info", points.to_str().unwrap()]).stdout).to_string();
+    assert!(text.contains("random access every 3 frames (0.10 s): 3 points"), "{text}");
+    let v: serde_json::Value =
+        serde_json::from_slice(&cgv(&["info", points.to_str().unwrap(), "--json"]).stdout).unwrap();
+    assert_eq!(v["header"]["key_frames"], serde_json::json!([0, 1, 3, 4, 6, 7]));
+    let part = dir.join("part");
+    let dec =
+        cgv(&["decode", points.to_str().unwrap(), "--frames", "5..8", "--mesh", "grid", "-o", part.to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&dec.stdout).to_string();
+    assert!(dec.status.success() && text.contains("started at frame 3") && text.contains("2 frames decoded"), "{text}");
+    assert_eq!(
+        std::fs::read_dir(&part)
+            .unwrap()
+            .filter(|e| e.as_ref().unwrap().path().extension().is_some_and(|x| x == "obj"))
+            .count(),
+        3
+    );
+    let bad = cgv(&["decode", points.to_str().unwrap(), "--frames", "5..9", "-o", part.to_str().unwrap()]);
+    assert!(
+        String::from_utf8_lossy(&bad.stderr).contains("not inside the file's 8 frames"),
+        "{}",
+        String::from_utf8_lossy(&bad.stderr)
+    );
+    let bad = cgv(&[&args[..], &["--random-access=-1", "-o", points.to_str().unwrap()]].concat());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("random-access"), "{}", String::from_utf8_lossy(&bad.stderr));
     // Scaled corrections have no interval: refused by name, nothing written.
     let scaled = dir.join("scaled.cgv");
     let out = cgv(&["encode", "builtin:walk", "--frames", "0..4", "--grid", "16", "--corrections", "scaled"]
@@ -435,7 +468,7 @@ fn a_textured_gltf_comes_back_with_its_uvs_and_texture() {
     let out = cgv(&["encode", fox_arg, "--frames", "0..3", "--grid", "32", "-o", cgv_file.to_str().unwrap()]);
     assert!(out.status.success(), "{}", stderr(&out));
     let info = String::from_utf8_lossy(&cgv(&["info", cgv_file.to_str().unwrap()]).stdout).to_string();
-    assert!(info.contains("format version 9") && info.contains("1728 vertices"), "{info}");
+    assert!(info.contains("format version 10") && info.contains("1728 vertices"), "{info}");
     let out = cgv(&["decode", cgv_file.to_str().unwrap(), "-o", glb.to_str().unwrap()]);
     assert!(out.status.success(), "{}", stderr(&out));
     assert_eq!(validate_gltf(&[glb.as_path()])[0]["errors"], 0);

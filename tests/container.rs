@@ -829,3 +829,48 @@ fn a_wrong_or_missing_index_and_bad_points_are_refused() {
     plain.random_access = None;
     assert!(format::read(&file_with_points(&plain, lagged(5, 2), |_| {})).is_ok());
 }
+
+#[test]
+fn a_version_ten_file_read_in_pieces_from_its_points() {
+    // As a page fetching by range requests: the header, the index from the
+    // tail, then point 2's frames, then the rest from point 0.
+    let h = random_access_header();
+    let bytes = file_with_points(&h, |_| code(1, 0), |_| {});
+    let whole = format::read(&bytes).unwrap();
+    let idx: Vec<usize> = whole.index.iter().map(|&o| o as usize).collect();
+    let tail = &bytes[bytes.len() - format::index_tail_bytes(&h) as usize..];
+    let mut r = format::StreamReader::default();
+    r.push(&bytes[..idx[0] + 5]).unwrap();
+    assert!(r.jump(2).is_err(), "a jump needs the index first");
+    r.set_index(format::parse_index_tail(&h, tail).unwrap()).unwrap();
+    r.jump(2).unwrap();
+    r.push(&bytes[idx[2]..]).unwrap();
+    assert_eq!((0..7).map(|f| r.frame_arrived(f)).collect::<Vec<_>>(), [0, 0, 0, 0, 0, 0, 1].map(|b| b == 1));
+    assert!(!r.is_complete() && r.complete_frames() == 0);
+    r.jump(0).unwrap();
+    r.push(&bytes[idx[0]..idx[1] + 3]).unwrap();
+    r.jump(1).unwrap();
+    r.push(&bytes[idx[1]..idx[2]]).unwrap();
+    assert!(r.is_complete() && r.complete_frames() == 7);
+    let f = r.finish().unwrap();
+    assert_eq!((f.units, f.frames, &f.index), (whole.units, whole.frames, &whole.index));
+    // An index that lies about a point is caught when the next point (or
+    // the file's own index) arrives somewhere else.
+    let mut r = format::StreamReader::default();
+    r.push(&bytes[..idx[0]]).unwrap();
+    let mut lie = whole.index.clone();
+    lie[1] += 1;
+    r.set_index(lie).unwrap();
+    r.jump(1).unwrap();
+    let e = r.push(&bytes[idx[1]..]).unwrap_err();
+    assert!(
+        matches!(&e, ContainerError::Chunk { msg, .. } if msg.contains("the random-access point the index names of frame 6")),
+        "{e}"
+    );
+    // And one that disagrees with the points already read is refused.
+    let mut r = format::StreamReader::default();
+    r.push(&bytes[..idx[1] + 1]).unwrap();
+    let mut lie = whole.index.clone();
+    lie[0] -= 1;
+    assert!(r.set_index(lie).is_err());
+}

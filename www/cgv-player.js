@@ -12,9 +12,10 @@
 //
 // Memory is bounded: a motion longer than twice the decode-ahead window
 // (buffer="3", seconds) keeps only the frames from just behind the one
-// shown to a window ahead of it. The closed loop carries state from frame
-// 0, so looping and seeking back decode again from the start of the bytes
-// held (Player.rewind); the file is fetched once.
+// shown to a window ahead of it. The closed loop carries state from the
+// last random-access point (format v10: every 2 s by default), so a seek
+// decodes again from the point before its frame, from the bytes held
+// (Player.seek; frame 0 in older files); the file is fetched once.
 //
 // Also: "cgv-status" (detail: stats), "cgv-error" (detail: message),
 // "cgv-frame" (detail: the frame shown) and "cgv-camera" (detail: camera
@@ -167,7 +168,8 @@ export class CgvPlayer extends HTMLElement {
     stream.addEventListener('loadedmetadata', mine(() => this._metadata(gen)));
     stream.addEventListener('progress', mine(() => {
       const h = stream.header;
-      if (h) this.$('.progress').style.width = `${100 * stream.player.complete_frames() / h.frames}%`;
+      const part = stream.ranged ? stream.fetched / stream.total : h && stream.player.complete_frames() / h.frames;
+      if (h) this.$('.progress').style.width = `${100 * part}%`;
       this.dispatchEvent(new Event('progress'));
     }));
     stream.addEventListener('frame', mine((e) => this._decoded(e.detail)));

@@ -11,6 +11,13 @@
 // point before the frame it wants and decodes forward from the bytes held;
 // the file is fetched once.
 //
+// From a server that answers HTTP range requests (cgv serve does), a
+// version-10 file is fetched in pieces: its first bytes (header, source
+// mesh), its index from the tail, then only the random-access points'
+// stretches that playback and seeks need, a few seconds ahead; a seek to a
+// point not fetched yet fetches that point first. Elsewhere (a server that
+// answers 200, an older file, a Blob) the file streams in whole.
+//
 // Events: loadedmetadata (the header is here), progress (bytes came),
 // frame (detail: a frame just decoded and kept), seeked (detail: the
 // frame a seek asked for, now held), error (detail: the message).
@@ -92,6 +99,9 @@ export class LumaDecoder {
 }
 
 export class MotionStream extends EventTarget {
+  /** The first request's size: the header and source mesh of most files. */
+  static prefixBytes = 65536;
+
   /** buffer: seconds decoded ahead; loop: whether a long motion's decoder starts over at its end. */
   constructor({ buffer = 3, loop = false } = {}) {
     super();
@@ -108,6 +118,13 @@ export class MotionStream extends EventTarget {
     this.closed = false;
     this.pumping = false;
     this.stats = { decodeMs: 0, reconstructMs: 0, decoded: 0, kbps: 0 };
+    // Range requests: whether they are used, the file's size, the points
+    // fetched, and the bytes fetched in all.
+    this.ranged = false;
+    this.total = 0;
+    this.fetchedPoints = new Set();
+    this.fetched = 0;
+    this.filling = false;
   }
 
   /** Streams a URL, a Blob or an ArrayBuffer in; resolves once every byte has arrived. */
@@ -124,13 +141,21 @@ export class MotionStream extends EventTarget {
       this.pump();
     };
     if (typeof source === 'string') {
-      const resp = await fetch(source);
+      // The first bytes by a range request: a server that honours it
+      // answers 206 (and the file's size); one that does not sends it all.
+      const resp = await fetch(source, { headers: { Range: `bytes=0-${MotionStream.prefixBytes - 1}` } });
       if (!resp.ok) throw new Error(`${source}: HTTP ${resp.status}`);
+      const size = /\/(\d+)$/.exec(resp.headers.get('Content-Range') || '');
+      if (resp.status === 206 && size) {
+        await this._openRanged(source, +size[1], new Uint8Array(await resp.arrayBuffer()), feed);
+        return;
+      }
       const reader = resp.body.getReader();
       for (;;) {
         const { done, value } = await reader.read();
         if (this.closed) return;
         if (done) break;
+        this.fetched += value.length;
         feed(value);
       }
     } else {
@@ -138,6 +163,92 @@ export class MotionStream extends EventTarget {
       feed(new Uint8Array(buf));
     }
     if (!this.player.is_complete()) throw new Error('the file ended early (truncated)');
+  }
+
+  /** Bytes [a, b) of the file, by a range request. */
+  async _range(a, b) {
+    const resp = await fetch(this.url, { headers: { Range: `bytes=${a}-${b - 1}` } });
+    if (resp.status !== 206) throw new Error(`${this.url}: asked for bytes ${a}-${b - 1}, got HTTP ${resp.status}`);
+    const bytes = new Uint8Array(await resp.arrayBuffer());
+    if (bytes.length !== b - a) throw new Error(`${this.url}: asked for ${b - a} bytes, got ${bytes.length}`);
+    this.fetched += bytes.length;
+    return bytes;
+  }
+
+  /** A file from a server that answers range requests (total bytes, the
+   * first ones already here): the rest of the header if it is long, then
+   * for a version-10 file the index from the tail and the stretch of the
+   * first point, and the rest as playback asks (_fill); else the rest whole. */
+  async _openRanged(url, total, first, feed) {
+    this.url = url;
+    this.total = total;
+    this.fetched += first.length;
+    feed(first);
+    let got = first.length;
+    if (!this.header && got >= 16) {
+      // A header longer than the first request (its length is at byte 12).
+      const end = 20 + new DataView(first.buffer, first.byteOffset).getUint32(12, true);
+      const b = Math.min(total, end + MotionStream.prefixBytes);
+      feed(await this._range(got, b));
+      got = b;
+    }
+    if (!this.header) throw new Error(`${url}: no .cgv header in its first ${got} bytes`);
+    const h = this.header;
+    const tail = this.player.index_tail_bytes();
+    if (!h.random_access || total <= got + tail) {
+      if (got < total) feed(await this._range(got, total));
+      if (!this.player.is_complete()) throw new Error('the file ended early (truncated)');
+      return;
+    }
+    this.player.set_index(await this._range(total - tail, total));
+    this.ranged = true;
+    // The point whose stretch the first bytes reached into, up to its end.
+    let k = 0;
+    for (;;) {
+      const [, b] = this.player.point_bytes(k, total);
+      if (b > got) {
+        feed(await this._range(got, b));
+        break;
+      }
+      this.fetchedPoints.add(k++);
+    }
+    this.fetchedPoints.add(k);
+    this._fill();
+  }
+
+  /** The next point to fetch: the first not fetched among those from the
+   * frame wanted (a seek's, else the one shown) to a window past it. */
+  _nextPoint() {
+    const h = this.header, K = h.random_access;
+    const from = this.seekTo ?? this.current;
+    const horizon = (this.window || 8) + K;
+    for (let d = 0; d <= horizon; d += K) {
+      let f = from + d;
+      if (f >= h.frames) { if (!this.loop) break; f -= h.frames; }
+      const k = Math.floor(f / K);
+      if (!this.fetchedPoints.has(k)) return k;
+    }
+    return null;
+  }
+
+  /** Fetches points (_nextPoint) one at a time while any is wanted. */
+  async _fill() {
+    if (!this.ranged || this.filling || this.closed) return;
+    this.filling = true;
+    try {
+      for (let k = this._nextPoint(); k !== null && !this.closed; k = this._nextPoint()) {
+        const [a, b] = this.player.point_bytes(k, this.total);
+        if (this.player.bytes() !== a) this.player.jump(k);
+        this.player.push(await this._range(a, b));
+        this.fetchedPoints.add(k);
+        this.dispatchEvent(new Event('progress'));
+        this.pump();
+      }
+    } catch (e) {
+      if (!this.closed) this.dispatchEvent(new CustomEvent('error', { detail: e.message || String(e) }));
+    } finally {
+      this.filling = false;
+    }
   }
 
   close() {
@@ -199,6 +310,7 @@ export class MotionStream extends EventTarget {
     this.current = f;
     this._evict();
     if (this.bounded) this.pump();
+    this._fill();
   }
 
   /** Makes frame f the current one; true if it is held now, else a
@@ -213,6 +325,7 @@ export class MotionStream extends EventTarget {
     if (next > f || r > next) this.restartAt = r;
     this._evict();
     this.pump();
+    this._fill();
     return false;
   }
 
@@ -231,7 +344,7 @@ export class MotionStream extends EventTarget {
           this._restart(0);
           f = 0;
         }
-        if (f >= this.player.complete_frames()) break;
+        if (!this.player.frame_arrived(f)) break; // _fill or the stream wakes the pump
         const want = this._wants(f);
         if (!want.go) break; // the window is full; setCurrent wakes the pump
         const t = performance.now();
@@ -246,7 +359,8 @@ export class MotionStream extends EventTarget {
         st.decodeMs = (st.decodeMs * k + (t1 - t)) / (k + 1);
         st.reconstructMs = (st.reconstructMs * k + (t2 - t1)) / (k + 1);
         st.decoded = k + 1;
-        st.kbps = this.player.bytes() * 8 / 1000 / (Math.max(1, this.player.complete_frames()) / h.fps);
+        const [bytes, frames] = this.ranged ? [this.total, h.frames] : [this.fetched, this.player.complete_frames()];
+        st.kbps = bytes * 8 / 1000 / (Math.max(1, frames) / h.fps);
         if (want.keep && !this.frames[f]) {
           this.frames[f] = x;
           this.held++;

@@ -739,7 +739,8 @@ pub struct CgvFile {
     pub header: Header,
     /// Access units per stream per frame (empty where the stream has no frame).
     pub units: Vec<Vec<Vec<u8>>>,
-    /// Side data per frame.
+    /// Side data per frame (the default for a frame a reader that
+    /// jumped has not been given).
     pub frames: Vec<FrameInfo>,
     /// Version 6: the input's mesh, when the file carries it.
     pub source_mesh: Option<SourceMesh>,
@@ -788,8 +789,14 @@ pub fn read(bytes: &[u8]) -> Result<CgvFile, ContainerError> {
 
 /// Reads a `.cgv` file as its bytes arrive (a browser's fetch stream): each
 /// [`push`](StreamReader::push) checks every chunk now complete, so frame
-/// f can be decoded as soon as [`complete_frames`](StreamReader::complete_frames)
-/// exceeds f. The same checks as [`read`], which is built on it.
+/// f can be decoded as soon as [`frame_arrived`](StreamReader::frame_arrived)
+/// says so. The same checks as [`read`], which is built on it.
+///
+/// A version-10 file may also arrive in pieces (HTTP range requests): once
+/// the reader has the header, the source mesh and the random-access index
+/// ([`set_index`](StreamReader::set_index), from the file's tail), it can
+/// [`jump`](StreamReader::jump) to any random-access point and take the
+/// bytes from that point's offset on, with the same checks.
 #[derive(Debug, Clone, Default)]
 pub struct StreamReader {
     /// Bytes not yet consumed (a partial header or chunk).
@@ -802,7 +809,16 @@ pub struct StreamReader {
     slot: usize,
     /// Version 10: the `RIDX` chunk has been read.
     indexed: bool,
+    /// Version 10: the index came from [`set_index`](Self::set_index), and
+    /// each point's chunk is checked against it as it arrives.
+    index_given: bool,
+    /// The reader is past the end chunk.
     ended: bool,
+    /// The end chunk has been read (after a jump, `ended` starts over).
+    end_seen: bool,
+    /// Which frames have arrived whole, and how many from 0 in a row.
+    arrived: Vec<bool>,
+    contiguous: u32,
 }
 
 impl StreamReader {
@@ -811,22 +827,77 @@ impl StreamReader {
         self.file.as_ref().map(|f| &f.header)
     }
 
-    /// The file so far: every frame below `complete_frames()` is whole.
+    /// The file so far: every frame for which
+    /// [`frame_arrived`](Self::frame_arrived) is true is whole.
     pub fn file(&self) -> Option<&CgvFile> {
         self.file.as_ref()
     }
 
-    /// Frames whose chunks have all arrived.
+    /// Frames from 0 on whose chunks have all arrived, in a row.
     pub fn complete_frames(&self) -> u32 {
-        match &self.file {
-            Some(f) if self.ended => f.header.frames,
-            Some(_) => self.frame,
-            None => 0,
-        }
+        self.contiguous
     }
 
+    /// Whether frame `f`'s chunks have all arrived.
+    pub fn frame_arrived(&self, f: u32) -> bool {
+        self.arrived.get(f as usize).copied().unwrap_or(false)
+    }
+
+    /// Every frame and the end chunk have arrived.
     pub fn is_complete(&self) -> bool {
-        self.ended
+        self.end_seen && self.file.as_ref().is_some_and(|f| self.contiguous == f.header.frames)
+    }
+
+    /// Version 10: the random-access points' offsets, read from the file's
+    /// tail ([`parse_index_tail`]) before the frames have arrived; the
+    /// points already read must agree, and each later one is checked
+    /// against it. Needed before a [`jump`](Self::jump).
+    pub fn set_index(&mut self, offsets: Vec<u64>) -> Result<(), ContainerError> {
+        let bad = |msg: &str| ContainerError::Chunk { offset: 0, msg: msg.into() };
+        let file = self.file.as_mut().ok_or_else(|| bad("an index before the header"))?;
+        if offsets.len() as u64 != u64::from(file.header.random_access_points()) || file.header.random_access.is_none()
+        {
+            return Err(bad("the index does not have one offset per random-access point"));
+        }
+        if !offsets.starts_with(&file.index) {
+            return Err(bad("the index disagrees with the random-access points already read"));
+        }
+        file.index = offsets;
+        self.index_given = true;
+        Ok(())
+    }
+
+    /// Makes random-access point `point` (frame `point` K) the next thing
+    /// the reader expects, at its offset: the bytes pushed next are the
+    /// file's from there. What arrived before stays.
+    pub fn jump(&mut self, point: u32) -> Result<(), ContainerError> {
+        let at = self.bytes();
+        let bad = |msg: String| ContainerError::Chunk { offset: at, msg };
+        let file = self.file.as_ref().ok_or_else(|| bad("a jump before the header".into()))?;
+        let h = &file.header;
+        let waiting = (h.source_mesh.is_some() && file.source_mesh.is_none())
+            || (h.appearance.is_some() && file.appearance.is_none());
+        if !self.index_given || waiting {
+            return Err(bad("a jump needs the header, the source mesh and the index first".into()));
+        }
+        let offset = *file.index.get(point as usize).ok_or_else(|| bad(format!("no random-access point {point}")))?;
+        self.frame = point * h.random_access.unwrap_or(h.frames);
+        (self.slot, self.indexed, self.ended) = (0, false, false);
+        self.pending.clear();
+        self.consumed = usize::try_from(offset).map_err(|_| bad("an offset past memory".into()))?;
+        Ok(())
+    }
+
+    /// Records frame `f` as whole.
+    fn mark_arrived(&mut self, f: u32) {
+        let n = self.file.as_ref().map_or(0, |file| file.header.frames);
+        if self.arrived.len() <= f as usize {
+            self.arrived.resize(f as usize + 1, false);
+        }
+        self.arrived[f as usize] = true;
+        while self.contiguous < n && self.frame_arrived(self.contiguous) {
+            self.contiguous += 1;
+        }
     }
 
     /// Bytes received so far.
@@ -881,7 +952,11 @@ impl StreamReader {
             let Some((chunk, next)) = parse_chunk(pending, at).map_err(|e| shift(e, self.consumed))? else {
                 return Ok(at);
             };
+            let before = self.frame;
             self.accept(chunk, offset)?;
+            if self.frame > before && before < self.file.as_ref().map_or(0, |f| f.header.frames) {
+                self.mark_arrived(before);
+            }
             at = next;
             if self.ended {
                 if at != pending.len() {
@@ -931,12 +1006,17 @@ impl StreamReader {
             if chunk.tag != TAG_END {
                 return Err(ContainerError::Chunk { offset, msg: "chunk after the last frame".into() });
             }
-            self.ended = true;
+            (self.ended, self.end_seen) = (true, true);
             return Ok(());
         }
         let frame = self.frame;
         if self.slot == 0 && chunk.tag == TAG_FRAME && chunk.frame == frame && header.is_random_access_point(frame) {
-            file.index.push(offset as u64);
+            let point = header.random_access.map_or(0, |k| frame / k) as usize;
+            match (self.index_given, file.index.get(point)) {
+                (false, _) => file.index.push(offset as u64),
+                (true, Some(&o)) if o == offset as u64 => {}
+                _ => return Err(unexpected(&chunk, offset, "the random-access point the index names", frame)),
+            }
         }
         let expect = |what: &str| unexpected(&chunk, offset, what, frame);
         if chunk.frame != frame {
@@ -957,7 +1037,8 @@ impl StreamReader {
             if chunk.tag != TAG_FRAME {
                 return Err(expect("the frame chunk"));
             }
-            file.frames.push(FrameInfo::parse(chunk.payload, header, file.version, frame, offset)?);
+            let info = FrameInfo::parse(chunk.payload, header, file.version, frame, offset)?;
+            file.frames.push(info);
         }
         // Advance to the next expected chunk.
         let header = &file.header;
@@ -1015,10 +1096,16 @@ impl StreamReader {
             });
         }
         let total = header.frames as usize;
-        file.frames.push(info);
+        // In frame order, but a jump may leave frames before it missing.
+        if file.frames.len() <= frame as usize {
+            file.frames.resize(frame as usize + 1, FrameInfo::default());
+        }
+        file.frames[frame as usize] = info;
         for (s, au) in units {
             let u = &mut file.units[s];
-            u.resize(frame as usize + 1, Vec::new());
+            if u.len() <= frame as usize {
+                u.resize(frame as usize + 1, Vec::new());
+            }
             u[frame as usize] = au;
         }
         *next += 1;
@@ -1033,7 +1120,8 @@ impl StreamReader {
     /// The whole file; an error if it has not all arrived.
     pub fn finish(self) -> Result<CgvFile, ContainerError> {
         let what = if self.file.is_none() { "the header" } else { "a chunk" };
-        match (self.file, self.ended) {
+        let complete = self.is_complete();
+        match (self.file, complete) {
             (Some(mut f), true) => {
                 f.bytes = self.consumed;
                 Ok(f)

@@ -108,9 +108,50 @@ impl Player {
         self.reader.header().and_then(|h| serde_json::to_string(h).ok())
     }
 
-    /// Frames whose bytes have all arrived.
+    /// Frames from 0 on whose bytes have all arrived, in a row.
     pub fn complete_frames(&self) -> u32 {
         self.reader.complete_frames()
+    }
+
+    /// Whether frame `f`'s bytes have all arrived (a file fetched in pieces
+    /// may have later frames before earlier ones).
+    pub fn frame_arrived(&self, f: u32) -> bool {
+        self.reader.frame_arrived(f)
+    }
+
+    /// How many bytes at the end of the file are its random-access index
+    /// and end chunk (format version 10; the end chunk alone before), once
+    /// the header has arrived: what a page fetches by a range request to
+    /// learn where each point starts.
+    pub fn index_tail_bytes(&self) -> f64 {
+        self.reader.header().map_or(0.0, |h| crate::format::index_tail_bytes(h) as f64)
+    }
+
+    /// Takes the file's last [`index_tail_bytes`](Self::index_tail_bytes)
+    /// bytes: the random-access index, checked. A page that fetches the
+    /// file in pieces calls this before [`jump`](Self::jump).
+    pub fn set_index(&mut self, tail: &[u8]) -> std::result::Result<(), JsError> {
+        let h = self.reader.header().ok_or_else(|| JsError::new("the header has not arrived"))?;
+        let offsets = crate::format::parse_index_tail(h, tail).map_err(js)?;
+        self.reader.set_index(offsets).map_err(js)
+    }
+
+    /// The byte range [start, end) of random-access point `point`'s frames
+    /// (to the next point, or to `file_bytes` for the last: the index and
+    /// end chunk included), once the index is known; empty otherwise.
+    pub fn point_bytes(&self, point: u32, file_bytes: f64) -> Vec<f64> {
+        let index = self.reader.file().map_or(&[][..], |f| &f.index[..]);
+        match (index.get(point as usize), index.get(point as usize + 1)) {
+            (Some(&a), Some(&b)) => vec![a as f64, b as f64],
+            (Some(&a), None) => vec![a as f64, file_bytes],
+            _ => Vec::new(),
+        }
+    }
+
+    /// The reader takes the bytes of random-access point `point` next (they
+    /// start at its offset); what arrived before stays.
+    pub fn jump(&mut self, point: u32) -> std::result::Result<(), JsError> {
+        self.reader.jump(point).map_err(js)
     }
 
     pub fn is_complete(&self) -> bool {
@@ -136,7 +177,7 @@ impl Player {
     pub fn access_unit(&self, s: usize, frame: u32) -> std::result::Result<Vec<u8>, JsError> {
         self.reader
             .file()
-            .filter(|_| frame < self.reader.complete_frames())
+            .filter(|_| self.reader.frame_arrived(frame))
             .and_then(|f| f.units.get(s)?.get(frame as usize).cloned())
             .ok_or_else(|| JsError::new(&format!("stream {s} frame {frame} has not arrived")))
     }
@@ -183,7 +224,7 @@ impl Player {
         let info = self
             .reader
             .file()
-            .filter(|_| f < self.reader.complete_frames())
+            .filter(|_| self.reader.frame_arrived(f))
             .and_then(|file| file.frames.get(f as usize))
             .ok_or_else(|| JsError::new(&format!("frame {f} has not arrived")))?;
         let lumas = std::mem::replace(&mut self.lumas, vec![None; dec.header().streams.len()]);

@@ -5,7 +5,7 @@
 # Needs samba unpacked as .data/samba/samba. Prints one line per run.
 set -euo pipefail
 cd "$(dirname "$0")/../../.."
-cgv=./target/release/cgv
+cgv=${CGV:-${CARGO_TARGET_DIR:-target}/release/cgv}
 src=$PWD/.data/samba/samba
 out=out/long
 mkdir -p "$out"
