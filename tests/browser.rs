@@ -216,10 +216,12 @@ fn site(name: &str) -> (PathBuf, Guard, u16) {
         std::fs::create_dir_all(to.parent().unwrap()).unwrap();
         std::fs::copy(three.join(f), to).unwrap();
     }
-    std::fs::create_dir_all(dir.join("pkg")).unwrap();
-    for e in std::fs::read_dir(root.join("www/pkg")).unwrap() {
-        let e = e.unwrap();
-        std::fs::copy(e.path(), dir.join("pkg").join(e.file_name())).unwrap();
+    for pkg in ["pkg", "pkg-decoder"] {
+        std::fs::create_dir_all(dir.join(pkg)).unwrap();
+        for e in std::fs::read_dir(root.join("www").join(pkg)).unwrap() {
+            let e = e.unwrap();
+            std::fs::copy(e.path(), dir.join(pkg).join(e.file_name())).unwrap();
+        }
     }
     for f in ["walk-cgv.cgv", "walk-gv.cgv", "walk-cgv.cgv.cgv.positions", "walk-gv.cgv.cgv.positions"] {
         std::fs::copy(root.join("tests/fixtures/v1").join(f), dir.join(f)).unwrap();
@@ -627,6 +629,16 @@ fn the_three_js_module_plays_a_motion_in_a_scene() {
         let s = browser.js(THREE_STATE, json!([]));
         assert!(s["error"].is_null(), "{file}: {s}");
         assert_eq!(s["vertices"], json!(vertices), "{file}: the input's own mesh, or the grid without one: {s}");
+        // Decoded by the decoder package alone: the renderer's is not fetched.
+        let wasm = browser.js(
+            "return performance.getEntriesByType('resource').map((e) => e.name).filter((n) => n.endsWith('.wasm'));",
+            json!([]),
+        );
+        assert!(
+            wasm.as_array()
+                .is_some_and(|w| w.iter().all(|n| n.as_str().unwrap().ends_with("/pkg-decoder/cgv_bg.wasm"))),
+            "{wasm}"
+        );
         // It animates: left to its clock, the frame moves.
         let mut seen = std::collections::BTreeSet::new();
         for _ in 0..20 {
@@ -787,4 +799,22 @@ fn viewer_memory_on_a_long_motion() {
     }
     let worst = times.iter().copied().fold(0.0, f64::max);
     println!("seeks: worst {worst:.0} ms, mean {:.0} ms", times.iter().sum::<f64>() / times.len() as f64);
+}
+
+#[test]
+fn the_decoder_package_is_a_small_first_download() {
+    // Issue 19: the decoder alone (pkg-scripts/web.sh: no `render`
+    // feature, wasm-opt -Oz) is at most 300 KB gzipped, for pages that
+    // draw with three.js; the full package carries wgpu besides.
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("www");
+    let gzipped = |pkg: &str| {
+        let wasm =
+            std::fs::read(root.join(pkg).join("cgv_bg.wasm")).expect("build the packages with pkg-scripts/web.sh");
+        // gzip -9 is deflate's best level plus an 18-byte frame.
+        miniz_oxide::deflate::compress_to_vec(&wasm, 10).len() + 18
+    };
+    let (decoder, full) = (gzipped("pkg-decoder"), gzipped("pkg"));
+    println!("decoder package {decoder} bytes gzipped, full package {full}");
+    assert!(decoder <= 300_000, "the decoder package is {decoder} bytes gzipped");
+    assert!(full > 2 * decoder, "the renderer went missing from the full package ({full} bytes)");
 }

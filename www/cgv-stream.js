@@ -22,12 +22,29 @@
 // frame (detail: a frame just decoded and kept), seeked (detail: the
 // frame a seek asked for, now held), error (detail: the message).
 
-import init, { Player } from './pkg/cgv.js';
-
+// Which wasm package: ./pkg/ (decoder and renderer, what <cgv-player>
+// draws with) unless a page that draws itself asks for ./pkg-decoder/ (the
+// decoder alone, a smaller first download) with usePackage before loading.
+let packageUrl = new URL('./pkg/cgv.js', import.meta.url).href;
+let wasm = null;
 let ready = null;
-/** Loads the wasm module once per page; resolves to its exports. */
+
+/** Makes streams load the wasm package at `url` (a module URL) instead of
+ * ./pkg/; false (and no change) once a package is loaded. */
+export function usePackage(url) {
+  if (ready) return false;
+  packageUrl = url;
+  return true;
+}
+
+/** Loads the wasm package once per page; resolves to its exports. */
 export function loadWasm(url) {
-  if (!ready) ready = init(url ? { module_or_path: url } : undefined);
+  if (!ready) {
+    ready = import(packageUrl).then((m) => {
+      wasm = m;
+      return m.default(url ? { module_or_path: url } : undefined);
+    });
+  }
   return ready;
 }
 
@@ -133,7 +150,7 @@ export class MotionStream extends EventTarget {
       throw new Error('This browser has no WebCodecs VideoDecoder, which the viewer needs to decode H.264. Try a recent Chrome, Edge or Safari.');
     }
     await loadWasm();
-    this.player = new Player('');
+    this.player = new wasm.Player('');
     const feed = (bytes) => {
       this.player.push(bytes);
       this._metadata();

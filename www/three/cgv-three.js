@@ -9,14 +9,19 @@
 // three each frame); it is the input's own mesh, with its UVs and base
 // colour texture, when the file carries them (format v6 to v8), else the
 // N x N grid mesh. Decoding is cgv's (cgv-stream.js: WebCodecs for H.264,
-// the wasm core for the rest), with the same bounded window as
+// the wasm decoder package www/pkg-decoder/ for the rest: 234 KB gzipped,
+// without the renderer of <cgv-player>'s), with the same bounded window as
 // <cgv-player>: memory does not grow with the motion's length.
 //
 // `three` is imported by name: the page maps it (an import map, or a
 // bundler), so the page's own three.js is the one used.
 
 import * as THREE from 'three';
-import { MotionStream } from '../cgv-stream.js';
+import { MotionStream, usePackage } from '../cgv-stream.js';
+
+// The decoder alone (www/pkg-decoder/, no renderer: three draws), unless the
+// page has loaded the full package already (a <cgv-player> on it).
+usePackage(new URL('../pkg-decoder/cgv.js', import.meta.url).href);
 
 /** Resolves once the stream holds frame 0 (or rejects with its error). */
 function firstFrame(stream) {
