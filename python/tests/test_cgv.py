@@ -59,6 +59,11 @@ def test_gv_and_options(walk):
         cgv.decode(data, mesh="source")
     normal = cgv.encode(positions, faces, fps=fps, grid=32, correction_layout="normal", source_mesh=False)
     assert any(s["name"] == "dn" for s in cgv.info(normal)["header"]["streams"])
+    # Random-access points every 0.1 s (3 frames; the default, 2 s, is past these 8).
+    points = cgv.encode(positions, faces, fps=fps, grid=16, random_access=0.1, source_mesh=False)
+    header = cgv.info(points)["header"]
+    assert header["random_access"] == 3 and "random_access" not in cgv.info(normal)["header"]
+    assert cgv.decode(points, mesh="grid")[0].shape == (8, 16 * 16, 3)
 
 
 def test_a_budget_is_kept_or_refused(walk):
