@@ -279,7 +279,7 @@ fn a_normal_correction_round_trips_without_drift() {
         assert!(e.iter().skip(2).all(|v| *v < 3.0 * mean(e)), "drifts: {e:?}");
     }
     let file = format::read(&file_bytes).unwrap();
-    assert_eq!(file.version, 9);
+    assert_eq!(file.version, format::VERSION);
     let layout: Vec<(&str, u32)> = file.header.streams.iter().map(|s| (s.name.as_str(), s.size(64))).collect();
     assert_eq!(layout[3..], [("dx", 32), ("dy", 32), ("dz", 32), ("dn", 64)]);
     let dn = report.stream_bytes.iter().find(|s| s.0 == "dn").map_or(0, |s| s.1);
@@ -325,7 +325,9 @@ fn cycle_prediction_makes_the_second_gait_cycle_nearly_free() {
     // on the grid chosen by its resampling error, which gives the limbs
     // fewer samples than format v5's 40 area passes, the cycles no longer
     // cut the uncoded loop's corrections by a quarter and no frame takes
-    // one; at N = 64 the file is 28 % smaller with them.)
+    // one; at N = 64 the file is 28 % smaller with them.) Without
+    // random-access points: the one at frame 60 would restart the loop,
+    // and a cycle may not reach back past it.
     let src = cgv::mesh::builtin::motion(72);
     let base = EncodeOptions {
         codec: CodecKind::Cgv,
@@ -333,6 +335,7 @@ fn cycle_prediction_makes_the_second_gait_cycle_nearly_free() {
         corrections: CorrectionMode::Motion,
         video: VideoSettings { qp: 30, ..Default::default() },
         correction_filter: false,
+        random_access: 0.0,
         ..Default::default()
     };
     let with = EncodeOptions { max_lag: 40, ..base.clone() };

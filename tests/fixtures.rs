@@ -207,6 +207,8 @@ fn v10_random_access_fixture_decodes_as_frozen_from_every_point() {
     let f = open("v10/walk-cgv-random-access.cgv");
     assert_eq!((f.version, f.header.corrections, f.header.random_access), (10, CorrectionMode::Motion, Some(6)));
     assert_eq!(f.index.len(), 3);
+    let origins: Vec<bool> = f.frames.iter().map(|i| i.seed_origin.is_some()).collect();
+    assert_eq!(origins, (0..14).map(|k| k % 6 == 0).collect::<Vec<_>>(), "a seed origin at each point");
     check("v10/walk-cgv-random-access.cgv", SolverKind::Predictive, 1e-5);
     // A decoder that starts at a later point gives the frozen frames from there.
     let diag = f.header.source.diagonal as f64;

@@ -50,11 +50,27 @@ pub fn frame_values(h: &Header, samples: &[Option<Vec<u8>>], scale: f32) -> Resu
 pub struct Values<'a> {
     header: &'a Header,
     values: &'a [Option<Vec<f32>>],
+    /// What the seed streams' values are relative to (version 10).
+    seed_origin: Vec3,
 }
 
 impl<'a> Values<'a> {
     pub fn new(header: &'a Header, values: &'a [Option<Vec<f32>>]) -> Values<'a> {
-        Values { header, values }
+        Values { header, values, seed_origin: Vec3::ZERO }
+    }
+
+    /// The frame's seed origin (format version 10's random-access points).
+    pub fn with_seed_origin(mut self, origin: Option<[f32; 3]>) -> Values<'a> {
+        self.seed_origin = origin.map_or(Vec3::ZERO, Vec3::from);
+        self
+    }
+
+    /// The seed's positions, if the frame has them: the seed streams'
+    /// values plus the frame's seed origin.
+    pub fn seed(&self) -> Option<Vec<Vec3>> {
+        let mut x = self.xyz(SEED)?;
+        x.iter_mut().for_each(|p| *p += self.seed_origin);
+        Some(x)
     }
 
     pub fn get(&self, name: StreamName) -> Option<&'a [f32]> {
@@ -104,7 +120,7 @@ impl Predictive {
 
     /// The decoder's prediction of a frame with the file's predictor `code`.
     pub fn predict(&mut self, code: PredictorCode, values: &Values, anchors: &[Vec3]) -> Result<Vec<Vec3>> {
-        let seed = values.xyz(SEED);
+        let seed = values.seed();
         self.predictor.predict(code, seed.as_deref(), values.get(StreamName::H), anchors)
     }
 
@@ -118,7 +134,7 @@ impl Predictive {
         anchors: &[Vec3],
         truth: &[Vec3],
     ) -> Result<(PredictorCode, Vec<Vec3>)> {
-        let seed = values.xyz(SEED);
+        let seed = values.seed();
         self.predictor.closest(allowed, max_steps, seed.as_deref(), values.get(StreamName::H), anchors, truth)
     }
 
@@ -221,7 +237,7 @@ impl Reconstructor {
                     solver.set_lambda(l);
                 }
                 let hv = values.get(StreamName::H).ok_or_else(|| Error::Argument(format!("frame {f} has no H")))?;
-                solver.solve_frame(hv, &anchors, values.xyz(SEED).as_deref())
+                solver.solve_frame(hv, &anchors, values.seed().as_deref())
             }
         }
     }
@@ -313,7 +329,7 @@ impl SequenceDecoder {
             self.reconstructor.reset();
         }
         let vals = frame_values(h, lumas, info.correction_scale)?;
-        let out = self.reconstructor.frame(f, info, &Values::new(h, &vals))?;
+        let out = self.reconstructor.frame(f, info, &Values::new(h, &vals).with_seed_origin(info.seed_origin))?;
         self.next += 1;
         Ok(out)
     }

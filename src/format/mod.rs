@@ -186,6 +186,11 @@ pub struct FrameInfo {
     /// Scale of the correction streams at this frame (0 without corrections).
     pub correction_scale: f32,
     pub anchors: Vec<[f32; 3]>,
+    /// Version 10, at each random-access point of a file that has them:
+    /// the point the seed streams' values are relative to (the seed is
+    /// their values plus it), so that their one range spans the body, not
+    /// everywhere it travels.
+    pub seed_origin: Option<[f32; 3]>,
 }
 
 impl FrameInfo {
@@ -193,6 +198,7 @@ impl FrameInfo {
         let mut out = vec![self.predictor.to_byte(), self.predictor.lag, self.filter, self.relax];
         out.extend_from_slice(&self.correction_scale.to_le_bytes());
         out.extend(self.anchors.iter().flatten().flat_map(|v| v.to_le_bytes()));
+        out.extend(self.seed_origin.iter().flatten().flat_map(|v| v.to_le_bytes()));
         out
     }
 
@@ -207,8 +213,12 @@ impl FrameInfo {
     ) -> Result<FrameInfo, ContainerError> {
         let bad = |msg: String| ContainerError::Chunk { offset, msg };
         let anchors = header.anchors.len();
-        if payload.len() != 8 + anchors * 12 {
-            return Err(bad(format!("frame chunk has {} bytes, expected {}", payload.len(), 8 + anchors * 12)));
+        if payload.len() != header.side_data_len(frame) {
+            return Err(bad(format!(
+                "frame {frame}'s side data has {} bytes, expected {}",
+                payload.len(),
+                header.side_data_len(frame)
+            )));
         }
         // A cycle prediction names a lag the header allows and the frames
         // since the last random-access point can serve.
@@ -235,10 +245,12 @@ impl FrameInfo {
             return Err(bad(format!("correction scale {correction_scale} is not a finite non-negative number")));
         }
         let anchors: Vec<[f32; 3]> = (0..anchors).map(|k| [0, 4, 8].map(|o| f32_at(8 + 12 * k + o))).collect();
-        if anchors.iter().flatten().any(|v| !v.is_finite()) {
-            return Err(bad("non-finite anchor position".into()));
+        let at = 8 + 12 * anchors.len();
+        let seed_origin = (payload.len() > at).then(|| [0, 4, 8].map(|o| f32_at(at + o)));
+        if anchors.iter().chain(&seed_origin).flatten().any(|v| !v.is_finite()) {
+            return Err(bad("non-finite anchor position or seed origin".into()));
         }
-        Ok(FrameInfo { predictor, filter, relax, correction_scale, anchors })
+        Ok(FrameInfo { predictor, filter, relax, correction_scale, anchors, seed_origin })
     }
 }
 
@@ -488,6 +500,13 @@ impl Header {
 
     pub fn is_key_frame(&self, f: u32) -> bool {
         self.key_frames.binary_search(&f).is_ok()
+    }
+
+    /// The length of frame `f`'s side data: 8 bytes, 12 an anchor, and in a
+    /// file with random-access points 12 more at each (the seed origin).
+    pub fn side_data_len(&self, f: u32) -> usize {
+        let origin = self.random_access.is_some() && self.is_random_access_point(f);
+        8 + 12 * self.anchors.len() + if origin { 12 } else { 0 }
     }
 
     /// Whether frame `f` is a random-access point (frame 0 always is).
@@ -1069,7 +1088,7 @@ impl StreamReader {
         if chunk.tag != TAG_FRAME {
             return Err(unexpected(&chunk, offset, "the frame chunk", frame));
         }
-        let side = 8 + 12 * header.anchors.len();
+        let side = header.side_data_len(frame);
         let p = chunk.payload;
         if p.len() < side {
             return Err(ContainerError::Chunk {

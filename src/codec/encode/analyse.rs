@@ -6,9 +6,10 @@ use super::plan::Plan;
 use crate::codec::choose_anchors;
 use crate::error::Result;
 use crate::format::quant::Range;
+use crate::format::stream::SEED;
 use crate::format::{CodecKind, StreamName};
 use crate::grid::{Features, Stencils};
-use crate::mesh::FrameSource;
+use crate::mesh::{Bounds, FrameSource};
 use crate::resample::SampleMap;
 use glam::Vec3;
 
@@ -19,12 +20,18 @@ pub(super) struct Analysis {
 }
 
 /// The values stream `name` codes for a grid frame `g` with features `f`
-/// (`scratch` holds a coordinate's values).
-pub(super) fn values<'a>(name: StreamName, f: &'a Features, g: &[Vec3], scratch: &'a mut Vec<f32>) -> &'a [f32] {
+/// and seed origin `origin` (`scratch` holds a coordinate's values).
+pub(super) fn values<'a>(
+    name: StreamName,
+    (f, g): (&'a Features, &[Vec3]),
+    origin: Option<[f32; 3]>,
+    scratch: &'a mut Vec<f32>,
+) -> &'a [f32] {
     match (name.axis(), name) {
         (Some(c), _) => {
+            let o = if SEED.contains(&name) { origin.map_or(0.0, |o| o[c]) } else { 0.0 };
             scratch.clear();
-            scratch.extend(g.iter().map(|p| p[c]));
+            scratch.extend(g.iter().map(|p| p[c] - o));
             scratch
         }
         (None, StreamName::H) => &f.h,
@@ -32,6 +39,14 @@ pub(super) fn values<'a>(name: StreamName, f: &'a Features, g: &[Vec3], scratch:
         (None, StreamName::A) => &f.a,
         (None, _) => &f.b,
     }
+}
+
+/// Frame `f`'s seed origin: at a random-access point of a file that has
+/// them, the centre of the grid frame's bounding box (so the seed streams'
+/// range spans the body, wherever it is), else none.
+pub(super) fn seed_origin(plan: &Plan, f: usize, g: &[Vec3]) -> Option<[f32; 3]> {
+    let b = Bounds::of(g);
+    (plan.random_access.is_some() && plan.is_rap(f)).then(|| ((b.min + b.max) * 0.5).to_array())
 }
 
 /// The features of grid frame `g` if the plan codes any, else none.
@@ -57,9 +72,10 @@ pub(super) fn analyse(
         let g = map.apply(&src.read_frame(fi)?);
         let feats = features(plan, st, &g);
         let (key, rap) = (plan.is_key(fi), plan.is_rap(fi));
+        let origin = seed_origin(plan, fi, &g);
         for (k, &(name, coverage)) in plan.names.iter().enumerate() {
             if coverage.has(key, rap) && !name.is_correction() {
-                ranges[k].add(values(name, &feats, &g, &mut scratch));
+                ranges[k].add(values(name, (&feats, &g), origin, &mut scratch));
             }
         }
         if fi == 0 {

@@ -3,7 +3,7 @@
 //! what was decoded so far, the error coded as corrections, and the
 //! decoder's step ([`Predictive`]) run on the decoded corrections.
 
-use super::analyse::{features, values};
+use super::analyse::{features, seed_origin, values};
 use super::plan::Plan;
 use super::{EncodeOptions, SEED_MIN_QP, SEED_QP_OFFSET};
 use crate::codec::corrections::Pictures;
@@ -110,9 +110,11 @@ pub(super) fn code(
             decoded: vec![None; streams.len()],
             units: vec![None; streams.len()],
         };
-        coder.code(&mut streams, &pre, &|name| values(name, &feats, &g, &mut Vec::new()).to_vec())?;
+        let origin = seed_origin(plan, fi, &g);
+        coder.code(&mut streams, &pre, &|name| values(name, (&feats, &g), origin, &mut Vec::new()).to_vec())?;
         let anchors: Vec<Vec3> = header.anchors.iter().map(|&a| g[a as usize]).collect();
-        let mut info = FrameInfo { anchors: anchors.iter().map(|p| p.to_array()).collect(), ..Default::default() };
+        let anchor_xyz = anchors.iter().map(|p| p.to_array()).collect();
+        let mut info = FrameInfo { anchors: anchor_xyz, seed_origin: origin, ..Default::default() };
         if plan.closed_loop {
             close_loop(&mut coder, &mut streams, &post, &mut predictive, &mut info, (opts, plan), &anchors, &g)?;
         }
@@ -154,8 +156,9 @@ fn close_loop(
 ) -> Result<()> {
     let header = coder.header;
     let vals = frame_values(header, &coder.decoded, 0.0)?;
+    let values = Values::new(header, &vals).with_seed_origin(info.seed_origin);
     // The predictor that lands closest to the true frame.
-    let (code, pred) = predictive.choose(plan.allowed, opts.max_steps, &Values::new(header, &vals), anchors, truth)?;
+    let (code, pred) = predictive.choose(plan.allowed, opts.max_steps, &values, anchors, truth)?;
     let err: Vec<Vec3> = truth.iter().zip(&pred).map(|(p, q)| *p - *q).collect();
     let corrections = &predictive.corrections;
     let scale = if plan.motion { 0.0 } else { correction_scale(&corrections.world_pictures(&err, 1.0)) };
