@@ -300,15 +300,28 @@ fn read_cgv(data: &[u8]) -> PyResult<cgv::format::CgvFile> {
     cgv::format::read(data).map_err(|e| raise(cgv::Error::Container { path: PathBuf::from("<bytes>"), source: e }))
 }
 
-/// decode(data, *, mesh="auto", memory_limit_mib=1024) -> (positions, faces)
+/// decode(data, *, mesh="auto", frames=None, memory_limit_mib=1024) -> (positions, faces)
 ///
 /// Decodes the bytes of a .cgv file: positions (F, V, 3) float32 and faces
 /// (M, 3) uint32 of the input's own mesh when the file carries it (mesh
 /// "auto" or "source"), else, or with mesh="grid", of the N x N grid mesh.
+/// frames=(a, b): frames a to b - 1 only, decoded from the random-access
+/// point at or before a (format version 10; frame 0 in older files).
 #[pyfunction]
-#[pyo3(signature = (data, *, mesh = "auto", memory_limit_mib = 1024))]
-fn decode<'py>(py: Python<'py>, data: &[u8], mesh: &str, memory_limit_mib: u64) -> PyResult<Arrays<'py>> {
+#[pyo3(signature = (data, *, mesh = "auto", frames = None, memory_limit_mib = 1024))]
+fn decode<'py>(
+    py: Python<'py>,
+    data: &[u8],
+    mesh: &str,
+    frames: Option<(usize, usize)>,
+    memory_limit_mib: u64,
+) -> PyResult<Arrays<'py>> {
     let file = read_cgv(data)?;
+    let total = file.header.frames as usize;
+    let (start, end) = frames.unwrap_or((0, total));
+    if start >= end || end > total {
+        return Err(invalid(format!("frames=({start}, {end}) is not inside the file's {total} frames")));
+    }
     let solver = file.header.solver;
     let mut dec = FileDecoder::with_memory_limit(file, solver, memory_limit_mib << 20).map_err(raise)?;
     let source = match (mesh, dec.source_mesh()) {
@@ -320,10 +333,11 @@ fn decode<'py>(py: Python<'py>, data: &[u8], mesh: &str, memory_limit_mib: u64) 
         (m, _) => return Err(invalid(format!("mesh {m:?}: expected \"auto\", \"source\" or \"grid\""))),
     };
     let faces = source.as_ref().map_or_else(|| dec.grid.topology().faces, |s| s.topology.faces.clone());
-    let frames = dec.frame_count();
+    let frames = end - start;
     let coords = py
         .detach(|| -> cgv::Result<Vec<f32>> {
             let mut coords = Vec::new();
+            dec.seek(start as u32)?;
             for _ in 0..frames {
                 let (x, _) = dec.next_frame()?;
                 let x = match &source {

@@ -63,7 +63,12 @@ def test_gv_and_options(walk):
     points = cgv.encode(positions, faces, fps=fps, grid=16, random_access=0.1, source_mesh=False)
     header = cgv.info(points)["header"]
     assert header["random_access"] == 3 and "random_access" not in cgv.info(normal)["header"]
-    assert cgv.decode(points, mesh="grid")[0].shape == (8, 16 * 16, 3)
+    whole = cgv.decode(points, mesh="grid")[0]
+    assert whole.shape == (8, 16 * 16, 3)
+    # Frames 4..7 alone, from the point at frame 3: the same frames.
+    assert np.array_equal(cgv.decode(points, mesh="grid", frames=(4, 7))[0], whole[4:7])
+    with pytest.raises(cgv.Error, match="not inside"):
+        cgv.decode(points, frames=(5, 9))
 
 
 def test_a_budget_is_kept_or_refused(walk):
