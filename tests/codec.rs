@@ -595,4 +595,9 @@ fn random_access_points_decode_the_same_frames_from_anywhere() {
     assert!(dec.seek(20).is_err());
     // Without points (a motion shorter than the interval), frame 0 alone is one.
     assert_eq!((dec.file.header.random_access, dec.seek(19).unwrap()), (None, 19));
+    // And a motion shorter than two intervals gets none either (15 frames, 8 a point).
+    let short = cgv::mesh::builtin::motion(15);
+    let opts = EncodeOptions { grid: 16, random_access: 8.0 / short.fps(), ..Default::default() };
+    let (bytes, _) = encode(&short, &opts, &mut |_, _, _| {}).unwrap();
+    assert_eq!(format::read(&bytes).unwrap().header.random_access, None);
 }

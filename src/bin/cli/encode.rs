@@ -143,7 +143,7 @@ pub struct Args {
     /// wants): each restarts every stream with an IDR picture and the
     /// closed loop from a new seed (format version 10; its cost is in
     /// docs/RESULTS.md, "Random access"). 0: frame 0 only, as before
-    /// version 10.
+    /// version 10; a motion shorter than two intervals gets none either.
     #[arg(long, value_name = "SECONDS", default_value_t = cgv::codec::DEFAULT_RANDOM_ACCESS)]
     random_access: f32,
     /// Frames between H.264 intra frames.

@@ -105,7 +105,8 @@ pub struct EncodeOptions {
     /// Seconds between random-access points (format version 10), where a
     /// player can start decoding: each restarts every stream and the
     /// closed loop, at the cost of a seed and intra pictures; 0 for frame 0
-    /// only. Rounded to whole frames.
+    /// only. Rounded to whole frames; a motion shorter than two intervals
+    /// gets none.
     pub random_access: f32,
 }
 
