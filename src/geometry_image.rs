@@ -32,6 +32,7 @@ use crate::param::area::AreaPasses;
 use crate::param::{cut, ParamOptions, Parameterization, SCORED_PASSES};
 use crate::resample::{SampleMap, SourcePoints};
 use glam::Vec3;
+use rayon::prelude::*;
 use std::path::Path;
 
 /// The reference frame's parameterization and the grid's sample map: what
@@ -144,15 +145,9 @@ pub fn parameterize_carrier(
     opts: &ParamOptions,
 ) -> Result<Parameterization> {
     let target = surface::Target::new(reference, &source.faces)?;
-    let mut score = |p: &Parameterization| -> Result<f64> {
-        // A map whose samples cannot all be located (it cannot happen for a
-        // map without folds, which is all the passes keep) is no candidate.
-        let Ok(map) = SampleMap::on_carrier(grid, carrier, p) else {
-            return Ok(f64::INFINITY);
-        };
-        let g = map.apply(reference);
-        Ok(surface::symmetric_to(&g, &map.surface_faces(), reference, &source.faces, &target)?.rms)
-    };
+    let input = (source, reference);
+    let grid_score = |p: &Parameterization| grid_score(p, (grid, carrier), input, &target);
+    let mut score = grid_score;
     let positions = carrier.positions(reference);
     let (topology, reference) = (&carrier.topology, &positions[..]);
     let nv = topology.vertex_count;
@@ -169,12 +164,20 @@ pub fn parameterize_carrier(
     let e = cut::extremities(&graph, nv, CONE_CANDIDATES);
     let mut racers = Vec::new();
     let mut first_error = None;
-    for skip in (0..e.len()).rev() {
-        let c: Vec<u32> = e.iter().enumerate().filter(|&(i, _)| i != skip).map(|(_, &v)| v).collect();
-        let cones = [c[0], c[1], c[2], c[3]];
-        let corner = cut::corner_for(&graph, nv, &cones);
-        let o = ParamOptions { cones: Some((cones, corner)), ..opts.clone() };
-        match AreaPasses::start_with(topology, reference, Some(&carrier.real), &o) {
+    // Each placement's conformal map on its own core (rayon keeps the order).
+    let skips: Vec<usize> = (0..e.len()).rev().collect();
+    let started: Vec<Result<AreaPasses>> = skips
+        .into_par_iter()
+        .map(|skip| {
+            let c: Vec<u32> = e.iter().enumerate().filter(|&(i, _)| i != skip).map(|(_, &v)| v).collect();
+            let cones = [c[0], c[1], c[2], c[3]];
+            let corner = cut::corner_for(&graph, nv, &cones);
+            let o = ParamOptions { cones: Some((cones, corner)), ..opts.clone() };
+            AreaPasses::start_with(topology, reference, Some(&carrier.real), &o)
+        })
+        .collect();
+    for r in started {
+        match r {
             Ok(r) => racers.push(r),
             Err(err) => {
                 first_error.get_or_insert(err);
@@ -190,10 +193,18 @@ pub fn parameterize_carrier(
         if racers.len() < 2 {
             break;
         }
-        let mut running = Vec::with_capacity(racers.len());
-        for mut r in racers {
-            let before = r.score();
-            match r.advance(stop, Some(&mut score)) {
+        // The placements advance side by side, each on a core (they share
+        // nothing but the scoring target, read only; the order is kept).
+        let advanced: Vec<(Result<()>, AreaPasses, Option<f64>)> = racers
+            .into_par_iter()
+            .map(|mut r| {
+                let before = r.score();
+                (r.advance(stop, Some(&mut { grid_score })), r, before)
+            })
+            .collect();
+        let mut running = Vec::with_capacity(advanced.len());
+        for (result, r, before) in advanced {
+            match result {
                 Ok(()) => running.push((r, before)),
                 Err(err) => {
                     first_error.get_or_insert(err);
@@ -222,6 +233,23 @@ pub fn parameterize_carrier(
         // so there is an error to report).
         None => Err(first_error.unwrap_or_else(|| Error::Numerical("no cone placement could be cut".into()))),
     }
+}
+
+/// How closely `grid` resamples the input through map `p` of its carrier:
+/// the symmetric RMS surface distance, in the mesh's units. A map whose
+/// samples cannot all be located (it cannot happen for a map without folds,
+/// which is all the passes keep) is no candidate.
+fn grid_score(
+    p: &Parameterization,
+    (grid, carrier): (Grid, &Carrier),
+    (source, reference): (&Topology, &[Vec3]),
+    target: &surface::Target,
+) -> Result<f64> {
+    let Ok(map) = SampleMap::on_carrier(grid, carrier, p) else {
+        return Ok(f64::INFINITY);
+    };
+    let g = map.apply(reference);
+    Ok(surface::symmetric_to(&g, &map.surface_faces(), reference, &source.faces, target)?.rms)
 }
 
 /// How many times [`GeometryImage::build`] subdivides a carrier whose
