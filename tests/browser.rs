@@ -507,6 +507,16 @@ fn the_player_seeks_loops_in_bounded_memory_and_behaves_like_video() {
             browser.js("return window.decodedAtSeek;", json!([])).as_u64().unwrap() - before.as_u64().unwrap();
         assert!(decoded as usize <= f % 10 + 2, "the seek to {f} decoded {decoded} frames");
     }
+    // Two seeks in a row, the second asked before the first lands (a
+    // dragged slider): the second wins, on the native frame.
+    browser.js(
+        &format!("{p} p.pause(); window.log = []; p.currentTime = 35 / 30; p.currentTime = 15 / 30; return true;"),
+        json!([]),
+    );
+    browser.wait("the second of two seeks", "return document.getElementById('a').dataset.frame === '15';", 60);
+    assert!(page_frame_error(&browser, 15, &native) <= 1e-4 * diag, "frame 15 after two seeks");
+    browser.js(&format!("{p} p.currentTime = 33 / 30; return true;"), json!([]));
+    browser.wait("back to frame 33", "return document.getElementById('a').dataset.frame === '33';", 60);
     // Keyboard: arrows step, space plays and pauses.
     browser.js(
         &format!("{p} p.focus(); p.dispatchEvent(new KeyboardEvent('keydown', {{ key: 'ArrowRight' }})); return true;"),

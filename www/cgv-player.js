@@ -22,7 +22,11 @@
 // state), the last two for synchronizing views.
 
 import { View } from './pkg/cgv.js';
-import { MotionStream, loadWasm } from './cgv-stream.js';
+import { MotionStream, loadWasm, usePackage } from './cgv-stream.js';
+
+// The element draws with the full package's View: its streams decode with
+// the same instance (a three.js module on the page gives way to it).
+usePackage(new URL('./pkg/cgv.js', import.meta.url).href);
 
 // What pages imported from here before the pipeline had its own module.
 export { loadWasm, codecString, isKey, LumaDecoder } from './cgv-stream.js';

@@ -29,11 +29,16 @@ let packageUrl = new URL('./pkg/cgv.js', import.meta.url).href;
 let wasm = null;
 let ready = null;
 
+let pinned = false;
+
 /** Makes streams load the wasm package at `url` (a module URL) instead of
- * ./pkg/; false (and no change) once a package is loaded. */
-export function usePackage(url) {
-  if (ready) return false;
+ * ./pkg/; false (and no change) once a package is loaded. A `weak` choice
+ * (the three.js module's) gives way to a plain one (<cgv-player>'s, which
+ * needs the renderer), whichever comes first. */
+export function usePackage(url, { weak = false } = {}) {
+  if (ready || (weak && pinned)) return false;
   packageUrl = url;
+  pinned = !weak;
   return true;
 }
 
@@ -160,26 +165,38 @@ export class MotionStream extends EventTarget {
     if (typeof source === 'string') {
       // The first bytes by a range request: a server that honours it
       // answers 206 (and the file's size); one that does not sends it all.
-      const resp = await fetch(source, { headers: { Range: `bytes=0-${MotionStream.prefixBytes - 1}` } });
+      let resp = await fetch(source, { headers: { Range: `bytes=0-${MotionStream.prefixBytes - 1}` } });
       if (!resp.ok) throw new Error(`${source}: HTTP ${resp.status}`);
       const size = /\/(\d+)$/.exec(resp.headers.get('Content-Range') || '');
       if (resp.status === 206 && size) {
         await this._openRanged(source, +size[1], new Uint8Array(await resp.arrayBuffer()), feed);
         return;
       }
-      const reader = resp.body.getReader();
-      for (;;) {
-        const { done, value } = await reader.read();
-        if (this.closed) return;
-        if (done) break;
-        this.fetched += value.length;
-        feed(value);
+      if (resp.status === 206) {
+        // A part whose whole size we cannot read (a cross-origin server
+        // that does not expose Content-Range): ask for the whole file.
+        resp = await fetch(source);
+        if (!resp.ok) throw new Error(`${source}: HTTP ${resp.status}`);
       }
+      if (!(await this._stream(resp, feed))) return;
     } else {
-      const buf = source instanceof ArrayBuffer ? source : await source.arrayBuffer();
-      feed(new Uint8Array(buf));
+      const buf = new Uint8Array(source instanceof ArrayBuffer ? source : await source.arrayBuffer());
+      this.fetched += buf.length;
+      feed(buf);
     }
     if (!this.player.is_complete()) throw new Error('the file ended early (truncated)');
+  }
+
+  /** Feeds a response's body as it arrives; false if the stream closed meanwhile. */
+  async _stream(resp, feed) {
+    const reader = resp.body.getReader();
+    for (;;) {
+      const { done, value } = await reader.read();
+      if (this.closed) return false;
+      if (done) return true;
+      this.fetched += value.length;
+      feed(value);
+    }
   }
 
   /** Bytes [a, b) of the file, by a range request. */
@@ -213,11 +230,18 @@ export class MotionStream extends EventTarget {
     const h = this.header;
     const tail = this.player.index_tail_bytes();
     if (!h.random_access || total <= got + tail) {
-      if (got < total) feed(await this._range(got, total));
+      // No points (an older file, a short motion): the rest, streamed.
+      if (got < total) {
+        const resp = await fetch(url, { headers: { Range: `bytes=${got}-` } });
+        if (resp.status !== 206) throw new Error(`${url}: asked for bytes ${got}-, got HTTP ${resp.status}`);
+        if (!(await this._stream(resp, feed))) return;
+      }
       if (!this.player.is_complete()) throw new Error('the file ended early (truncated)');
       return;
     }
-    this.player.set_index(await this._range(total - tail, total));
+    const index = await this._range(total - tail, total);
+    if (this.closed) return;
+    this.player.set_index(index);
     this.ranged = true;
     // The point whose stretch the first bytes reached into, up to its end.
     let k = 0;
@@ -255,8 +279,10 @@ export class MotionStream extends EventTarget {
     try {
       for (let k = this._nextPoint(); k !== null && !this.closed; k = this._nextPoint()) {
         const [a, b] = this.player.point_bytes(k, this.total);
+        const bytes = await this._range(a, b);
+        if (this.closed) return;
         if (this.player.bytes() !== a) this.player.jump(k);
-        this.player.push(await this._range(a, b));
+        this.player.push(bytes);
         this.fetchedPoints.add(k);
         this.dispatchEvent(new Event('progress'));
         this.pump();
@@ -317,7 +343,7 @@ export class MotionStream extends EventTarget {
   /** Starts decoding again at random-access point r (0: the start). */
   _restart(r) {
     this._newDecoders();
-    if (r === 0) this.player.rewind(); else this.player.seek(r);
+    this.player.seek(r);
     this.restartAt = null;
   }
 
@@ -336,9 +362,16 @@ export class MotionStream extends EventTarget {
   seek(f) {
     this.current = f;
     this._evict();
-    if (this.frames[f]) return true;
+    if (this.frames[f]) {
+      // Held: an earlier seek still on its way is over.
+      this.seekTo = null;
+      this.restartAt = null;
+      return true;
+    }
     this.seekTo = f;
-    const next = this.player.next_frame(), r = this.player.random_access_point(f);
+    // Where decoding goes on from: a restart an earlier seek asked for
+    // (not yet begun), else the decoder's next frame.
+    const next = this.restartAt ?? this.player.next_frame(), r = this.player.random_access_point(f);
     if (next > f || r > next) this.restartAt = r;
     this._evict();
     this.pump();

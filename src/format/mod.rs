@@ -517,7 +517,7 @@ impl Header {
     /// The last random-access point at or before frame `f`: where a decoder
     /// that wants frame `f` starts.
     pub fn random_access_point(&self, f: u32) -> u32 {
-        self.random_access.map_or(0, |k| f - f % k)
+        random_access_point(self.random_access, f)
     }
 
     /// The random-access points' count (the `RIDX` chunk's entries).
@@ -559,6 +559,13 @@ impl Header {
         }
         n
     }
+}
+
+/// The last random-access point at or before frame `f` with a point every
+/// `interval` frames (none but frame 0 without one): the one rule the
+/// encoder's plan and [`Header::random_access_point`] share.
+pub fn random_access_point(interval: Option<u32>, f: u32) -> u32 {
+    interval.map_or(0, |k| f - f % k)
 }
 
 /// Writes the file prefix (magic, version [`VERSION`], header, CRC); the

@@ -19,9 +19,9 @@
 import * as THREE from 'three';
 import { MotionStream, usePackage } from '../cgv-stream.js';
 
-// The decoder alone (www/pkg-decoder/, no renderer: three draws), unless the
-// page has loaded the full package already (a <cgv-player> on it).
-usePackage(new URL('../pkg-decoder/cgv.js', import.meta.url).href);
+// The decoder alone (www/pkg-decoder/, no renderer: three draws), unless a
+// <cgv-player> on the page asks for the full package (its renderer).
+usePackage(new URL('../pkg-decoder/cgv.js', import.meta.url).href, { weak: true });
 
 /** Resolves once the stream holds frame 0 (or rejects with its error). */
 function firstFrame(stream) {

@@ -112,7 +112,7 @@ impl Plan {
 
     /// The last random-access point at or before frame `f`.
     pub fn rap(&self, f: usize) -> usize {
-        self.random_access.map_or(0, |k| f - f % k as usize)
+        format::random_access_point(self.random_access, f as u32) as usize
     }
 
     /// Whether frame `f` is a random-access point.
@@ -217,8 +217,9 @@ impl Plan {
 /// would cost a seed (the default motion, 72 frames at 2 s: 33.3 KB at QP
 /// 30 with a point at frame 60, 25.5 KB without).
 fn random_access_interval(seconds: f32, fps: f32, frames: usize) -> Option<u32> {
-    let k = (seconds * fps).round().max(1.0) as u64;
-    (seconds > 0.0 && 2 * k as usize <= frames).then_some(k as u32)
+    // At most the format's frame count: past it a point is never reached.
+    let k = (seconds * fps).round().clamp(1.0, format::MAX_FRAMES as f32) as u32;
+    (seconds > 0.0 && 2 * k as usize <= frames).then_some(k)
 }
 
 /// The correction pictures' layout the options ask for: with a normal
