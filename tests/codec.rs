@@ -589,6 +589,13 @@ fn random_access_points_decode_the_same_frames_from_anywhere() {
             assert!(rms / diag < 2e-3, "{corrections:?}: frame {f} at {} of the diagonal", rms / diag);
         }
     }
+    // GV has points too (every picture an IDR there), and no seed to give an origin.
+    let gv = EncodeOptions { codec: CodecKind::Gv, grid: 16, random_access: 8.0 / src.fps(), ..Default::default() };
+    let file = format::read(&encode(&src, &gv, &mut |_, _, _| {}).unwrap().0).unwrap();
+    assert_eq!(file.header.random_access, Some(8));
+    assert!(file.frames.iter().all(|i| i.seed_origin.is_none()));
+    let mut dec = FileDecoder::new(file, SolverKind::Predictive).unwrap();
+    assert_eq!(dec.seek(17).unwrap(), 1);
     // A seek to a frame that is not there is an error, not a panic.
     let (bytes, _) = encode(&src, &EncodeOptions { grid: 32, ..Default::default() }, &mut |_, _, _| {}).unwrap();
     let mut dec = FileDecoder::new(format::read(&bytes).unwrap(), SolverKind::Predictive).unwrap();

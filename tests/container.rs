@@ -64,7 +64,7 @@ fn code(byte: u8, lag: u8) -> PredictorCode {
 fn frame_info(h: &Header, f: u32) -> format::FrameInfo {
     let anchors = (0..h.anchors.len()).map(|i| [0, 1, 2].map(|c| (3 * i + c) as f32 + f as f32)).collect();
     // A file with random-access points carries a seed origin at each.
-    let seed_origin = (h.random_access.is_some() && h.is_random_access_point(f)).then_some([1.0, 2.0, f as f32]);
+    let seed_origin = h.has_seed_origin(f).then_some([1.0, 2.0, f as f32]);
     format::FrameInfo { predictor: code(6, 0), filter: 0, relax: 0, correction_scale: 0.5, anchors, seed_origin }
 }
 

@@ -503,10 +503,16 @@ impl Header {
     }
 
     /// The length of frame `f`'s side data: 8 bytes, 12 an anchor, and in a
-    /// file with random-access points 12 more at each (the seed origin).
+    /// file with random-access points and a seed, 12 more at each point
+    /// (the seed origin).
     pub fn side_data_len(&self, f: u32) -> usize {
-        let origin = self.random_access.is_some() && self.is_random_access_point(f);
-        8 + 12 * self.anchors.len() + if origin { 12 } else { 0 }
+        8 + 12 * self.anchors.len() + if self.has_seed_origin(f) { 12 } else { 0 }
+    }
+
+    /// Whether frame `f`'s side data ends with a seed origin: at the
+    /// random-access points of a version-10 file that has them and a seed.
+    pub fn has_seed_origin(&self, f: u32) -> bool {
+        self.random_access.is_some() && self.is_random_access_point(f) && self.stream(StreamName::SeedX).is_some()
     }
 
     /// Whether frame `f` is a random-access point (frame 0 always is).

@@ -42,11 +42,14 @@ pub(super) fn values<'a>(
 }
 
 /// Frame `f`'s seed origin: at a random-access point of a file that has
-/// them, the centre of the grid frame's bounding box (so the seed streams'
-/// range spans the body, wherever it is), else none.
+/// them and a seed, the centre of the grid frame's bounding box (so the
+/// seed streams' range spans the body, wherever it is), else none.
 pub(super) fn seed_origin(plan: &Plan, f: usize, g: &[Vec3]) -> Option<[f32; 3]> {
-    let b = Bounds::of(g);
-    (plan.random_access.is_some() && plan.is_rap(f)).then(|| ((b.min + b.max) * 0.5).to_array())
+    let seeded = plan.names.iter().any(|(n, _)| SEED.contains(n));
+    (seeded && plan.random_access.is_some() && plan.is_rap(f)).then(|| {
+        let b = Bounds::of(g);
+        ((b.min + b.max) * 0.5).to_array()
+    })
 }
 
 /// The features of grid frame `g` if the plan codes any, else none.
