@@ -146,14 +146,14 @@ pub fn parameterize_carrier(
 ) -> Result<Parameterization> {
     let target = surface::Target::new(reference, &source.faces)?;
     let input = (source, reference);
-    let grid_score = |p: &Parameterization| grid_score(p, (grid, carrier), input, &target);
-    let mut score = grid_score;
+    // A copy for each caller (it only reads): `&mut { score }` below.
+    let score = |p: &Parameterization| grid_score(p, (grid, carrier), input, &target);
     let positions = carrier.positions(reference);
     let (topology, reference) = (&carrier.topology, &positions[..]);
     let nv = topology.vertex_count;
     if opts.cones.is_some() || nv < 5 || reference.len() != nv {
         // Given cones, or a mesh that parameterize_scored rejects with the reason.
-        return AreaPasses::start_with(topology, reference, Some(&carrier.real), opts)?.finish(Some(&mut score));
+        return AreaPasses::start_with(topology, reference, Some(&carrier.real), opts)?.finish(Some(&mut { score }));
     }
     // The racers: each four of the first CONE_CANDIDATES extremities (the
     // first four are what `cut::choose_cones` picks, and start first, so
@@ -199,7 +199,7 @@ pub fn parameterize_carrier(
             .into_par_iter()
             .map(|mut r| {
                 let before = r.score();
-                (r.advance(stop, Some(&mut { grid_score })), r, before)
+                (r.advance(stop, Some(&mut { score })), r, before)
             })
             .collect();
         let mut running = Vec::with_capacity(advanced.len());
@@ -228,7 +228,7 @@ pub fn parameterize_carrier(
         }
     }
     match racers.into_iter().next() {
-        Some(leader) => leader.finish(Some(&mut score)),
+        Some(leader) => leader.finish(Some(&mut { score })),
         // Every placement failed (there are always CONE_CANDIDATES of them,
         // so there is an error to report).
         None => Err(first_error.unwrap_or_else(|| Error::Numerical("no cone placement could be cut".into()))),
