@@ -64,7 +64,7 @@ impl GeometryImage {
         opts: &ParamOptions,
     ) -> Result<GeometryImage> {
         let t = std::time::Instant::now();
-        let mut carrier = Carrier::build(label, topology, reference)?;
+        let mut carrier = Carrier::build_with(label, topology, reference, opts.loose_max_vertices)?;
         let mut param = parameterize_carrier(&carrier, topology, reference, grid, opts);
         // A carrier too coarse for its cone paths gets finer, twice at most.
         for _ in 0..SUBDIVISIONS {
@@ -80,7 +80,12 @@ impl GeometryImage {
         let map = SampleMap::on_carrier(grid, &carrier, &param)?;
         let points = SourcePoints::on_carrier(grid, &carrier, &param);
         let finest = crate::mesh::Bounds::of(reference).diagonal() * 1e-5;
-        let offsets = Offsets::quantize(&points.offsets_to(&map.apply(reference), reference), finest);
+        let mut offsets = points.offsets_to(&map.apply(reference), reference);
+        // Loose vertices are coded as themselves: no offset from the grid.
+        for &v in &carrier.loose {
+            offsets[v as usize] = [0.0; 3];
+        }
+        let offsets = Offsets::quantize(&offsets, finest);
         let seconds_locate = t.elapsed().as_secs_f64();
         Ok(GeometryImage { carrier, param, map, offsets, seconds_parameterize, seconds_locate })
     }
@@ -92,7 +97,21 @@ impl GeometryImage {
             faces: topology.faces.clone(),
             places: crate::resample::carrier_places(&self.carrier, &self.param),
             offsets: self.offsets.clone(),
+            loose_of: self.loose_of(topology.vertex_count),
         }
+    }
+
+    /// Each of the input's `vertices` vertices' loose vertex plus one, 0
+    /// where the grid rebuilds it (empty without loose vertices).
+    pub fn loose_of(&self, vertices: usize) -> Vec<u32> {
+        if self.carrier.loose.is_empty() {
+            return Vec::new();
+        }
+        let mut of = vec![0; vertices];
+        for (k, &v) in self.carrier.loose.iter().enumerate() {
+            of[v as usize] = k as u32 + 1;
+        }
+        of
     }
 
     /// [`source_mesh`](Self::source_mesh) over the input's stored vertices
@@ -106,7 +125,25 @@ impl GeometryImage {
             step: o.step,
             values: a.welded.iter().map(|w| o.values.get(*w as usize).copied().unwrap_or_default()).collect(),
         });
-        SourceMesh { faces: a.faces.clone(), places: a.welded.iter().map(at).collect(), offsets }
+        let loose_of = if mesh.loose_of.is_empty() {
+            Vec::new()
+        } else {
+            a.welded.iter().map(|w| mesh.loose_of.get(*w as usize).copied().unwrap_or(0)).collect()
+        };
+        SourceMesh { faces: a.faces.clone(), places: a.welded.iter().map(at).collect(), offsets, loose_of }
+    }
+
+    /// The faces of the surface a decoder shows, over the grid's samples
+    /// followed by the loose vertices ([`surface_vertices`]): the grid
+    /// mesh's faces that lie on the input, and the loose parts' own faces
+    /// (of `topology`, the input's).
+    pub fn surface_faces(&self, topology: &Topology) -> Vec<[u32; 3]> {
+        let mut faces = self.map.surface_faces();
+        let loose_of = self.loose_of(topology.vertex_count);
+        let n = self.map.grid.len() as u32;
+        let at = |v: u32| loose_of.get(v as usize).copied().filter(|&k| k > 0).map(|k| n + k - 1);
+        faces.extend(topology.faces.iter().filter_map(|f| Some([at(f[0])?, at(f[1])?, at(f[2])?])));
+        faces
     }
 
     /// Where each input vertex lies on the grid mesh, and its offset: the
@@ -119,6 +156,12 @@ impl GeometryImage {
     pub fn seconds(&self) -> f64 {
         self.seconds_parameterize + self.seconds_locate
     }
+}
+
+/// The vertices of [`GeometryImage::surface_faces`]: a decoded grid frame
+/// and the loose vertices decoded with it.
+pub fn surface_vertices(grid_frame: &[Vec3], loose: &[Vec3]) -> Vec<Vec3> {
+    grid_frame.iter().chain(loose).copied().collect()
 }
 
 /// [`parameterize_carrier`] of a closed genus-0 input, its own carrier.
@@ -144,6 +187,8 @@ pub fn parameterize_carrier(
     grid: Grid,
     opts: &ParamOptions,
 ) -> Result<Parameterization> {
+    // The loose parts are coded as themselves: the grid is scored on the rest.
+    let source = &carrier.on_grid(source);
     let target = surface::Target::new(reference, &source.faces)?;
     let input = (source, reference);
     // A copy for each caller (it only reads): `&mut { score }` below.
@@ -165,12 +210,11 @@ pub fn parameterize_carrier(
     let mut racers = Vec::new();
     let mut first_error = None;
     // Each placement's conformal map on its own core (rayon keeps the order).
-    let skips: Vec<usize> = (0..e.len()).rev().collect();
-    let started: Vec<Result<AreaPasses>> = skips
+    let combos = fours(e.len());
+    let started: Vec<Result<AreaPasses>> = combos
         .into_par_iter()
-        .map(|skip| {
-            let c: Vec<u32> = e.iter().enumerate().filter(|&(i, _)| i != skip).map(|(_, &v)| v).collect();
-            let cones = [c[0], c[1], c[2], c[3]];
+        .map(|c| {
+            let cones = c.map(|i| e[i]);
             let corner = cut::corner_for(&graph, nv, &cones);
             let o = ParamOptions { cones: Some((cones, corner)), ..opts.clone() };
             AreaPasses::start_with(topology, reference, Some(&carrier.real), &o)
@@ -233,6 +277,21 @@ pub fn parameterize_carrier(
         // so there is an error to report).
         None => Err(first_error.unwrap_or_else(|| Error::Numerical("no cone placement could be cut".into()))),
     }
+}
+
+/// Every four of `0..k`, in lexicographic order.
+fn fours(k: usize) -> Vec<[usize; 4]> {
+    let mut out = Vec::new();
+    for a in 0..k {
+        for b in a + 1..k {
+            for c in b + 1..k {
+                for d in c + 1..k {
+                    out.push([a, b, c, d]);
+                }
+            }
+        }
+    }
+    out
 }
 
 /// How closely `grid` resamples the input through map `p` of its carrier:

@@ -15,11 +15,13 @@ fn carrier(p: &[Vec3], f: &[[u32; 3]]) -> Carrier {
     let c = Carrier::build(Path::new("test"), &topology, p).unwrap();
     let report = analyze(&c.topology, &c.positions(p));
     assert!(report.is_sphere(), "{:?}", report.problems);
-    // Every input vertex used by a face is on the carrier, as itself.
+    // Every input vertex used by a face is on the carrier, as itself, or
+    // loose (a tiny part's, coded as itself).
     let used: std::collections::HashSet<u32> = f.iter().flatten().copied().collect();
     for v in 0..p.len() as u32 {
         let first = c.carrier_of[v as usize];
-        assert_eq!(first != u32::MAX, used.contains(&v), "vertex {v}");
+        let loose = c.loose.binary_search(&v).is_ok();
+        assert_eq!(first != u32::MAX, used.contains(&v) && !loose, "vertex {v}");
         if first != u32::MAX {
             assert_eq!(c.ext[first as usize], v);
         }
@@ -118,7 +120,12 @@ fn a_mesh_without_faces_is_refused_by_name() {
 /// Five frames of `p` bending and twisting like cloth: each point turns
 /// about the y axis by an angle that grows with its x, and moves along.
 fn bending(p: &[Vec3], f: &[[u32; 3]]) -> cgv::mesh::InMemory {
-    let frames = (0..5)
+    bending_for(p, f, 5)
+}
+
+/// [`bending`] over `frames` frames.
+fn bending_for(p: &[Vec3], f: &[[u32; 3]], frames: usize) -> cgv::mesh::InMemory {
+    let frames = (0..frames)
         .map(|t| {
             let s = t as f32 * 0.15;
             p.iter()
@@ -154,11 +161,15 @@ fn source_round_trip(p: &[Vec3], f: &[[u32; 3]]) -> ((f64, f64), (f64, f64)) {
     let diag = cgv::mesh::Bounds::of(p).diagonal() as f64;
     let (mut coded, mut floor) = ((0.0f64, 0.0f64), (0.0f64, 0.0f64));
     let points = image.source_points();
+    let loose_of = image.loose_of(p.len());
     for frame in &src.frames {
         let (grid, _) = dec.next_frame().unwrap();
-        let (rms, max) = cgv::metrics::vertex_error(&mesh.vertices(&grid), frame);
+        let (rms, max) = cgv::metrics::vertex_error(&mesh.vertices(&grid, dec.loose()), frame);
         coded = (coded.0.max(rms / diag), coded.1.max(max / diag));
-        let (rms, max) = cgv::metrics::vertex_error(&points.apply(&image.map.apply(frame)), frame);
+        let mut uncoded = points.apply(&image.map.apply(frame));
+        let exact: Vec<Vec3> = image.carrier.loose.iter().map(|&v| frame[v as usize]).collect();
+        cgv::codec::place_loose(&mut uncoded, &loose_of, &exact);
+        let (rms, max) = cgv::metrics::vertex_error(&uncoded, frame);
         floor = (floor.0.max(rms / diag), floor.1.max(max / diag));
     }
     (coded, floor)
@@ -206,6 +217,58 @@ fn a_three_part_motion_round_trips() {
 }
 
 #[test]
+fn a_tiny_part_is_coded_as_its_own_vertices() {
+    use cgv::codec::{encode, h264::VideoSettings, EncodeOptions, FileDecoder};
+    let (t, tf) = common::tetrahedron();
+    let t: Vec<Vec3> = t.iter().map(|v| *v * 0.1 + Vec3::new(0.0, 0.0, 0.6)).collect();
+    let (p, f) = common::parts(&[common::sheet(8), (t, tf)]);
+    let c = carrier(&p, &f);
+    let tetra: Vec<u32> = (81..85).collect();
+    assert_eq!((c.loose.clone(), c.report.loose_parts, c.report.parts), (tetra, 1, 1), "{:?}", c.report);
+    // Eight frames with random-access points at frames 3 and 6 (0.1 s at 30 fps).
+    let src = bending_for(&p, &f, 8);
+    let opts = EncodeOptions {
+        grid: 32,
+        video: VideoSettings { qp: 16, ..Default::default() },
+        random_access: 0.1,
+        ..Default::default()
+    };
+    let (bytes, _) = encode(&src, &opts, &mut |_, _, _| {}).unwrap();
+    let file = cgv::format::read(&bytes).unwrap();
+    assert_eq!((file.version, file.header.loose_vertices(), file.header.random_access), (11, Some(4), Some(3)));
+    assert_eq!(file.source_mesh.as_ref().unwrap().loose_of[81..], [1, 2, 3, 4]);
+    let diag = cgv::mesh::Bounds::of(&p).diagonal();
+    let mut dec = FileDecoder::new(file.clone(), cgv::solve::SolverKind::Predictive).unwrap();
+    let mesh = dec.source_mesh().unwrap();
+    let mut all = Vec::new();
+    for frame in &src.frames {
+        let (grid, _) = dec.next_frame().unwrap();
+        let x = mesh.vertices(&grid, dec.loose());
+        // The tetrahedron's vertices, coded on the grid's error: within a
+        // percent of the diagonal (the step's cap), exactly where the
+        // decoder put them.
+        for v in 81..85 {
+            assert!(x[v].distance(frame[v]) < 0.01 * diag, "vertex {v}: {} vs {}", x[v], frame[v]);
+        }
+        all.push(x);
+    }
+    // A decoder that starts at the random-access point rebuilds the same.
+    let mut late = FileDecoder::new(file, cgv::solve::SolverKind::Predictive).unwrap();
+    late.seek(3).unwrap();
+    for want in &all[3..] {
+        let (grid, _) = late.next_frame().unwrap();
+        assert_eq!(&mesh.vertices(&grid, late.loose()), want);
+    }
+    // Asked not to, the encoder puts the tetrahedron on the grid.
+    let grid_only = EncodeOptions {
+        param: cgv::param::ParamOptions { loose_max_vertices: 0, ..Default::default() },
+        ..opts.clone()
+    };
+    let (bytes, _) = encode(&src, &grid_only, &mut |_, _, _| {}).unwrap();
+    assert_eq!(cgv::format::read(&bytes).unwrap().header.loose_vertices(), None);
+}
+
+#[test]
 fn cubes_sharing_an_edge_round_trip() {
     let (a, fa) = common::cube(3, Vec3::ZERO);
     let (b, fb) = common::cube(3, Vec3::new(2.0, 2.0, 0.0));
@@ -227,6 +290,7 @@ fn cubes_sharing_an_edge_round_trip() {
 
 #[test]
 fn a_lone_triangle_round_trips() {
+    // The largest part is never loose: a lone triangle is mapped.
     let p = [Vec3::ZERO, Vec3::X, Vec3::Y];
     let c = carrier(&p, &[[0, 1, 2]]);
     assert_eq!(c.topology.vertex_count, 5);

@@ -65,7 +65,11 @@ fn frame_info(h: &Header, f: u32) -> format::FrameInfo {
     let anchors = (0..h.anchors.len()).map(|i| [0, 1, 2].map(|c| (3 * i + c) as f32 + f as f32)).collect();
     // A file with random-access points carries a seed origin at each.
     let seed_origin = h.has_seed_origin(f).then_some([1.0, 2.0, f as f32]);
-    format::FrameInfo { predictor: code(6, 0), filter: 0, relax: 0, correction_scale: 0.5, anchors, seed_origin }
+    // A file with loose vertices carries their residuals in every frame.
+    let loose = h
+        .loose_vertices()
+        .map(|n| format::LooseFrame { step: 0.25, residuals: (0..n as i32).map(|k| [k, -k, f as i32]).collect() });
+    format::FrameInfo { predictor: code(6, 0), filter: 0, relax: 0, correction_scale: 0.5, anchors, seed_origin, loose }
 }
 
 /// Not real H.264: the reader does not look inside.
@@ -136,7 +140,7 @@ fn bad_magic_and_versions() {
     assert_eq!(format::read(b"GIF89a").unwrap_err(), ContainerError::BadMagic);
     let mut bytes = file(&header());
     bytes[8] = 11;
-    assert_eq!(format::VERSION, 10);
+    assert_eq!(format::VERSION, 11);
     assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 11 });
     bytes[8] = 0;
     assert!(matches!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 0 }));
@@ -401,6 +405,7 @@ fn bad_frame_chunks_are_errors() {
         correction_scale: 1.0,
         anchors: vec![[0.0; 3]; 4],
         seed_origin: None,
+        loose: None,
     };
     let mut bad_bytes = good.to_bytes();
     bad_bytes.pop();
@@ -498,6 +503,7 @@ fn source_mesh() -> format::SourceMesh {
         faces: vec![[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]],
         places: vec![[0, 0], [u32::MAX, 0], [0, u32::MAX], [1 << 31, 3 << 30]],
         offsets: None,
+        loose_of: Vec::new(),
     }
 }
 
@@ -562,10 +568,10 @@ fn bad_source_meshes_are_errors() {
     }
     // Counts past the limits, in the header itself.
     for info in [
-        format::SourceMeshInfo { vertices: 2, faces: 1, offset_step: None },
-        format::SourceMeshInfo { vertices: 3, faces: 0, offset_step: None },
-        format::SourceMeshInfo { vertices: 3, faces: 1, offset_step: Some(0.0) },
-        format::SourceMeshInfo { vertices: 3, faces: 1, offset_step: Some(f32::NAN) },
+        format::SourceMeshInfo { vertices: 2, faces: 1, offset_step: None, loose: None },
+        format::SourceMeshInfo { vertices: 3, faces: 0, offset_step: None, loose: None },
+        format::SourceMeshInfo { vertices: 3, faces: 1, offset_step: Some(0.0), loose: None },
+        format::SourceMeshInfo { vertices: 3, faces: 1, offset_step: Some(f32::NAN), loose: None },
     ] {
         let e = format::write_header(&Header { source_mesh: Some(info), ..h.clone() }).unwrap_err();
         assert!(matches!(&e, ContainerError::Header(m) if m.contains("source mesh")), "{e}");
@@ -766,11 +772,51 @@ fn file_with_points(h: &Header, predictor: impl Fn(u32) -> PredictorCode, lie: i
 }
 
 #[test]
+fn loose_vertices_from_version_eleven() {
+    // The tetrahedron's last two vertices are loose vertices 1 and 0.
+    let (h, mesh) = (header(), format::SourceMesh { loose_of: vec![0, 0, 2, 1], ..source_mesh() });
+    assert_eq!(mesh.info().loose, Some(2));
+    let bytes = file_with_source(&h, mesh.info(), format::write_source_mesh(&mesh));
+    let f = format::read(&bytes).unwrap();
+    assert_eq!((f.version, f.header.min_version(), f.header.loose_vertices()), (11, 11, Some(2)));
+    assert_eq!(f.source_mesh.as_ref(), Some(&mesh));
+    for (k, info) in f.frames.iter().enumerate() {
+        let l = info.loose.as_ref().unwrap();
+        assert_eq!((l.step, &l.residuals), (0.25, &vec![[0, 0, k as i32], [1, -1, k as i32]]));
+    }
+    streams_byte_by_byte(&f.header, &bytes);
+    // A version-10 file cannot have them.
+    let e = format::read(&with_version(bytes.clone(), 10)).unwrap_err();
+    assert!(matches!(&e, ContainerError::Header(m) if m.contains("version 10")), "{e}");
+    // Every truncation and flipped byte is caught.
+    for len in 0..bytes.len() {
+        assert!(format::read(&bytes[..len]).is_err(), "length {len}");
+    }
+    // The header and the mesh must agree on the loose vertices: a count
+    // past the mesh's, a vertex naming one past the count, one unnamed.
+    let too_many = format::SourceMeshInfo { loose: Some(5), ..mesh.info() };
+    assert!(format::read(&file_with_source(&h, too_many, format::write_source_mesh(&mesh))).is_err());
+    for loose_of in [vec![0, 0, 3, 1], vec![0, 0, 1, 1]] {
+        let bad = format::SourceMesh { loose_of, ..source_mesh() };
+        let e = format::read(&file_with_source(&h, mesh.info(), format::write_source_mesh(&bad))).unwrap_err();
+        assert!(matches!(&e, ContainerError::Chunk { msg, .. } if msg.contains("loose")), "{e}");
+    }
+    // Frames without the loose unit the header promises.
+    let no_loose = Header { source_mesh: Some(format::SourceMeshInfo { loose: None, ..mesh.info() }), ..h.clone() };
+    let frames = file(&no_loose);
+    let frames = &frames[format::parse_header(&frames).unwrap().unwrap().1..];
+    let prefix = &bytes[..format::parse_header(&bytes).unwrap().unwrap().1];
+    let without = [prefix, &format::write_source_mesh(&mesh), frames].concat();
+    let e = format::read(&without).unwrap_err();
+    assert!(matches!(&e, ContainerError::Chunk { msg, .. } if msg.contains("loose")), "{e}");
+}
+
+#[test]
 fn random_access_points_and_their_index_from_version_ten() {
     let h = random_access_header();
     let bytes = file_with_points(&h, |_| code(1, 0), |_| {});
     let f = format::read(&bytes).unwrap();
-    assert_eq!((f.version, h.min_version(), h.random_access_points()), (10, 10, 3));
+    assert_eq!((f.version, h.min_version(), h.random_access_points()), (format::VERSION, 10, 3));
     // The seed has a picture at each point (0, 3, 6) and nowhere else.
     let seed = h.stream(StreamName::SeedX).unwrap();
     assert_eq!(f.units[seed].iter().map(|u| !u.is_empty()).collect::<Vec<_>>(), [1, 0, 0, 1, 0, 0, 1].map(|b| b == 1));

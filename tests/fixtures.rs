@@ -15,6 +15,8 @@
 //! with rounding (1e-4).
 #![allow(clippy::unwrap_used, clippy::expect_used)] // tests may stop on any failure
 
+mod common;
+
 use cgv::codec::FileDecoder;
 use cgv::format::{self, CgvFile, CodecKind, CorrectionMode};
 use cgv::format::{Extrapolation, StreamName};
@@ -146,7 +148,7 @@ fn check_source(name: &str, f: CgvFile) {
     let mut got = Vec::new();
     for _ in 0..dec.frame_count() {
         let (x, _) = dec.next_frame().unwrap();
-        got.extend(source.vertices(&x).iter().flat_map(|p| p.to_array()));
+        got.extend(source.vertices(&x, dec.loose()).iter().flat_map(|p| p.to_array()));
     }
     compare(&format!("{name}.source.positions"), &got, 1e-5 * diag);
 }
@@ -225,4 +227,50 @@ fn v10_random_access_fixture_decodes_as_frozen_from_every_point() {
         let worst = got.iter().zip(want).map(|(a, b)| (a - b).abs() as f64).fold(0.0, f64::max);
         assert!(worst <= 1e-5 * diag, "from frame {start}: differs by {worst}");
     }
+}
+
+/// 14 frames of a ball (an icosphere of 642 vertices) bouncing and
+/// squashing, with a hat: a tetrahedron of four vertices riding above it
+/// and turning, a part of its own.
+fn ball_with_a_hat() -> cgv::mesh::InMemory {
+    let (ball, mut faces) = common::icosphere(3);
+    let n = ball.len() as u32;
+    let tetra = [[1.0, 1.0, 1.0], [1.0, -1.0, -1.0], [-1.0, 1.0, -1.0], [-1.0, -1.0, 1.0f32]];
+    let frames = (0..14)
+        .map(|t| {
+            let t = t as f32 / 30.0;
+            let (lift, squash) = ((t * 9.0).sin().abs() * 0.5, 1.0 - 0.2 * (t * 9.0).cos().abs());
+            let mut x: Vec<glam::Vec3> =
+                ball.iter().map(|p| glam::Vec3::new(p.x / squash.sqrt(), p.y * squash + lift, p.z)).collect();
+            let (turn, at) = (glam::Quat::from_rotation_y(6.0 * t), glam::Vec3::new(0.0, squash + lift + 0.3, 0.0));
+            x.extend(tetra.iter().map(|c| at + turn * glam::Vec3::from(*c) * 0.15));
+            x
+        })
+        .collect();
+    faces.extend([[0, 1, 2], [0, 3, 1], [0, 2, 3], [1, 3, 2]].map(|f| f.map(|i| n + i)));
+    let topology = cgv::mesh::Topology { vertex_count: ball.len() + 4, faces };
+    cgv::mesh::InMemory { label: "ball-with-a-hat".into(), fps: 30.0, topology, frames }
+}
+
+#[test]
+fn v11_loose_vertices_fixture_decodes_as_frozen() {
+    let name = "v11/ball-hat-loose.cgv";
+    if !fixture(name).exists() && std::env::var("CGV_BLESS_FIXTURES").is_ok_and(|v| v == "1") {
+        // Written once (tests/fixtures/README.md), then frozen.
+        use cgv::codec::{encode, h264::VideoSettings, EncodeOptions};
+        let opts = EncodeOptions {
+            grid: 32,
+            video: VideoSettings { qp: 24, ..Default::default() },
+            random_access: 0.2,
+            ..Default::default()
+        };
+        let (bytes, _) = encode(&ball_with_a_hat(), &opts, &mut |_, _, _| {}).unwrap();
+        std::fs::write(fixture(name), bytes).unwrap();
+    }
+    let f = open(name);
+    let h = &f.header;
+    assert_eq!((f.version, h.loose_vertices(), h.random_access, h.loose_follow_grid()), (11, Some(4), Some(6), true));
+    assert!(f.frames.iter().all(|i| i.loose.as_ref().is_some_and(|l| l.residuals.len() == 4)));
+    check(name, SolverKind::Predictive, 1e-5);
+    check_source(name, open(name));
 }

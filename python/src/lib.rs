@@ -341,7 +341,7 @@ fn decode<'py>(
             for _ in 0..frames {
                 let (x, _) = dec.next_frame()?;
                 let x = match &source {
-                    Some(s) => s.vertices(&x),
+                    Some(s) => s.vertices(&x, dec.loose()),
                     None => x,
                 };
                 coords.extend(x.iter().flat_map(|p| p.to_array()));

@@ -32,6 +32,11 @@ impl UnitDecoder {
         self.sequence.next_index()
     }
 
+    /// Version 11: the loose vertices of the frame decoded last.
+    pub fn loose(&self) -> &[Vec3] {
+        self.sequence.loose()
+    }
+
     /// Restarts at random-access point `f` (see [`SequenceDecoder::seek`]),
     /// with new H.264 decoders: `f`'s pictures are IDR pictures.
     pub fn seek(&mut self, f: u32) -> Result<()> {
@@ -89,6 +94,20 @@ impl FileDecoder {
     /// The frame [`next_frame`](Self::next_frame) decodes next.
     pub fn next_index(&self) -> u32 {
         self.units.next_index()
+    }
+
+    /// Version 11: the loose vertices of the frame decoded last (empty in
+    /// files without them).
+    pub fn loose(&self) -> &[Vec3] {
+        self.units.loose()
+    }
+
+    /// The next frame's grid positions and the input's vertices rebuilt
+    /// from them (with `source`, from [`source_mesh`](Self::source_mesh)).
+    pub fn next_source_frame(&mut self, source: &SourceMeshDecoder) -> Result<(Vec<Vec3>, Vec<Vec3>, FrameStats)> {
+        let (x, stats) = self.next_frame()?;
+        let vertices = source.vertices(&x, self.loose());
+        Ok((x, vertices, stats))
     }
 
     /// Makes `frame` the one [`next_frame`](Self::next_frame) decodes next:

@@ -26,6 +26,7 @@ pub mod decode;
 mod encode;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod h264;
+pub mod loose;
 pub mod reconstruct;
 
 pub use corrections::{smoothed_normals, Corrections, Layout, FILTER_CHOICES};
@@ -38,7 +39,7 @@ pub use encode::{
     PAPER_ANCHORS,
 };
 pub use reconstruct::{
-    frame_values, FrameStats, Reconstructor, SequenceDecoder, SourceMeshDecoder, DEFAULT_MEMORY_LIMIT,
+    frame_values, place_loose, FrameStats, Reconstructor, SequenceDecoder, SourceMeshDecoder, DEFAULT_MEMORY_LIMIT,
 };
 
 use glam::Vec3;

@@ -9,6 +9,7 @@
 //! WebCodecs in the browser) and holds no file.
 
 use super::corrections::{Corrections, Pictures};
+use super::loose::LooseVertices;
 use crate::error::{Error, Result};
 use crate::format::stream::{POSITION, SEED};
 use crate::format::{CodecKind, CorrectionMode, FrameInfo, Header, PredictorCode, SolverKind, SourceMesh, StreamName};
@@ -257,6 +258,8 @@ pub struct SequenceDecoder {
     header: Header,
     grid: Grid,
     reconstructor: Reconstructor,
+    /// Version 11: the loose vertices' decoded past.
+    loose: LooseVertices,
     next: u32,
 }
 
@@ -270,7 +273,8 @@ impl SequenceDecoder {
         }
         let grid = Grid::new(header.grid as usize)?;
         let reconstructor = Reconstructor::new(&header, solver)?;
-        Ok(SequenceDecoder { header, grid, reconstructor, next: 0 })
+        let loose = LooseVertices::for_header(&header);
+        Ok(SequenceDecoder { header, grid, reconstructor, loose, next: 0 })
     }
 
     pub fn header(&self) -> &Header {
@@ -299,6 +303,7 @@ impl SequenceDecoder {
             )));
         }
         self.reconstructor.reset();
+        self.loose.reset();
         self.next = f;
         Ok(())
     }
@@ -327,11 +332,26 @@ impl SequenceDecoder {
         }
         if f > 0 && h.is_random_access_point(f) {
             self.reconstructor.reset();
+            self.loose.reset();
         }
         let vals = frame_values(h, lumas, info.correction_scale)?;
         let out = self.reconstructor.frame(f, info, &Values::new(h, &vals).with_seed_origin(info.seed_origin))?;
+        match (&info.loose, h.loose_vertices()) {
+            (Some(l), Some(_)) => {
+                let grid = if h.loose_follow_grid() { &out.0[..] } else { &[] };
+                self.loose.decode(l, grid)?;
+            }
+            (None, None) => {}
+            _ => return Err(Error::Argument(format!("frame {f}'s loose vertices do not match the header's"))),
+        }
         self.next += 1;
         Ok(out)
+    }
+
+    /// Version 11: the loose vertices of the frame rebuilt last (empty in
+    /// files without them).
+    pub fn loose(&self) -> &[Vec3] {
+        self.loose.positions()
     }
 }
 
@@ -341,6 +361,8 @@ impl SequenceDecoder {
 pub struct SourceMeshDecoder {
     pub topology: Topology,
     pub points: SourcePoints,
+    /// Version 11: each vertex's loose vertex plus one, 0 on the grid.
+    pub loose_of: Vec<u32>,
 }
 
 impl SourceMeshDecoder {
@@ -349,12 +371,26 @@ impl SourceMeshDecoder {
         SourceMeshDecoder {
             topology,
             points: SourcePoints::from_places(grid, &mesh.places).with_offsets(mesh.offsets.as_ref()),
+            loose_of: mesh.loose_of.clone(),
         }
     }
 
-    /// The input's vertices on one decoded grid frame.
-    pub fn vertices(&self, grid_frame: &[Vec3]) -> Vec<Vec3> {
-        self.points.apply(grid_frame)
+    /// The input's vertices on one decoded grid frame and its loose
+    /// vertices ([`SequenceDecoder::loose`]).
+    pub fn vertices(&self, grid_frame: &[Vec3], loose: &[Vec3]) -> Vec<Vec3> {
+        let mut x = self.points.apply(grid_frame);
+        place_loose(&mut x, &self.loose_of, loose);
+        x
+    }
+}
+
+/// Puts each loose vertex where its frame decoded it (`loose_of`: each
+/// vertex's loose vertex plus one, 0 where the grid rebuilt it).
+pub fn place_loose(vertices: &mut [Vec3], loose_of: &[u32], loose: &[Vec3]) {
+    for (x, &k) in vertices.iter_mut().zip(loose_of) {
+        if let Some(p) = k.checked_sub(1).and_then(|k| loose.get(k as usize)) {
+            *x = *p;
+        }
     }
 }
 
@@ -377,7 +413,8 @@ pub const DEFAULT_MEMORY_LIMIT: u64 = 1 << 30;
 /// the decoded past (two frames, `max_lag` smoothed velocities, the motion
 /// corrections' previous picture, the tangential coefficients) and, for H
 /// steps and the paper's solver, their factorization or L-BFGS history;
-/// a version-6 source mesh with its rebuilt vertices, and a version-8
+/// a version-6 source mesh with its rebuilt vertices, version 11's loose
+/// vertices (two frames and one being decoded), and a version-8
 /// appearance (texture coordinates and the texture image's bytes).
 pub fn decoder_memory(h: &Header, solver: SolverKind) -> u64 {
     let n = u64::from(h.grid) * u64::from(h.grid);
@@ -391,10 +428,11 @@ pub fn decoder_memory(h: &Header, solver: SolverKind) -> u64 {
         }
         (CodecKind::Cgv, SolverKind::Paper) => (4 + 2 * 8) * 3 * 8 * n,
     };
-    let source = h.source_mesh.map_or(0, |m| u64::from(m.vertices) * 40 + u64::from(m.faces) * 24);
+    let source = h.source_mesh.map_or(0, |m| u64::from(m.vertices) * 44 + u64::from(m.faces) * 24);
+    let loose = u64::from(h.loose_vertices().unwrap_or(0)) * 3 * 12;
     let look = h.appearance.as_ref().map_or(0, |a| {
         let vertices = h.source_mesh.map_or(0, |m| u64::from(m.vertices));
         vertices * 8 + a.texture.as_ref().map_or(0, |t| u64::from(t.bytes))
     });
-    streams + past + source + look
+    streams + past + source + look + loose
 }

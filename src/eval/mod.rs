@@ -23,7 +23,7 @@ pub mod target;
 use crate::codec::{encode_prepared, EncodeOptions, FileDecoder};
 use crate::error::{Error, Result};
 use crate::format::{self, CodecKind, CorrectionMode};
-use crate::geometry_image::GeometryImage;
+use crate::geometry_image::{surface_vertices, GeometryImage};
 use crate::grid::stencil::Stencils;
 use crate::grid::Grid;
 use crate::mesh::{Bounds, FrameSource, InMemory};
@@ -312,6 +312,9 @@ struct Try {
     layers: u8,
     rc: Option<f32>,
     bytes: Vec<u8>,
+    /// The bytes compared: the file's, less its source mesh (carried only
+    /// where the loose vertices need it; the same for every codec).
+    size: usize,
     encode_seconds: f64,
 }
 
@@ -342,9 +345,11 @@ pub fn run(src: &dyn FrameSource, opts: &EvalOptions, progress: &(dyn Fn(&str) +
 
     let grid = Grid::new(opts.base.grid)?;
     let points = prepared.source_points();
-    let mut floor = SourceMeasure::new(&points, diagonal);
+    let mut floor = SourceMeasure::new(&points, prepared.loose_of(mem.topology.vertex_count), diagonal);
     for (input, g) in mem.frames.iter().zip(&truth) {
-        floor.add_frame(input, g);
+        // Uncoded, the loose vertices are exact.
+        let loose: Vec<Vec3> = prepared.carrier.loose.iter().map(|&v| input[v as usize]).collect();
+        floor.add_frame(input, g, &loose);
     }
     let ctx = Ctx { mem: &mem, prepared: &prepared, truth: &truth, grid, diagonal, opts, points: &points };
     let targets = ctx.targets()?;
@@ -445,7 +450,7 @@ impl Ctx<'_> {
                     let (qp, layers) = PRESETS.iter().find(|p| p.0 == name).map(|p| (p.1, p.2)).ok_or_else(|| {
                         Error::Argument(format!("unknown rate '{name}' (expected low, medium, high, max or ultra)"))
                     })?;
-                    let size = self.encode(EvalCodec::Gv, 1, qp, layers, None)?.bytes.len();
+                    let size = self.encode(EvalCodec::Gv, 1, qp, layers, None)?.size;
                     let what = if layers == 2 { format!("GV at QP {qp}, 2 layers") } else { format!("GV at QP {qp}") };
                     Ok((format!("{name} ({what})"), size))
                 })
@@ -499,9 +504,12 @@ impl Ctx<'_> {
         o.video.qp_max = rc.map(|r| r.0);
         o.video.kbps = rc.map(|r| r.1);
         o.layers = layers;
+        // Loose vertices are rebuilt through the source mesh.
+        o.source_mesh = !self.prepared.carrier.loose.is_empty();
         let t = std::time::Instant::now();
-        let (bytes, _) = encode_prepared(self.mem, &o, self.prepared, &mut |_, _, _| {})?;
-        Ok(Try { qp, layers, rc: rc.map(|r| r.1), bytes, encode_seconds: t.elapsed().as_secs_f64() })
+        let (bytes, report) = encode_prepared(self.mem, &o, self.prepared, &mut |_, _, _| {})?;
+        let size = bytes.len() - report.source_mesh_bytes;
+        Ok(Try { qp, layers, rc: rc.map(|r| r.1), bytes, size, encode_seconds: t.elapsed().as_secs_f64() })
     }
 
     /// Finds the encode whose size is nearest `target` (see the module doc
@@ -512,7 +520,7 @@ impl Ctx<'_> {
         let mut tries = 0;
         let mut best: Option<Try> = None;
         let keep = |t: Try, best: &mut Option<Try>| {
-            if best.as_ref().is_none_or(|b| miss(t.bytes.len(), target, tol) < miss(b.bytes.len(), target, tol)) {
+            if best.as_ref().is_none_or(|b| miss(t.size, target, tol) < miss(b.size, target, tol)) {
                 *best = Some(t);
             }
         };
@@ -530,7 +538,7 @@ impl Ctx<'_> {
             for _ in 0..10 {
                 let t = self.encode(codec, interval, qp, layers, None)?;
                 tries += 1;
-                let size = t.bytes.len();
+                let size = t.size;
                 keep(t, &mut best);
                 if within(size) {
                     return best
@@ -572,7 +580,7 @@ impl Ctx<'_> {
                 for _ in 0..4 {
                     let t = self.encode(codec, interval, l.0, layers, Some((h.0, kbps)))?;
                     tries += 1;
-                    let size = t.bytes.len();
+                    let size = t.size;
                     keep(t, &mut best);
                     if within(size) {
                         return best
@@ -586,7 +594,7 @@ impl Ctx<'_> {
             break;
         }
         let b = best.ok_or_else(|| Error::Argument("no encode was made".into()))?;
-        let hit = within(b.bytes.len());
+        let hit = within(b.size);
         Ok((b, hit, tries))
     }
 
@@ -611,7 +619,7 @@ impl Ctx<'_> {
         // that pops out of the motion is an artifact the mean hides). One
         // too large loses to one that fits; if none fits, the smallest is
         // kept. On a tie the earlier variant wins.
-        let fits = |t: &Try| t.bytes.len() as f64 <= target as f64 * (1.0 + self.opts.tolerance);
+        let fits = |t: &Try| t.size as f64 <= target as f64 * (1.0 + self.opts.tolerance);
         let mut tries = 0;
         let mut measured: Vec<CodecResult> = Vec::new();
         let mut too_large: Vec<Found> = Vec::new();
@@ -626,7 +634,7 @@ impl Ctx<'_> {
         if measured.is_empty() {
             let (t, matched, _) = too_large
                 .into_iter()
-                .min_by_key(|f| f.0.bytes.len())
+                .min_by_key(|f| f.0.size)
                 .ok_or_else(|| Error::Argument("no encode was made".into()))?;
             measured.push(self.measure(EvalCodec::Cgv, t, matched, 0)?);
         }
@@ -658,11 +666,12 @@ impl Ctx<'_> {
             .map(|(s, b)| (format!("{}{}", s.name, if s.layer == 2 { "/2" } else { "" }), b))
             .collect();
         let st = Stencils::new(self.grid);
-        let grid_faces = self.prepared.map.surface_faces();
+        let faces = self.prepared.surface_faces(&self.mem.topology);
         let n = self.mem.frames.len();
         let (mut video, mut solve) = (0.0, 0.0);
         let mut kg = metrics::KgError::default();
-        let mut source = SourceMeasure::new(self.points, self.diagonal);
+        let loose_of = self.prepared.loose_of(self.mem.topology.vertex_count);
+        let mut source = SourceMeasure::new(self.points, loose_of, self.diagonal);
         let mut per_frame = Vec::with_capacity(n);
         for f in 0..n {
             let (x, stats) = dec.next_frame()?;
@@ -672,7 +681,8 @@ impl Ctx<'_> {
             let (rms, max) = metrics::vertex_error(&x, truth);
             kg.add_frame(truth, &x);
             let surf = if self.opts.surface_every > 0 && f % self.opts.surface_every == 0 {
-                let d = surface::symmetric(&x, &grid_faces, &self.mem.frames[f], &self.mem.topology.faces)?;
+                let shown = surface_vertices(&x, dec.loose());
+                let d = surface::symmetric(&shown, &faces, &self.mem.frames[f], &self.mem.topology.faces)?;
                 Some(d)
             } else {
                 None
@@ -685,7 +695,7 @@ impl Ctx<'_> {
                 spacing_drift: metrics::spacing_drift(&st, truth, &x, &self.prepared.map.on_input),
                 surface_rms: surf.map(|d| d.rms / self.diagonal),
                 surface_max: surf.map(|d| d.max / self.diagonal),
-                source_vertex_rms: source.add_frame(&self.mem.frames[f], &x),
+                source_vertex_rms: source.add_frame(&self.mem.frames[f], &x, dec.loose()),
             });
         }
         let mean = |g: &dyn Fn(&FrameMetrics) -> Option<f64>| -> Option<f64> {
@@ -699,7 +709,7 @@ impl Ctx<'_> {
             _ => worst(&|m| Some(m.vertex_rms)) / mean(&|m| Some(m.vertex_rms)).unwrap_or(1.0).max(f64::MIN_POSITIVE),
         };
         let seconds = n as f64 / self.mem.fps as f64;
-        let bytes = t.bytes.len();
+        let bytes = t.size;
         Ok(CodecResult {
             codec,
             corrections,

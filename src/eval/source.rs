@@ -26,6 +26,8 @@ pub struct SourceErrors {
 /// Accumulates [`SourceErrors`] frame by frame.
 pub struct SourceMeasure<'a> {
     points: &'a SourcePoints,
+    /// Each vertex's loose vertex plus one (0: rebuilt from the grid).
+    loose_of: Vec<u32>,
     diagonal: f64,
     rms_sum: f64,
     frames: usize,
@@ -34,14 +36,16 @@ pub struct SourceMeasure<'a> {
 }
 
 impl<'a> SourceMeasure<'a> {
-    pub fn new(points: &'a SourcePoints, diagonal: f64) -> SourceMeasure<'a> {
-        SourceMeasure { points, diagonal, rms_sum: 0.0, frames: 0, max: 0.0, kg: KgError::default() }
+    pub fn new(points: &'a SourcePoints, loose_of: Vec<u32>, diagonal: f64) -> SourceMeasure<'a> {
+        SourceMeasure { points, loose_of, diagonal, rms_sum: 0.0, frames: 0, max: 0.0, kg: KgError::default() }
     }
 
-    /// Adds one frame: the input's vertices and a decoded grid frame;
-    /// returns this frame's RMS, relative to the diagonal.
-    pub fn add_frame(&mut self, input: &[Vec3], grid_frame: &[Vec3]) -> f64 {
-        let rebuilt = self.points.apply(grid_frame);
+    /// Adds one frame: the input's vertices, a decoded grid frame and the
+    /// loose vertices decoded with it; returns this frame's RMS, relative to
+    /// the diagonal.
+    pub fn add_frame(&mut self, input: &[Vec3], grid_frame: &[Vec3], loose: &[Vec3]) -> f64 {
+        let mut rebuilt = self.points.apply(grid_frame);
+        crate::codec::place_loose(&mut rebuilt, &self.loose_of, loose);
         let (rms, max) = metrics::vertex_error(&rebuilt, input);
         self.kg.add_frame(input, &rebuilt);
         self.rms_sum += rms / self.diagonal;

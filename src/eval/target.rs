@@ -12,7 +12,7 @@
 
 use crate::codec::{encode_prepared, EncodeOptions, EncodeReport, FileDecoder};
 use crate::error::{Error, Result};
-use crate::geometry_image::GeometryImage;
+use crate::geometry_image::{surface_vertices, GeometryImage};
 use crate::mesh::{Bounds, Frame, FrameSource};
 use crate::metrics::surface;
 
@@ -60,14 +60,15 @@ impl Truth {
             crate::format::read(bytes).map_err(|e| Error::Container { path: src.label().to_path_buf(), source: e })?;
         let solver = file.header.solver;
         let mut dec = FileDecoder::new(file, solver)?;
-        let grid_faces = image.map.surface_faces();
+        let faces = image.surface_faces(src.topology());
         let mut sum = 0.0;
         let last = self.frames.last().map_or(0, |s| s.0);
         let mut next = self.frames.iter().peekable();
         for f in 0..=last {
             let (x, _) = dec.next_frame()?;
             if let Some((_, truth)) = next.next_if(|s| s.0 == f) {
-                sum += surface::symmetric(&x, &grid_faces, truth, &src.topology().faces)?.rms;
+                let x = surface_vertices(&x, dec.loose());
+                sum += surface::symmetric(&x, &faces, truth, &src.topology().faces)?.rms;
             }
         }
         Ok(sum / self.frames.len().max(1) as f64 / self.diagonal.max(f64::MIN_POSITIVE))

@@ -1,4 +1,4 @@
-//! The `.cgv` file format, versions 1 to 8 (documented in `docs/FORMAT.md`).
+//! The `.cgv` file format, versions 1 to 11 (documented in `docs/FORMAT.md`).
 //! Version 2 puts each frame in one chunk (version 1: one chunk per access
 //! unit, 20 bytes each, a quarter of a low-bitrate file) and adds one
 //! header field, `corrections` (see [`CorrectionMode`]). Version 3 has the
@@ -15,11 +15,14 @@
 //! random-access points ([`Header::random_access`]): every stream restarts
 //! there and the decoder's state resets, and an `RIDX` chunk before the end
 //! lists their byte offsets, so a player seeks without decoding from frame 0.
-//! This writer writes version 10; the reader reads all ten.
+//! Version 11 may code a tiny part's vertices as themselves ([`loose`]:
+//! a unit after each frame's access units, and the source mesh says which
+//! vertices they are).
+//! This writer writes version 11; the reader reads all eleven.
 //!
 //! ```text
 //! magic    8 bytes   89 43 47 56 0D 0A 1A 0A   ("\x89CGV\r\n\x1a\n")
-//! version  u16 LE    1 to 10
+//! version  u16 LE    1 to 11
 //! flags    u16 LE    0
 //! length   u32 LE    header length L (at most 1 MiB)
 //! header   L bytes   UTF-8 JSON (serde), see [`Header`]
@@ -40,12 +43,14 @@
 
 pub mod appearance;
 mod leb128;
+pub mod loose;
 pub mod predictor;
 pub mod quant;
 pub mod source_mesh;
 pub mod stream;
 
 pub use appearance::{Appearance, AppearanceInfo, TextureInfo};
+pub use loose::LooseFrame;
 pub use predictor::{Extrapolation, PredictorCode, SolverKind, MAX_PREDICTOR, MAX_STEPS};
 pub use quant::Quantizer;
 use serde::{Deserialize, Serialize};
@@ -54,7 +59,7 @@ pub use stream::StreamName;
 
 pub const MAGIC: [u8; 8] = [0x89, b'C', b'G', b'V', b'\r', b'\n', 0x1A, b'\n'];
 /// The newest version this reader reads and this writer writes.
-pub const VERSION: u16 = 10;
+pub const VERSION: u16 = 11;
 /// Largest header accepted.
 pub const MAX_HEADER: usize = 1 << 20;
 /// Largest chunk payload accepted (an access unit of a 2160² frame at QP 0
@@ -191,6 +196,9 @@ pub struct FrameInfo {
     /// their values plus it), so that their one range spans the body, not
     /// everywhere it travels.
     pub seed_origin: Option<[f32; 3]>,
+    /// Version 11, in every frame of a file with loose vertices: their
+    /// residuals, the unit after the access units ([`loose`]).
+    pub loose: Option<LooseFrame>,
 }
 
 impl FrameInfo {
@@ -250,7 +258,7 @@ impl FrameInfo {
         if anchors.iter().chain(&seed_origin).flatten().any(|v| !v.is_finite()) {
             return Err(bad("non-finite anchor position or seed origin".into()));
         }
-        Ok(FrameInfo { predictor, filter, relax, correction_scale, anchors, seed_origin })
+        Ok(FrameInfo { predictor, filter, relax, correction_scale, anchors, seed_origin, loose: None })
     }
 }
 
@@ -417,7 +425,7 @@ impl Header {
         }
         // The paper's solver needs anchors; the closed loop (correction
         // streams) does not.
-        let closed_loop = self.streams.iter().any(|s| s.scaled) || self.corrections == CorrectionMode::Motion;
+        let closed_loop = self.is_closed_loop();
         let world: Vec<u8> =
             stream::CORRECTION.iter().filter_map(|&n| self.stream(n)).map(|s| self.streams[s].shrink).collect();
         let normal = self.stream(StreamName::Dn).is_some();
@@ -469,15 +477,17 @@ impl Header {
         Ok(())
     }
 
-    /// The oldest format version that can hold this header: 10 for
-    /// random-access points, 9 for a normal
+    /// The oldest format version that can hold this header: 11 for loose
+    /// vertices, 10 for random-access points, 9 for a normal
     /// correction or a shrunk stream, 8 for an
     /// appearance, 7 for the
     /// source mesh's vertex offsets, 6 for the source mesh, 4 for cycle
     /// predictions, 3 for a CGV file without H, 2 for motion corrections,
     /// else 1.
     pub fn min_version(&self) -> u16 {
-        if self.random_access.is_some() {
+        if self.loose_vertices().is_some() {
+            11
+        } else if self.random_access.is_some() {
             10
         } else if self.stream(StreamName::Dn).is_some() || self.streams.iter().any(|s| s.shrink > 0) {
             9
@@ -496,6 +506,24 @@ impl Header {
         } else {
             1
         }
+    }
+
+    /// Whether the file codes corrections to the predictive decoder's
+    /// prediction (the closed loop), so the encoder knows the decoded grid.
+    pub fn is_closed_loop(&self) -> bool {
+        self.streams.iter().any(|s| s.scaled) || self.corrections == CorrectionMode::Motion
+    }
+
+    /// Version 11: whether loose vertices follow the decoded grid (see
+    /// `crate::codec::loose`): in files whose decoded grid the encoder
+    /// knows, GV and the closed loop; not with the paper's solver alone.
+    pub fn loose_follow_grid(&self) -> bool {
+        self.codec == CodecKind::Gv || self.is_closed_loop()
+    }
+
+    /// Version 11: how many loose vertices each frame carries, if any.
+    pub fn loose_vertices(&self) -> Option<u32> {
+        self.source_mesh.and_then(|m| m.loose)
     }
 
     pub fn is_key_frame(&self, f: u32) -> bool {
@@ -658,10 +686,12 @@ pub fn parse_index_tail(header: &Header, tail: &[u8]) -> Result<Vec<u64>, Contai
 }
 
 /// A version-2 frame chunk: the frame's side data, then each access unit
-/// the frame has (streams in header order) after its LEB128 length.
+/// the frame has (streams in header order) after its LEB128 length, and
+/// from version 11 the loose vertices' unit the same way.
 pub fn write_frame(frame: u32, info: &FrameInfo, units: &[&[u8]]) -> Vec<u8> {
     let mut payload = info.to_bytes();
-    for au in units {
+    let loose = info.loose.as_ref().map(LooseFrame::to_bytes);
+    for au in units.iter().copied().chain(loose.as_deref()) {
         leb128::write(&mut payload, au.len() as u64);
         payload.extend_from_slice(au);
     }
@@ -1119,6 +1149,16 @@ impl StreamReader {
                 return Err(bad(format!("stream {s}: access unit of {len} bytes overruns its frame chunk")));
             }
             units.push((s, p[at..at + len].to_vec()));
+            at += len;
+        }
+        let mut info = info;
+        if let Some(count) = header.loose_vertices() {
+            let bad = |msg: String| ContainerError::Chunk { offset, msg };
+            let len = read_len(p, &mut at).ok_or_else(|| bad("loose vertices: bad unit length".into()))?;
+            if len > p.len() - at {
+                return Err(bad(format!("loose vertices: a unit of {len} bytes overruns its frame chunk")));
+            }
+            info.loose = Some(LooseFrame::parse(&p[at..at + len], count, offset)?);
             at += len;
         }
         if at != p.len() {

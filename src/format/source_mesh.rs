@@ -22,6 +22,11 @@
 //! `crate::resample::SourcePoints`): what resampling cut off (a sharp
 //! corner, a low-poly figure's own vertices) comes back on every frame,
 //! turning with the surface.
+//!
+//! Version 11 may add, last, for each vertex an unsigned LEB128 number:
+//! 0 for a vertex rebuilt from the grid, k + 1 for the file's loose vertex
+//! k (`super::loose`: a tiny part's vertex coded as itself every frame);
+//! the header's `loose` gives their count.
 
 use super::{leb128, ContainerError};
 use serde::{Deserialize, Serialize};
@@ -47,6 +52,9 @@ pub struct SourceMeshInfo {
     /// Version 7: the step of the vertex offsets (absent: no offsets).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub offset_step: Option<f32>,
+    /// Version 11: how many loose vertices the frames carry (absent: none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub loose: Option<u32>,
 }
 
 impl SourceMeshInfo {
@@ -62,16 +70,19 @@ impl SourceMeshInfo {
                 return Err(format!("source mesh offset step {step} is not a positive number"));
             }
         }
+        if let Some(l) = self.loose {
+            if !(1..=self.vertices.min(super::loose::MAX_LOOSE_VERTICES)).contains(&l) {
+                return Err(format!("{l} loose vertices in a source mesh of {} vertices", self.vertices));
+            }
+        }
         Ok(())
     }
 
     /// The most bytes a vertex takes after the faces.
     fn vertex_bytes(&self) -> usize {
-        if self.offset_step.is_some() {
-            8 + 3 * 3
-        } else {
-            8
-        }
+        let offsets = if self.offset_step.is_some() { 3 * 3 } else { 0 };
+        let loose = if self.loose.is_some() { 3 } else { 0 };
+        8 + offsets + loose
     }
 
     /// The most bytes the inflated payload can have.
@@ -88,6 +99,9 @@ pub struct SourceMesh {
     pub places: Vec<[u32; 2]>,
     /// Version 7: each vertex's offset from the grid mesh, quantized.
     pub offsets: Option<Offsets>,
+    /// Version 11: each vertex's loose vertex plus one, 0 where the grid
+    /// rebuilds it (empty: no loose vertices).
+    pub loose_of: Vec<u32>,
 }
 
 /// Vertex offsets: `values` times `step` (mesh units) in each vertex's
@@ -137,7 +151,13 @@ impl SourceMesh {
             vertices: self.places.len() as u32,
             faces: self.faces.len() as u32,
             offset_step: self.offsets.as_ref().map(|o| o.step),
+            loose: self.loose_count(),
         }
+    }
+
+    /// How many loose vertices the mesh's vertices name (None: none).
+    pub fn loose_count(&self) -> Option<u32> {
+        self.loose_of.iter().copied().max().filter(|&m| m > 0)
     }
 
     /// The chunk's payload.
@@ -156,6 +176,11 @@ impl SourceMesh {
         for &x in self.offsets.iter().flat_map(|o| &o.values).flatten() {
             let x = x as i64;
             leb128::write(&mut raw, ((x << 1) ^ (x >> 63)) as u64);
+        }
+        if self.loose_count().is_some() {
+            for &k in &self.loose_of {
+                leb128::write(&mut raw, u64::from(k));
+            }
         }
         miniz_oxide::deflate::compress_to_vec(&raw, 9)
     }
@@ -196,11 +221,42 @@ impl SourceMesh {
             Some(step) => Some(Offsets { step, values: parse_offsets(&raw, &mut at, info.vertices, &bad)? }),
             None => None,
         };
+        let loose_of = match info.loose {
+            Some(count) => parse_loose_of(&raw, &mut at, info.vertices, count, &bad)?,
+            None => Vec::new(),
+        };
         if at != raw.len() {
             return Err(bad(format!("{} bytes after the vertex offsets", raw.len() - at)));
         }
-        Ok(SourceMesh { faces, places, offsets })
+        Ok(SourceMesh { faces, places, offsets, loose_of })
     }
+}
+
+/// Each of `vertices` vertices' loose vertex plus one (or 0), every loose
+/// vertex below `count` named at least once.
+fn parse_loose_of(
+    raw: &[u8],
+    at: &mut usize,
+    vertices: u32,
+    count: u32,
+    bad: &dyn Fn(String) -> ContainerError,
+) -> Result<Vec<u32>, ContainerError> {
+    let mut loose_of = Vec::with_capacity((vertices as usize).min(raw.len().saturating_sub(*at)));
+    let mut named = vec![false; count as usize];
+    for v in 0..vertices {
+        let k = leb128::read(raw, at, 3).ok_or_else(|| bad(format!("the loose vertices stop at vertex {v}")))?;
+        if k > u64::from(count) {
+            return Err(bad(format!("vertex {v} is loose vertex {}, but there are {count}", k - 1)));
+        }
+        if k > 0 {
+            named[k as usize - 1] = true;
+        }
+        loose_of.push(k as u32);
+    }
+    if let Some(k) = named.iter().position(|n| !n) {
+        return Err(bad(format!("loose vertex {k} belongs to no vertex")));
+    }
+    Ok(loose_of)
 }
 
 /// `vertices` offsets (three zigzag LEB128 integers each, in i16's range)

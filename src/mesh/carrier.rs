@@ -21,6 +21,11 @@
 //!    triangles are joined by six faces (a connected sum, which keeps
 //!    genus 0).
 //!
+//! Before all that, parts of at most [`LOOSE_MAX_VERTICES`] vertices
+//! (other than the largest part) are left out: their vertices are coded
+//! as themselves (format version 11's loose vertices) rather than joined
+//! to the rest by a tube.
+//!
 //! The input's own mesh is what a file carries and the decoder writes
 //! (format v6's source mesh): each input vertex is rebuilt from the grid at
 //! its first copy's place, and the input's faces join the rebuilt
@@ -53,6 +58,9 @@ pub struct Carrier {
     pub real: Vec<bool>,
     /// Each input vertex's first carrier vertex ([`NONE`] when no face uses it).
     pub carrier_of: Vec<u32>,
+    /// The input vertices of the tiny parts left out of the carrier, in
+    /// increasing order: coded as themselves (loose vertices).
+    pub loose: Vec<u32>,
     pub report: CarrierReport,
 }
 
@@ -71,19 +79,45 @@ pub struct CarrierReport {
     pub handles: usize,
     /// Connected parts joined by tubes.
     pub parts: usize,
+    /// Tiny parts left out of the carrier, coded as their own vertices.
+    pub loose_parts: usize,
+    /// Their vertices.
+    pub loose_vertices: usize,
 }
+
+/// Largest part (in vertices) coded as its own vertices rather than on the
+/// grid, unless it is the input's largest: scraps and detached triangles,
+/// which cost little as themselves and can leave no room for the cone
+/// paths on the grid. Larger parts measured better on the grid: wolf's
+/// 180-vertex part coded loose took 5 bits a vertex a frame and left the
+/// file 5-20 % larger at equal surface error (docs/RESULTS.md, "Loose
+/// parts"); `cgv encode --loose-parts` raises it.
+pub const LOOSE_MAX_VERTICES: usize = 16;
 
 impl Carrier {
     /// The carrier of the mesh `topology`, whose first frame is `reference`.
     /// Only a mesh without faces (or with too few vertices to map) is
     /// refused; anything else is closed up.
     pub fn build(label: &std::path::Path, topology: &Topology, reference: &[Vec3]) -> Result<Carrier> {
+        Carrier::build_with(label, topology, reference, LOOSE_MAX_VERTICES)
+    }
+
+    /// [`Carrier::build`], leaving out parts of at most `loose_max`
+    /// vertices (other than the largest) as loose vertices; 0 leaves none out.
+    pub fn build_with(
+        label: &std::path::Path,
+        topology: &Topology,
+        reference: &[Vec3],
+        loose_max: usize,
+    ) -> Result<Carrier> {
         let nv = topology.vertex_count;
         let mut report = CarrierReport::default();
-        let (faces, real) = clean_faces(&topology.faces, &mut report);
+        let (faces, _) = clean_faces(&topology.faces, &mut report);
         if faces.is_empty() {
             return Err(Error::mesh(label, MeshProblem::NoFaces));
         }
+        let (faces, loose) = leave_out_tiny_parts(faces, nv, loose_max, &mut report);
+        let real = vec![true; faces.len()];
         let mut c = Carrier {
             source_vertices: nv,
             topology: Topology { vertex_count: nv, faces },
@@ -91,6 +125,7 @@ impl Carrier {
             means: Vec::new(),
             real,
             carrier_of: Vec::new(),
+            loose,
             report,
         };
         c.report.flipped_faces = orient(&mut c.topology.faces);
@@ -143,6 +178,16 @@ impl Carrier {
             });
             self.topology.faces.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
             self.real.extend([r; 4]);
+        }
+    }
+
+    /// The input `topology` without its loose parts' faces: what the grid
+    /// carries.
+    pub fn on_grid(&self, topology: &Topology) -> Topology {
+        let loose = |f: &&[u32; 3]| self.loose.binary_search(&f[0]).is_ok();
+        Topology {
+            vertex_count: topology.vertex_count,
+            faces: topology.faces.iter().filter(|f| !loose(f)).copied().collect(),
         }
     }
 
@@ -404,6 +449,40 @@ const PAIR_SAMPLES: usize = 512;
 
 /// The input's faces less those that repeat a vertex or another face (kept
 /// in the source mesh, left out of the carrier).
+/// Splits `faces` (over `nv` vertices) into those of the carrier and the
+/// vertices of the tiny parts left out (see [`LOOSE_MAX_VERTICES`]).
+fn leave_out_tiny_parts(
+    faces: Vec<[u32; 3]>,
+    nv: usize,
+    loose_max: usize,
+    report: &mut CarrierReport,
+) -> (Vec<[u32; 3]>, Vec<u32>) {
+    let mut part = Dsu::new(nv);
+    for f in &faces {
+        part.union(f[0], f[1]);
+        part.union(f[0], f[2]);
+    }
+    let mut size: HashMap<u32, usize> = HashMap::new();
+    let used: HashSet<u32> = faces.iter().flatten().copied().collect();
+    for &v in &used {
+        *size.entry(part.find(v)).or_default() += 1;
+    }
+    // The largest part (the lowest root among equals, for determinism)
+    // always stays.
+    let largest = size.iter().max_by_key(|(r, n)| (**n, std::cmp::Reverse(**r))).map(|(r, _)| *r);
+    let tiny: HashSet<u32> =
+        size.iter().filter(|(r, n)| **n <= loose_max && Some(**r) != largest).map(|(r, _)| *r).collect();
+    if tiny.is_empty() {
+        return (faces, Vec::new());
+    }
+    let mut loose: Vec<u32> = used.into_iter().filter(|&v| tiny.contains(&part.find(v))).collect();
+    loose.sort_unstable();
+    report.loose_parts = tiny.len();
+    report.loose_vertices = loose.len();
+    let kept = faces.into_iter().filter(|f| !tiny.contains(&part.find(f[0]))).collect();
+    (kept, loose)
+}
+
 fn clean_faces(faces: &[[u32; 3]], report: &mut CarrierReport) -> (Vec<[u32; 3]>, Vec<bool>) {
     let mut seen = HashSet::new();
     let mut kept = Vec::with_capacity(faces.len());

@@ -52,11 +52,20 @@ pub struct ParamOptions {
     /// Cone vertices (top, right, bottom, left) and corner vertex; chosen
     /// automatically when absent.
     pub cones: Option<([u32; 4], u32)>,
+    /// Parts of at most this many vertices (other than the largest) are
+    /// coded as their own vertices, not on the grid (0: none are;
+    /// `crate::mesh::carrier::LOOSE_MAX_VERTICES` by default).
+    pub loose_max_vertices: usize,
 }
 
 impl Default for ParamOptions {
     fn default() -> Self {
-        ParamOptions { area_correction: 0.5, area_passes: 200, cones: None }
+        ParamOptions {
+            area_correction: 0.5,
+            area_passes: 200,
+            cones: None,
+            loose_max_vertices: crate::mesh::carrier::LOOSE_MAX_VERTICES,
+        }
     }
 }
 

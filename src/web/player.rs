@@ -84,7 +84,8 @@ impl Player {
         if grid_frame.len() != 3 * n {
             return Err(JsError::new(&format!("{} values for a grid of {n} samples", grid_frame.len())));
         }
-        Ok(source.vertices(&positions(grid_frame)).iter().flat_map(|p| p.to_array()).collect())
+        let loose = self.dec.as_ref().map_or(&[][..], |d| d.loose());
+        Ok(source.vertices(&positions(grid_frame), loose).iter().flat_map(|p| p.to_array()).collect())
     }
 
     /// The input's texture coordinates (u, v per source vertex) when the

@@ -107,7 +107,7 @@ pub fn run(args: Args) -> Result<()> {
         stats.push(s);
         pb.inc(1);
         Ok(match &source {
-            Some(m) => m.vertices(&x),
+            Some(m) => m.vertices(&x, dec.loose()),
             None => x,
         })
     };

@@ -166,6 +166,13 @@ pub struct Args {
     /// surface is kept.
     #[arg(long, default_value_t = ParamOptions::default().area_passes)]
     area_passes: usize,
+    /// Parts of at most this many vertices (all but the largest part) are
+    /// coded as their own vertices every frame instead of joining the grid
+    /// by a tube: by default scraps and detached triangles. Larger parts (an
+    /// eye, a button) can be coded so too, but measured costlier than on the
+    /// grid (docs/RESULTS.md, "Loose parts"). 0: every part on the grid.
+    #[arg(long, value_name = "VERTICES", default_value_t = ParamOptions::default().loose_max_vertices)]
+    loose_parts: usize,
     /// Print the report as JSON.
     #[arg(long)]
     json: bool,
@@ -193,7 +200,12 @@ fn options(args: &Args, fps: f32) -> EncodeOptions {
         layers: args.layers,
         residual_steps: args.residual_steps,
         solver: args.solver,
-        param: ParamOptions { area_correction: args.area_correction, area_passes: args.area_passes, cones: None },
+        param: ParamOptions {
+            area_correction: args.area_correction,
+            area_passes: args.area_passes,
+            cones: None,
+            loose_max_vertices: args.loose_parts,
+        },
         reference: 0,
         source_mesh: !args.no_source_mesh,
         random_access: args.random_access,

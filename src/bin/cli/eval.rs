@@ -32,6 +32,10 @@ pub struct Args {
     /// cgv-scaled or cgv-motion (one mode only).
     #[arg(long, value_delimiter = ',', default_value = "gv,paper,cgv")]
     codecs: Vec<EvalCodec>,
+    /// Parts of at most this many vertices (all but the largest) are coded
+    /// as their own vertices (see `cgv encode --help`; 0: none).
+    #[arg(long, value_name = "VERTICES", default_value_t = cgv::param::ParamOptions::default().loose_max_vertices)]
+    loose_parts: usize,
     /// Measure the surface distance to the original frames on every K-th frame (0: never; it is the slow part).
     #[arg(long, default_value_t = 1, value_name = "K")]
     surface_every: usize,
@@ -106,6 +110,7 @@ pub fn run(args: Args) -> Result<()> {
         ..Default::default()
     };
     base.video.gop = args.gop;
+    base.param.loose_max_vertices = args.loose_parts;
     let opts = EvalOptions {
         base,
         codecs: args.codecs.clone(),

@@ -114,10 +114,11 @@ pub fn run(args: Args) -> Result<()> {
 fn source_mesh_line(m: Option<&cgv::format::SourceMeshInfo>) -> String {
     match m {
         Some(m) => format!(
-            "{} vertices, {} faces{} (decoders give them back)",
+            "{} vertices, {} faces{}{} (decoders give them back)",
             m.vertices,
             m.faces,
-            if m.offset_step.is_some() { ", with their offsets from the grid" } else { "" }
+            if m.offset_step.is_some() { ", with their offsets from the grid" } else { "" },
+            m.loose.map_or(String::new(), |l| format!(", {l} of them loose (coded as themselves every frame)"))
         ),
         None => "none (decoders give back the grid mesh)".into(),
     }
@@ -130,8 +131,16 @@ fn verdict(usable: bool, topo: &cgv::mesh::TopologyReport, closing: Option<&Carr
         _ if topo.is_sphere() => "closed genus-0 manifold, all frames consistent: ready for a geometry image".into(),
         Some(c) => format!(
             "usable: the encoder closes it up for the grid ({} loops closed, {} handles cut, {} part(s) joined, \
-             {} vertex copies, {} faces flipped, {} repeated faces left out) and gives its own mesh back",
-            c.closed_loops, c.handles, c.parts, c.split_vertices, c.flipped_faces, c.dropped_faces
+             {} vertex copies, {} faces flipped, {} repeated faces left out; {} tiny part(s) of {} vertices \
+             coded as themselves) and gives its own mesh back",
+            c.closed_loops,
+            c.handles,
+            c.parts,
+            c.split_vertices,
+            c.flipped_faces,
+            c.dropped_faces,
+            c.loose_parts,
+            c.loose_vertices
         ),
         None => "not usable as is".into(),
     }

@@ -46,15 +46,19 @@ pub struct Args {
     memory: super::decode::MemoryArgs,
 }
 
+/// The input's mesh and its vertices at one decoded frame.
+type SourceFrame = (cgv::codec::SourceMeshDecoder, Vec<glam::Vec3>);
+
 /// Decodes frames 0..=`frame` of `path` and returns the grid size, the
-/// last frame, and the input's mesh when `mesh` asks for it.
+/// last frame, and the input's mesh when `mesh` asks for it with its
+/// vertices at that frame.
 fn decode_frame(
     path: &Path,
     frame: usize,
     solver: Option<SolverKind>,
     memory: super::decode::MemoryArgs,
     mesh: super::decode::MeshChoice,
-) -> Result<(usize, Vec<glam::Vec3>, Option<cgv::codec::SourceMeshDecoder>)> {
+) -> Result<(usize, Vec<glam::Vec3>, Option<SourceFrame>)> {
     let (mut dec, _) = super::decode::open_decoder(path, solver, memory)?;
     let source = super::decode::source_mesh(path, &dec, mesh)?;
     let frames = dec.frame_count();
@@ -69,6 +73,10 @@ fn decode_frame(
         pb.inc(1);
     }
     pb.finish_and_clear();
+    let source = source.map(|s| {
+        let vertices = s.vertices(&x, dec.loose());
+        (s, vertices)
+    });
     Ok((grid, x, source))
 }
 
@@ -137,12 +145,12 @@ pub fn run(args: Args) -> Result<()> {
     let mut renderer = Renderer::new(&gpu.device, &gpu.queue, cgv::render::offscreen::FORMAT, cgv::grid::Grid::new(n)?);
     let surface = if source.is_some() { "source mesh" } else { "grid" };
     let x = match source {
-        Some(s) if reference.is_none() => {
+        Some((s, vertices)) if reference.is_none() => {
             renderer.set_mesh(&gpu.device, Some(s.topology.clone()))?;
             if let Some(look) = &look {
                 renderer.set_texture(&gpu.device, Some(textured(&gpu, look)?))?;
             }
-            s.vertices(&x)
+            vertices
         }
         Some(_) => bail!("--mode error compares grids: draw it with --mesh grid"),
         None => x,

@@ -242,7 +242,13 @@ pub fn prepare(src: &dyn FrameSource, opts: &EncodeOptions) -> Result<GeometryIm
         )));
     }
     let reference = src.read_frame(opts.reference)?;
-    GeometryImage::build(src.label(), src.topology(), &reference, Grid::new(opts.grid)?, &opts.param)
+    let mut param = opts.param.clone();
+    if !opts.source_mesh {
+        // Loose vertices are rebuilt through the source mesh: without it,
+        // every part goes on the grid.
+        param.loose_max_vertices = 0;
+    }
+    GeometryImage::build(src.label(), src.topology(), &reference, Grid::new(opts.grid)?, &param)
 }
 
 /// [`encode`] with the geometry image already made (see [`prepare`]).
@@ -257,6 +263,11 @@ pub fn encode_prepared(
     let plan = plan::Plan::new(opts, src.frame_count(), src.fps())?;
     if image.map.grid != plan.grid {
         return Err(Error::Argument("the geometry image is for another grid size".into()));
+    }
+    if !opts.source_mesh && !image.carrier.loose.is_empty() {
+        return Err(Error::Argument(
+            "a geometry image with loose vertices needs the source mesh (prepare it without --no-source-mesh)".into(),
+        ));
     }
     // The source mesh first: an input too large for a file fails before the passes.
     let source = if opts.source_mesh { Some(source_mesh_chunk(src, image)?) } else { None };
