@@ -229,6 +229,14 @@ fn site(name: &str) -> (PathBuf, Guard, u16) {
     std::fs::copy(root.join("tests/fixtures/v6/walk-cgv-source.cgv"), dir.join("walk-source.cgv")).unwrap();
     std::fs::copy(root.join("tests/fixtures/v8/fox-textured.cgv"), dir.join("fox.cgv")).unwrap();
     std::fs::copy(root.join("tests/fixtures/v9/walk-cgv-normal.cgv"), dir.join("normal.cgv")).unwrap();
+    // The built-in figure with its UVs and procedural checks, encoded now.
+    let textured = dir.join("walk-textured.cgv");
+    let out = Command::new(env!("CARGO_BIN_EXE_cgv"))
+        .args(["encode", "builtin:walk-textured", "--frames", "0..12", "--grid", "32", "-o"])
+        .arg(&textured)
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     // A corrupt copy: one flipped byte in the middle.
     let mut bad = std::fs::read(dir.join("walk-cgv.cgv")).unwrap();
     let k = bad.len() / 2;
@@ -367,6 +375,29 @@ fn viewer_plays_renders_and_recovers_in_headless_chromium() {
     let (px, ch) = common::decode_png(&browser.screenshot(&art.join("textured.png")));
     let orange = px.chunks_exact(ch).filter(|p| p[0] as i32 > p[2] as i32 + 60 && p[0] > 120).count();
     assert!(orange > 1000, "the textured fox shows {orange} orange pixels (see {})", art.display());
+
+    // The built-in figure, textured with orange and cream checks.
+    browser.js(
+        "const p = document.getElementById('a'); delete p.dataset.textured; p.load('walk-textured.cgv'); return true;",
+        json!([]),
+    );
+    browser.wait(
+        "the built-in figure, textured",
+        "const p = document.getElementById('a'); return p.dataset.textured === 'yes';",
+        60,
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    let (px, ch) = common::decode_png(&browser.screenshot(&art.join("walk-textured.png")));
+    let orange = px.chunks_exact(ch).filter(|p| p[0] as i32 > p[2] as i32 + 60 && p[0] > 120).count();
+    let cream = px
+        .chunks_exact(ch)
+        .filter(|p| p[0] > 180 && p[1] > 170 && p[2] > 140 && p[0] as i32 - (p[2] as i32) < 60)
+        .count();
+    assert!(
+        orange > 300 && cream > 300,
+        "the built-in figure shows {orange} orange and {cream} cream pixels (see {})",
+        art.display()
+    );
 
     // A version-9 file: x, y, z corrections at 16 x 16 beside a 32 x 32
     // normal picture, each stream's WebCodecs decoder at its own size.

@@ -503,6 +503,38 @@ fn a_textured_gltf_comes_back_with_its_uvs_and_texture() {
     assert_eq!((again.frame_count(), again.topology().vertex_count), (3, 1728));
 }
 
+#[test]
+fn the_built_in_figure_comes_textured_when_asked() {
+    // builtin:walk-textured: the default motion with cylindrical UVs (its
+    // seam split) and a 64 x 64 PNG of checks, a textured input without a file.
+    let dir = common::temp_dir("cli-builtin-textured");
+    let (cgv_file, glb) = (dir.join("walk.cgv"), dir.join("walk.glb"));
+    let out =
+        cgv(&["encode", "builtin:walk-textured", "--frames", "0..4", "--grid", "32", "-o", cgv_file.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let info = String::from_utf8_lossy(&cgv(&["info", cgv_file.to_str().unwrap()]).stdout).to_string();
+    assert!(info.contains("image/png"), "{info}");
+    let out = cgv(&["decode", cgv_file.to_str().unwrap(), "-o", glb.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert_eq!(validate_gltf(&[glb.as_path()])[0]["errors"], 0);
+    let input = cgv::mesh::open_sequence("builtin:walk-textured", &Default::default()).unwrap();
+    let a = input.appearance().expect("UVs and a texture");
+    // Welded to the motion's own vertices, some split at the seam.
+    assert!(a.welded.len() > input.topology().vertex_count);
+    assert!(a.welded.iter().all(|&w| (w as usize) < input.topology().vertex_count));
+    let g = gltf::Gltf::from_slice(&std::fs::read(&glb).unwrap()).unwrap();
+    let blob = g.blob.as_deref().unwrap();
+    let prim = g.document.meshes().next().unwrap().primitives().next().unwrap();
+    let uvs: Vec<[f32; 2]> = prim.reader(|_| Some(blob)).read_tex_coords(0).unwrap().into_f32().collect();
+    assert_eq!(uvs, a.look.uvs);
+    // No face spans more than half a turn of u: the seam is split.
+    for f in &a.faces {
+        let u = f.map(|v| a.look.uvs[v as usize][0]);
+        assert!(u.iter().fold(0f32, |m, &x| m.max(x)) - u.iter().fold(2f32, |m, &x| m.min(x)) <= 0.5, "{f:?}");
+    }
+    assert!(prim.material().pbr_metallic_roughness().base_color_texture().is_some());
+}
+
 /// One raw HTTP/1.1 request to `cgv serve`: the status line, the headers
 /// (lower-case names) and the body.
 fn http_get(port: u16, path: &str, range: Option<&str>) -> (String, Vec<(String, String)>, Vec<u8>) {

@@ -139,9 +139,9 @@ fn bad_magic_and_versions() {
     assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::BadMagic);
     assert_eq!(format::read(b"GIF89a").unwrap_err(), ContainerError::BadMagic);
     let mut bytes = file(&header());
-    bytes[8] = 11;
+    bytes[8] = 12;
     assert_eq!(format::VERSION, 11);
-    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 11 });
+    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 12 });
     bytes[8] = 0;
     assert!(matches!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 0 }));
 }
@@ -794,8 +794,9 @@ fn loose_vertices_from_version_eleven() {
     }
     // The header and the mesh must agree on the loose vertices: a count
     // past the mesh's, a vertex naming one past the count, one unnamed.
-    let too_many = format::SourceMeshInfo { loose: Some(5), ..mesh.info() };
-    assert!(format::read(&file_with_source(&h, too_many, format::write_source_mesh(&mesh))).is_err());
+    for loose in [Some(0), Some(5)] {
+        assert!(format::SourceMeshInfo { loose, ..mesh.info() }.validate().is_err(), "{loose:?}");
+    }
     for loose_of in [vec![0, 0, 3, 1], vec![0, 0, 1, 1]] {
         let bad = format::SourceMesh { loose_of, ..source_mesh() };
         let e = format::read(&file_with_source(&h, mesh.info(), format::write_source_mesh(&bad))).unwrap_err();

@@ -210,7 +210,8 @@ impl SourceMesh {
         }
         let rest = &raw[at..];
         let place_bytes = info.vertices as usize * 8;
-        if rest.len() < place_bytes || (info.offset_step.is_none() && rest.len() != place_bytes) {
+        let nothing_after = info.offset_step.is_none() && info.loose.is_none();
+        if rest.len() < place_bytes || (nothing_after && rest.len() != place_bytes) {
             let what = if info.offset_step.is_some() { "" } else { " (no offsets: the header has no offset_step)" };
             return Err(bad(format!("{} bytes of vertex places, expected {place_bytes}{what}", rest.len())));
         }

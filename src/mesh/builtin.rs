@@ -14,6 +14,10 @@ use std::collections::HashMap;
 /// The name under which the built-in motion is opened.
 pub const NAME: &str = "builtin:walk";
 
+/// The same motion with texture coordinates and a small procedural
+/// texture ([`textured_motion`]): a textured input for fast tests.
+pub const TEXTURED_NAME: &str = "builtin:walk-textured";
+
 /// Frames in the default motion (2.4 s at 30 fps: two gait cycles).
 pub const FRAMES: usize = 72;
 pub const FPS: f32 = 30.0;
@@ -255,4 +259,89 @@ pub fn motion(frames: usize) -> InMemory {
 /// The default motion: [`FRAMES`] frames at [`FPS`].
 pub fn default_motion() -> InMemory {
     motion(FRAMES)
+}
+
+/// The default motion with an appearance: cylindrical texture coordinates
+/// about the vertical axis (the seam at the back, where faces that cross it
+/// take copies of their vertices one turn on) and a 64 x 64 PNG of orange
+/// and cream checks, so that a test sees at once whether a texture is drawn.
+pub fn textured_motion(frames: usize) -> Textured {
+    let motion = motion(frames);
+    let (rest, faces) = rest_mesh();
+    let (lo, hi) = rest.iter().fold((f32::INFINITY, f32::NEG_INFINITY), |(a, b), p| (a.min(p.y), b.max(p.y)));
+    let uv = |p: Vec3| [0.5 + p.x.atan2(p.z) / std::f32::consts::TAU, (hi - p.y) / (hi - lo)];
+    let mut uvs: Vec<[f32; 2]> = rest.iter().map(|&p| uv(p)).collect();
+    let mut welded: Vec<u32> = (0..rest.len() as u32).collect();
+    let mut turned: HashMap<u32, u32> = HashMap::new();
+    let faces = faces
+        .iter()
+        .map(|f| {
+            let us = f.map(|v| uvs[v as usize][0]);
+            if us.iter().fold(0f32, |m, &u| m.max(u)) - us.iter().fold(1f32, |m, &u| m.min(u)) <= 0.5 {
+                return *f;
+            }
+            // Across the seam: the vertices near u = 0 go one turn on.
+            f.map(|v| match uvs[v as usize][0] < 0.5 {
+                false => v,
+                true => *turned.entry(v).or_insert_with(|| {
+                    uvs.push([uvs[v as usize][0] + 1.0, uvs[v as usize][1]]);
+                    welded.push(v);
+                    (uvs.len() - 1) as u32
+                }),
+            })
+        })
+        .collect();
+    let look =
+        crate::format::Appearance { uvs, base_color: [1.0; 4], texture: Some(("image/png".into(), checks_png())) };
+    let mut motion = motion;
+    motion.label = TEXTURED_NAME.into();
+    Textured { motion, appearance: super::Appearance { welded, faces, look } }
+}
+
+/// A 64 x 64 RGB PNG of 8 x 8 orange and cream checks.
+fn checks_png() -> Vec<u8> {
+    let texels: Vec<u8> = (0..64 * 64)
+        .flat_map(|i| match ((i % 64) / 8 + (i / 64) / 8) % 2 {
+            0 => [230, 120, 30],
+            _ => [245, 235, 210],
+        })
+        .collect();
+    let mut out = Vec::new();
+    let mut enc = png::Encoder::new(&mut out, 64, 64);
+    enc.set_color(png::ColorType::Rgb);
+    // Writing into memory cannot fail.
+    if let Ok(mut w) = enc.write_header() {
+        let _ = w.write_image_data(&texels);
+    }
+    out
+}
+
+/// The built-in motion with texture coordinates and a texture.
+pub struct Textured {
+    pub motion: InMemory,
+    pub appearance: super::Appearance,
+}
+
+impl super::FrameSource for Textured {
+    fn label(&self) -> &std::path::Path {
+        self.motion.label()
+    }
+    fn frame_count(&self) -> usize {
+        self.motion.frame_count()
+    }
+    fn fps(&self) -> f32 {
+        self.motion.fps()
+    }
+    fn topology(&self) -> &Topology {
+        self.motion.topology()
+    }
+    fn read_frame(&self, i: usize) -> crate::error::Result<super::Frame> {
+        self.motion.read_frame(i)
+    }
+    fn kind(&self) -> &'static str {
+        "built-in motion, textured"
+    }
+    fn appearance(&self) -> Option<&super::Appearance> {
+        Some(&self.appearance)
+    }
 }

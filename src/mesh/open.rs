@@ -65,13 +65,16 @@ impl Default for OpenOptions {
 }
 
 /// Opens a sequence: a folder of OBJ files, one OBJ file, a glTF 2.0 file
-/// (`.gltf`, `.glb`) with an animation, or [`builtin::NAME`].
+/// (`.gltf`, `.glb`) with an animation, [`builtin::NAME`] or
+/// [`builtin::TEXTURED_NAME`].
 pub fn open_sequence(spec: &str, opts: &OpenOptions) -> Result<Box<dyn FrameSource>> {
     if !(opts.fps.is_finite() && opts.fps > 0.0 && opts.fps <= 1000.0) {
         return Err(Error::Argument(format!("frame rate {} is not in (0, 1000]", opts.fps)));
     }
     let source: Box<dyn FrameSource> = if spec == builtin::NAME || spec == "builtin" {
         Box::new(builtin::default_motion())
+    } else if spec == builtin::TEXTURED_NAME {
+        Box::new(builtin::textured_motion(builtin::FRAMES))
     } else {
         let path = Path::new(spec);
         let meta = std::fs::metadata(path).map_err(|e| Error::io(path, e))?;

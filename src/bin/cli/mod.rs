@@ -59,7 +59,8 @@ enum Command {
 /// Options shared by the commands that read a mesh sequence.
 #[derive(clap::Args, Debug, Clone)]
 pub struct InputArgs {
-    /// Folder of OBJ frames, .obj, .gltf, .glb, or builtin:walk.
+    /// Folder of OBJ frames, .obj, .gltf, .glb, builtin:walk (the embedded default motion), or
+    /// builtin:walk-textured (the same with texture coordinates and a small procedural texture).
     pub input: String,
     /// Make the holes part of the mesh: each boundary loop gets a vertex at its centre and
     /// faces that decoding gives back (without it, holes are closed for the grid only and
