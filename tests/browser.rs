@@ -365,34 +365,12 @@ fn viewer_plays_renders_and_recovers_in_headless_chromium() {
     assert_eq!(browser.js(surface, json!([])), json!("grid"));
 
     // A version-8 file: the input's mesh drawn with its texture (Fox: orange fur).
-    browser.js("document.getElementById('a').setAttribute('mode', 'shaded'); document.getElementById('a').load('fox.cgv'); return true;", json!([]));
-    browser.wait(
-        "the v8 fixture, textured",
-        "const p = document.getElementById('a'); return p.dataset.textured === 'yes';",
-        60,
-    );
-    std::thread::sleep(Duration::from_millis(300));
-    let (px, ch) = common::decode_png(&browser.screenshot(&art.join("textured.png")));
-    let orange = px.chunks_exact(ch).filter(|p| p[0] as i32 > p[2] as i32 + 60 && p[0] > 120).count();
+    draw_shaded(&browser);
+    let (orange, _) = textured_colours(&browser, "fox.cgv", &art.join("textured.png"));
     assert!(orange > 1000, "the textured fox shows {orange} orange pixels (see {})", art.display());
 
     // The built-in figure, textured with orange and cream checks.
-    browser.js(
-        "const p = document.getElementById('a'); delete p.dataset.textured; p.load('walk-textured.cgv'); return true;",
-        json!([]),
-    );
-    browser.wait(
-        "the built-in figure, textured",
-        "const p = document.getElementById('a'); return p.dataset.textured === 'yes';",
-        60,
-    );
-    std::thread::sleep(Duration::from_millis(300));
-    let (px, ch) = common::decode_png(&browser.screenshot(&art.join("walk-textured.png")));
-    let orange = px.chunks_exact(ch).filter(|p| p[0] as i32 > p[2] as i32 + 60 && p[0] > 120).count();
-    let cream = px
-        .chunks_exact(ch)
-        .filter(|p| p[0] > 180 && p[1] > 170 && p[2] > 140 && p[0] as i32 - (p[2] as i32) < 60)
-        .count();
+    let (orange, cream) = textured_colours(&browser, "walk-textured.cgv", &art.join("walk-textured.png"));
     assert!(
         orange > 300 && cream > 300,
         "the built-in figure shows {orange} orange and {cream} cream pixels (see {})",
@@ -858,4 +836,31 @@ fn the_decoder_package_is_a_small_first_download() {
     println!("decoder package {decoder} bytes gzipped, full package {full}");
     assert!(decoder <= 300_000, "the decoder package is {decoder} bytes gzipped");
     assert!(full > 2 * decoder, "the renderer went missing from the full package ({full} bytes)");
+}
+
+/// Sets player `a` to draw shaded.
+fn draw_shaded(browser: &Browser) {
+    browser.js("document.getElementById('a').setAttribute('mode', 'shaded'); return true;", json!([]));
+}
+
+/// Loads `file` in player `a`, waits until it is drawn textured, saves a
+/// screenshot at `shot`, and counts its orange and its cream pixels.
+fn textured_colours(browser: &Browser, file: &str, shot: &Path) -> (usize, usize) {
+    browser.js(
+        "const p = document.getElementById('a'); delete p.dataset.textured; p.load(arguments[0]); return true;",
+        json!([file]),
+    );
+    browser.wait(
+        &format!("{file}, textured"),
+        "const p = document.getElementById('a'); return p.dataset.textured === 'yes';",
+        60,
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    let (px, ch) = common::decode_png(&browser.screenshot(shot));
+    let orange = px.chunks_exact(ch).filter(|p| p[0] as i32 > p[2] as i32 + 60 && p[0] > 120).count();
+    let cream = px
+        .chunks_exact(ch)
+        .filter(|p| p[0] > 180 && p[1] > 170 && p[2] > 140 && p[0] as i32 - (p[2] as i32) < 60)
+        .count();
+    (orange, cream)
 }
