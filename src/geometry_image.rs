@@ -47,6 +47,9 @@ pub struct GeometryImage {
     /// Each input vertex's offset from the grid mesh of the reference
     /// frame (format version 7), quantized as a file carries it.
     pub offsets: Option<Offsets>,
+    /// Each loose vertex's anchor (format version 11): the grid sample
+    /// nearest it on the reference frame, whose motion it follows.
+    pub loose_anchors: Vec<u32>,
     /// Time spent parameterizing (the cone race and the area passes).
     pub seconds_parameterize: f64,
     /// Time spent locating the samples.
@@ -86,8 +89,10 @@ impl GeometryImage {
             offsets[v as usize] = [0.0; 3];
         }
         let offsets = Offsets::quantize(&offsets, finest);
+        let loose: Vec<Vec3> = carrier.loose.iter().map(|&v| reference[v as usize]).collect();
+        let loose_anchors = nearest_samples(&loose, &map.apply(reference));
         let seconds_locate = t.elapsed().as_secs_f64();
-        Ok(GeometryImage { carrier, param, map, offsets, seconds_parameterize, seconds_locate })
+        Ok(GeometryImage { carrier, param, map, offsets, loose_anchors, seconds_parameterize, seconds_locate })
     }
 
     /// The input's mesh as a version-7 file carries it: `topology`'s faces,
@@ -98,6 +103,7 @@ impl GeometryImage {
             places: crate::resample::carrier_places(&self.carrier, &self.param),
             offsets: self.offsets.clone(),
             loose_of: self.loose_of(topology.vertex_count),
+            loose_anchors: self.loose_anchors.clone(),
         }
     }
 
@@ -130,7 +136,8 @@ impl GeometryImage {
         } else {
             a.welded.iter().map(|w| mesh.loose_of.get(*w as usize).copied().unwrap_or(0)).collect()
         };
-        SourceMesh { faces: a.faces.clone(), places: a.welded.iter().map(at).collect(), offsets, loose_of }
+        let places = a.welded.iter().map(at).collect();
+        SourceMesh { faces: a.faces.clone(), places, offsets, loose_of, loose_anchors: mesh.loose_anchors }
     }
 
     /// The faces of the surface a decoder shows, over the grid's samples
@@ -156,6 +163,19 @@ impl GeometryImage {
     pub fn seconds(&self) -> f64 {
         self.seconds_parameterize + self.seconds_locate
     }
+}
+
+/// For each point, the sample of `grid` nearest it (ties to the lower
+/// index): a scan of every sample, once per file, for a few tiny parts'
+/// vertices.
+fn nearest_samples(points: &[Vec3], grid: &[Vec3]) -> Vec<u32> {
+    points
+        .iter()
+        .map(|p| {
+            let d = |i: &usize| grid[*i].distance_squared(*p);
+            (0..grid.len()).min_by(|a, b| d(a).total_cmp(&d(b)).then(a.cmp(b))).unwrap_or(0) as u32
+        })
+        .collect()
 }
 
 /// The vertices of [`GeometryImage::surface_faces`]: a decoded grid frame

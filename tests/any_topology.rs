@@ -218,46 +218,50 @@ fn a_three_part_motion_round_trips() {
 
 #[test]
 fn a_tiny_part_is_coded_as_its_own_vertices() {
-    use cgv::codec::{encode, h264::VideoSettings, EncodeOptions, FileDecoder};
+    use cgv::codec::{encode, EncodeOptions, FileDecoder};
     let (t, tf) = common::tetrahedron();
     let t: Vec<Vec3> = t.iter().map(|v| *v * 0.1 + Vec3::new(0.0, 0.0, 0.6)).collect();
     let (p, f) = common::parts(&[common::sheet(8), (t, tf)]);
     let c = carrier(&p, &f);
     let tetra: Vec<u32> = (81..85).collect();
     assert_eq!((c.loose.clone(), c.report.loose_parts, c.report.parts), (tetra, 1, 1), "{:?}", c.report);
-    // Eight frames with random-access points at frames 3 and 6 (0.1 s at 30 fps).
+    // Eight frames with random-access points at frames 3 and 6 (0.1 s at 30
+    // fps), in each codec: the loose vertices follow the decoded grid in GV
+    // and the closed loop, their own velocity with the paper's solver.
     let src = bending_for(&p, &f, 8);
-    let opts = EncodeOptions {
-        grid: 32,
-        video: VideoSettings { qp: 16, ..Default::default() },
-        random_access: 0.1,
-        ..Default::default()
-    };
-    let (bytes, _) = encode(&src, &opts, &mut |_, _, _| {}).unwrap();
-    let file = cgv::format::read(&bytes).unwrap();
-    assert_eq!((file.version, file.header.loose_vertices(), file.header.random_access), (11, Some(4), Some(3)));
-    assert_eq!(file.source_mesh.as_ref().unwrap().loose_of[81..], [1, 2, 3, 4]);
     let diag = cgv::mesh::Bounds::of(&p).diagonal();
-    let mut dec = FileDecoder::new(file.clone(), cgv::solve::SolverKind::Predictive).unwrap();
-    let mesh = dec.source_mesh().unwrap();
-    let mut all = Vec::new();
-    for frame in &src.frames {
-        let (grid, _) = dec.next_frame().unwrap();
-        let x = mesh.vertices(&grid, dec.loose());
-        // The tetrahedron's vertices, coded on the grid's error: within a
-        // percent of the diagonal (the step's cap), exactly where the
-        // decoder put them.
-        for v in 81..85 {
-            assert!(x[v].distance(frame[v]) < 0.01 * diag, "vertex {v}: {} vs {}", x[v], frame[v]);
+    let mut opts = EncodeOptions { grid: 32, random_access: 0.1, ..Default::default() };
+    opts.video.qp = 16;
+    use cgv::format::CodecKind::{Cgv, Gv};
+    use cgv::solve::SolverKind::{Paper, Predictive};
+    for (codec, solver, follows) in [(Cgv, Predictive, true), (Gv, Predictive, true), (Cgv, Paper, false)] {
+        let o = EncodeOptions { codec, solver, ..opts.clone() };
+        let (bytes, _) = encode(&src, &o, &mut |_, _, _| {}).unwrap();
+        let file = cgv::format::read(&bytes).unwrap();
+        let h = &file.header;
+        assert_eq!((file.version, h.loose_vertices(), h.random_access), (11, Some(4), Some(3)), "{codec:?}");
+        assert_eq!(h.loose_follow_grid(), follows, "{codec:?} {solver}");
+        assert_eq!(file.source_mesh.as_ref().unwrap().loose_of[81..], [1, 2, 3, 4]);
+        let mut dec = FileDecoder::new(file.clone(), solver).unwrap();
+        let mesh = dec.source_mesh().unwrap();
+        let mut all = Vec::new();
+        for frame in &src.frames {
+            let (grid, _) = dec.next_frame().unwrap();
+            let x = mesh.vertices(&grid, dec.loose());
+            // The tetrahedron's vertices, coded on the grid's error: within
+            // a percent of the diagonal (the step's cap).
+            for v in 81..85 {
+                assert!(x[v].distance(frame[v]) < 0.01 * diag, "{codec:?} vertex {v}: {} vs {}", x[v], frame[v]);
+            }
+            all.push(x);
         }
-        all.push(x);
-    }
-    // A decoder that starts at the random-access point rebuilds the same.
-    let mut late = FileDecoder::new(file, cgv::solve::SolverKind::Predictive).unwrap();
-    late.seek(3).unwrap();
-    for want in &all[3..] {
-        let (grid, _) = late.next_frame().unwrap();
-        assert_eq!(&mesh.vertices(&grid, late.loose()), want);
+        // A decoder that starts at the random-access point rebuilds the same.
+        let mut late = FileDecoder::new(file, solver).unwrap();
+        late.seek(3).unwrap();
+        for want in &all[3..] {
+            let (grid, _) = late.next_frame().unwrap();
+            assert_eq!(&mesh.vertices(&grid, late.loose()), want, "{codec:?}");
+        }
     }
     // Asked not to, the encoder puts the tetrahedron on the grid.
     let grid_only = EncodeOptions {

@@ -66,9 +66,9 @@ fn frame_info(h: &Header, f: u32) -> format::FrameInfo {
     // A file with random-access points carries a seed origin at each.
     let seed_origin = h.has_seed_origin(f).then_some([1.0, 2.0, f as f32]);
     // A file with loose vertices carries their residuals in every frame.
-    let loose = h
-        .loose_vertices()
-        .map(|n| format::LooseFrame { step: 0.25, residuals: (0..n as i32).map(|k| [k, -k, f as i32]).collect() });
+    let loose = h.loose_vertices().map(|n| {
+        format::LooseFrame { step: 0.25, residuals: (0..n as i32).map(|k| [k, -k, f as i32]).collect() }.to_bytes()
+    });
     format::FrameInfo { predictor: code(6, 0), filter: 0, relax: 0, correction_scale: 0.5, anchors, seed_origin, loose }
 }
 
@@ -504,6 +504,7 @@ fn source_mesh() -> format::SourceMesh {
         places: vec![[0, 0], [u32::MAX, 0], [0, u32::MAX], [1 << 31, 3 << 30]],
         offsets: None,
         loose_of: Vec::new(),
+        loose_anchors: Vec::new(),
     }
 }
 
@@ -773,32 +774,36 @@ fn file_with_points(h: &Header, predictor: impl Fn(u32) -> PredictorCode, lie: i
 
 #[test]
 fn loose_vertices_from_version_eleven() {
-    // The tetrahedron's last two vertices are loose vertices 1 and 0.
-    let (h, mesh) = (header(), format::SourceMesh { loose_of: vec![0, 0, 2, 1], ..source_mesh() });
+    // The tetrahedron's last two vertices are loose vertices 1 and 0,
+    // following grid samples 3 and 7.
+    let with =
+        |loose_of: Vec<u32>, loose_anchors: Vec<u32>| format::SourceMesh { loose_of, loose_anchors, ..source_mesh() };
+    let (h, mesh) = (header(), with(vec![0, 0, 2, 1], vec![3, 7]));
     assert_eq!(mesh.info().loose, Some(2));
     let bytes = file_with_source(&h, mesh.info(), format::write_source_mesh(&mesh));
     let f = format::read(&bytes).unwrap();
     assert_eq!((f.version, f.header.min_version(), f.header.loose_vertices()), (11, 11, Some(2)));
     assert_eq!(f.source_mesh.as_ref(), Some(&mesh));
     for (k, info) in f.frames.iter().enumerate() {
-        let l = info.loose.as_ref().unwrap();
+        let l = format::LooseFrame::parse(info.loose.as_ref().unwrap(), 2, 0).unwrap();
         assert_eq!((l.step, &l.residuals), (0.25, &vec![[0, 0, k as i32], [1, -1, k as i32]]));
     }
     streams_byte_by_byte(&f.header, &bytes);
     // A version-10 file cannot have them.
     let e = format::read(&with_version(bytes.clone(), 10)).unwrap_err();
     assert!(matches!(&e, ContainerError::Header(m) if m.contains("version 10")), "{e}");
-    // Every truncation and flipped byte is caught.
+    // Every truncation is caught.
     for len in 0..bytes.len() {
         assert!(format::read(&bytes[..len]).is_err(), "length {len}");
     }
     // The header and the mesh must agree on the loose vertices: a count
-    // past the mesh's, a vertex naming one past the count, one unnamed.
+    // past the mesh's, a vertex naming one past the count, one unnamed, an
+    // anchor missing.
     for loose in [Some(0), Some(5)] {
         assert!(format::SourceMeshInfo { loose, ..mesh.info() }.validate().is_err(), "{loose:?}");
     }
-    for loose_of in [vec![0, 0, 3, 1], vec![0, 0, 1, 1]] {
-        let bad = format::SourceMesh { loose_of, ..source_mesh() };
+    for bad in [with(vec![0, 0, 3, 1], vec![3, 7]), with(vec![0, 0, 1, 1], vec![3, 7]), with(vec![0, 0, 2, 1], vec![3])]
+    {
         let e = format::read(&file_with_source(&h, mesh.info(), format::write_source_mesh(&bad))).unwrap_err();
         assert!(matches!(&e, ContainerError::Chunk { msg, .. } if msg.contains("loose")), "{e}");
     }

@@ -204,18 +204,26 @@ export class CgvPlayer extends HTMLElement {
         this.stats.backend = view.backend();
       }
       this.shown = null;
-      if (h.appearance && this.texture === undefined && this.player.source_uvs().length) {
-        this.texture = null;
-        this._texture(h.appearance, gen);
-      }
+      this._textureOnce(gen);
       if (this.frames[0]) this._decoded(0);
     } catch (e) {
       if (gen === this.generation) this.message(`Cannot draw: ${e.message || e}`, true);
     }
   }
 
+  /** Starts decoding the texture once the appearance has arrived: with the
+   * header when the first range holds it, else before the first frame. */
+  _textureOnce(gen) {
+    const h = this.header;
+    if (h?.appearance && this.texture === undefined && this.player.source_uvs().length) {
+      this.texture = null;
+      this._texture(h.appearance, gen);
+    }
+  }
+
   /** Frame f was decoded: the first one is shown (and starts autoplay). */
   _decoded(f) {
+    this._textureOnce(this.generation);
     const s = this.stream.stats;
     Object.assign(this.stats, { decodeMs: s.decodeMs, reconstructMs: s.reconstructMs, decoded: s.decoded, kbps: s.kbps });
     if (this.stats.firstFrameMs === null && this.view && this.frames[0]) {
@@ -285,7 +293,7 @@ export class CgvPlayer extends HTMLElement {
           if (mesh && t) this.view.set_texture(t.uvs, t.baseColor, t.rgba, t.width, t.height);
         }
         this.view.set_reference(ref || new Float32Array(0));
-        this.view.set_frame(mesh ? this.player.source_vertices(this.frames[f]) : this.frames[f], this.mode);
+        this.view.set_frame(mesh ? this.player.source_vertices(this.frames[f], this.frames[f].loose) : this.frames[f], this.mode);
         this.shown = { frame: this.frames[f], mode: this.mode, ref, mesh, texture: this.texture };
         this.dataset.textured = mesh && this.texture?.width > 0 ? 'yes' : 'no';
         this.dataset.surface = mesh ? 'source' : 'grid';

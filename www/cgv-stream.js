@@ -404,6 +404,8 @@ export class MotionStream extends EventTarget {
         if (this.closed) return;
         lumas.forEach((l, s) => { if (l) this.player.supply_luma(s, l); });
         const x = this.player.decode_next();
+        // A tiny part's vertices (format v11) belong to this frame: they go with it.
+        x.loose = this.player.loose_vertices();
         const t2 = performance.now();
         const st = this.stats, k = st.decoded;
         st.decodeMs = (st.decodeMs * k + (t1 - t)) / (k + 1);

@@ -37,6 +37,12 @@ impl UnitDecoder {
         self.sequence.loose()
     }
 
+    /// Version 11: the anchors of the file's loose vertices (see
+    /// [`SequenceDecoder::set_loose_anchors`]).
+    pub fn set_loose_anchors(&mut self, anchors: &[u32]) -> Result<()> {
+        self.sequence.set_loose_anchors(anchors)
+    }
+
     /// Restarts at random-access point `f` (see [`SequenceDecoder::seek`]),
     /// with new H.264 decoders: `f`'s pictures are IDR pictures.
     pub fn seek(&mut self, f: u32) -> Result<()> {
@@ -78,7 +84,10 @@ impl FileDecoder {
     }
 
     pub fn with_memory_limit(file: CgvFile, solver: SolverKind, memory_limit: u64) -> Result<FileDecoder> {
-        let units = UnitDecoder::new(file.header.clone(), solver, memory_limit)?;
+        let mut units = UnitDecoder::new(file.header.clone(), solver, memory_limit)?;
+        if let (Some(_), Some(mesh)) = (file.header.loose_vertices(), &file.source_mesh) {
+            units.set_loose_anchors(&mesh.loose_anchors)?;
+        }
         Ok(FileDecoder { grid: Grid::new(file.header.grid as usize)?, file, units })
     }
 

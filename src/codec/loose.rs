@@ -4,11 +4,11 @@
 //! codes what the prediction missed on the frame's step:
 //!
 //! - where the encoder knows the decoded grid (GV and the closed loop,
-//!   [`Header::loose_follow_grid`]), a vertex follows its anchor, the grid
-//!   sample nearest to it at the last random-access point (as decoded
-//!   there): it keeps its last offset from the anchor, `g_a(t) + x(t-1) -
-//!   g_a(t-1)`. An eye moves with the head around it, which a vertex's own
-//!   velocity does not foresee when the head turns;
+//!   [`Header::loose_follow_grid`]), a vertex follows its anchor, a grid
+//!   sample the file names (the encoder's: the one nearest it on the
+//!   reference frame): it keeps its last offset from the anchor,
+//!   `g_a(t) + x(t-1) - g_a(t-1)`. An eye moves with the head around it,
+//!   which a vertex's own velocity does not foresee when the head turns;
 //! - else (the paper's solver) with constant velocity, `2 x(t-1) - x(t-2)`
 //!   (`x(t-1)` one frame after a random-access point).
 //!
@@ -18,7 +18,9 @@
 //!
 //! [`LooseVertices`] is the decoder's state; the encoder runs the same
 //! state on what it codes ([`LooseVertices::code`]), so both sides predict
-//! from the same decoded values.
+//! from the same decoded values. A decoder that runs another solver than
+//! the file's (the paper's on a closed-loop file) follows its own grid:
+//! its loose vertices are then as far off as its grid is.
 
 use crate::error::{Error, Result};
 use crate::format::{Header, LooseFrame};
@@ -29,12 +31,14 @@ use glam::Vec3;
 pub struct LooseVertices {
     count: usize,
     follow: bool,
+    /// Each vertex's anchor sample (the file's; set before the first frame
+    /// when following the grid).
+    anchors: Vec<u32>,
     /// Decoded positions at t - 1 and t - 2 (empty before them).
     last: Vec<Vec3>,
     before: Vec<Vec3>,
-    /// Each vertex's anchor sample and its offset from it at t - 1 (when
-    /// following the grid; empty before the first frame).
-    anchors: Vec<u32>,
+    /// Each vertex's offset from its anchor at t - 1 (when following the
+    /// grid; empty before the first frame since a random-access point).
     offsets: Vec<Vec3>,
 }
 
@@ -48,11 +52,24 @@ impl LooseVertices {
         }
     }
 
+    /// Sets the anchors the file names (its source mesh's), each below
+    /// `samples`, the grid's.
+    pub fn set_anchors(&mut self, anchors: &[u32], samples: usize) -> Result<()> {
+        if anchors.len() != self.count || anchors.iter().any(|&a| a as usize >= samples) {
+            return Err(Error::Argument(format!(
+                "{} loose-vertex anchors for {} loose vertices, each below {samples}",
+                anchors.len(),
+                self.count
+            )));
+        }
+        self.anchors = anchors.to_vec();
+        Ok(())
+    }
+
     /// Forgets the past: the next frame is a random-access point.
     pub fn reset(&mut self) {
         self.last.clear();
         self.before.clear();
-        self.anchors.clear();
         self.offsets.clear();
     }
 
@@ -86,9 +103,15 @@ impl LooseVertices {
                 self.count
             )));
         }
+        if self.follow && self.anchors.len() != self.count {
+            return Err(Error::Argument("the loose vertices' anchors (in the source mesh) have not arrived".into()));
+        }
         let mut now = Vec::with_capacity(self.count);
         for (v, r) in frame.residuals.iter().enumerate() {
             let p = self.predict(v, &now, grid) + Vec3::from(r.map(|x| x as f32)) * frame.step;
+            if !p.is_finite() {
+                return Err(Error::Argument(format!("loose vertex {v} decodes to a non-finite position")));
+            }
             now.push(p);
         }
         self.commit(now, grid);
@@ -113,55 +136,11 @@ impl LooseVertices {
 
     fn commit(&mut self, now: Vec<Vec3>, grid: &[Vec3]) {
         if self.follow && !grid.is_empty() {
-            if self.anchors.is_empty() {
-                self.anchors = nearest_samples(&now, grid);
-            }
-            self.offsets = now.iter().zip(&self.anchors).map(|(x, &a)| *x - grid[a as usize]).collect();
+            let at = |a: u32| grid.get(a as usize).copied().unwrap_or_default();
+            self.offsets = now.iter().zip(&self.anchors).map(|(x, &a)| *x - at(a)).collect();
         }
         self.before = std::mem::replace(&mut self.last, now);
     }
-}
-
-/// The index of the sample of `grid` nearest each point (ties to the
-/// lower index), through a hash of cells of about one sample each.
-fn nearest_samples(points: &[Vec3], grid: &[Vec3]) -> Vec<u32> {
-    let (lo, hi) = grid.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(a, b), p| (a.min(*p), b.max(*p)));
-    let size = ((hi - lo).max_element() / (grid.len() as f32).sqrt()).max(f32::MIN_POSITIVE);
-    let cell = |p: Vec3| ((p - lo) / size).floor().as_ivec3();
-    let mut cells: std::collections::HashMap<glam::IVec3, Vec<u32>> = std::collections::HashMap::new();
-    for (i, p) in grid.iter().enumerate() {
-        cells.entry(cell(*p)).or_default().push(i as u32);
-    }
-    points
-        .iter()
-        .map(|p| {
-            let c = cell(*p);
-            let mut best = (f32::INFINITY, 0u32);
-            // Rings of cells outward until the best is closer than the
-            // next ring can be.
-            for r in 0i32.. {
-                if best.0.sqrt() < (r - 1).max(0) as f32 * size || r > 4096 {
-                    break;
-                }
-                for dx in -r..=r {
-                    for dy in -r..=r {
-                        for dz in -r..=r {
-                            if dx.abs().max(dy.abs()).max(dz.abs()) != r {
-                                continue;
-                            }
-                            for &i in cells.get(&(c + glam::IVec3::new(dx, dy, dz))).into_iter().flatten() {
-                                let d = grid[i as usize].distance_squared(*p);
-                                if d < best.0 || (d == best.0 && i < best.1) {
-                                    best = (d, i);
-                                }
-                            }
-                        }
-                    }
-                }
-            }
-            best.1
-        })
-        .collect()
 }
 
 /// The step the encoder codes a frame's loose vertices on: their error
@@ -178,7 +157,11 @@ mod tests {
     use super::*;
 
     fn state(count: usize, follow: bool) -> LooseVertices {
-        LooseVertices { count, follow, ..Default::default() }
+        let mut s = LooseVertices { count, follow, ..Default::default() };
+        if follow {
+            s.set_anchors(&[0, 2, 4, 6, 8], 9).unwrap();
+        }
+        s
     }
 
     #[test]
@@ -214,13 +197,14 @@ mod tests {
     }
 
     #[test]
-    fn nearest_samples_are_the_nearest() {
-        let grid: Vec<Vec3> =
-            (0..400).map(|i| Vec3::new((i % 20) as f32, (i / 20) as f32, ((i * 7) % 5) as f32)).collect();
-        let points = [Vec3::new(3.2, 4.9, 1.0), Vec3::new(-10.0, 50.0, 3.0), Vec3::new(19.4, 0.2, -2.0)];
-        for (p, i) in points.iter().zip(nearest_samples(&points, &grid)) {
-            let brute = (0..grid.len()).min_by(|&a, &b| grid[a].distance(*p).total_cmp(&grid[b].distance(*p))).unwrap();
-            assert_eq!(grid[i as usize].distance(*p), grid[brute].distance(*p), "{p}");
-        }
+    fn anchors_are_checked() {
+        let mut s = LooseVertices { count: 2, follow: true, ..Default::default() };
+        assert!(
+            s.decode(&LooseFrame { step: 1.0, residuals: vec![[0; 3]; 2] }, &[Vec3::ZERO; 9]).is_err(),
+            "no anchors"
+        );
+        assert!(s.set_anchors(&[0, 9], 9).is_err(), "past the grid");
+        assert!(s.set_anchors(&[0], 9).is_err(), "one short");
+        assert!(s.set_anchors(&[8, 0], 9).is_ok());
     }
 }

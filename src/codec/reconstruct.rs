@@ -12,7 +12,9 @@ use super::corrections::{Corrections, Pictures};
 use super::loose::LooseVertices;
 use crate::error::{Error, Result};
 use crate::format::stream::{POSITION, SEED};
-use crate::format::{CodecKind, CorrectionMode, FrameInfo, Header, PredictorCode, SolverKind, SourceMesh, StreamName};
+use crate::format::{
+    CodecKind, CorrectionMode, FrameInfo, Header, LooseFrame, PredictorCode, SolverKind, SourceMesh, StreamName,
+};
 use crate::grid::{Grid, Stencils};
 use crate::mesh::Topology;
 use crate::resample::SourcePoints;
@@ -337,15 +339,22 @@ impl SequenceDecoder {
         let vals = frame_values(h, lumas, info.correction_scale)?;
         let out = self.reconstructor.frame(f, info, &Values::new(h, &vals).with_seed_origin(info.seed_origin))?;
         match (&info.loose, h.loose_vertices()) {
-            (Some(l), Some(_)) => {
+            (Some(bytes), Some(count)) => {
+                let l = LooseFrame::parse(bytes, count, 0).map_err(|e| Error::Argument(format!("frame {f}: {e}")))?;
                 let grid = if h.loose_follow_grid() { &out.0[..] } else { &[] };
-                self.loose.decode(l, grid)?;
+                self.loose.decode(&l, grid)?;
             }
             (None, None) => {}
             _ => return Err(Error::Argument(format!("frame {f}'s loose vertices do not match the header's"))),
         }
         self.next += 1;
         Ok(out)
+    }
+
+    /// Version 11: the anchors of the file's loose vertices (its source
+    /// mesh's `loose_anchors`), needed before the first frame.
+    pub fn set_loose_anchors(&mut self, anchors: &[u32]) -> Result<()> {
+        self.loose.set_anchors(anchors, self.grid.len())
     }
 
     /// Version 11: the loose vertices of the frame rebuilt last (empty in

@@ -197,8 +197,10 @@ pub struct FrameInfo {
     /// everywhere it travels.
     pub seed_origin: Option<[f32; 3]>,
     /// Version 11, in every frame of a file with loose vertices: their
-    /// residuals, the unit after the access units ([`loose`]).
-    pub loose: Option<LooseFrame>,
+    /// residuals, the unit after the access units as the file has it
+    /// (deflated: [`LooseFrame::parse`] reads it; a reader checks it but
+    /// keeps it small).
+    pub loose: Option<Vec<u8>>,
 }
 
 impl FrameInfo {
@@ -690,8 +692,7 @@ pub fn parse_index_tail(header: &Header, tail: &[u8]) -> Result<Vec<u64>, Contai
 /// from version 11 the loose vertices' unit the same way.
 pub fn write_frame(frame: u32, info: &FrameInfo, units: &[&[u8]]) -> Vec<u8> {
     let mut payload = info.to_bytes();
-    let loose = info.loose.as_ref().map(LooseFrame::to_bytes);
-    for au in units.iter().copied().chain(loose.as_deref()) {
+    for au in units.iter().copied().chain(info.loose.as_deref()) {
         leb128::write(&mut payload, au.len() as u64);
         payload.extend_from_slice(au);
     }
@@ -1158,7 +1159,8 @@ impl StreamReader {
             if len > p.len() - at {
                 return Err(bad(format!("loose vertices: a unit of {len} bytes overruns its frame chunk")));
             }
-            info.loose = Some(LooseFrame::parse(&p[at..at + len], count, offset)?);
+            LooseFrame::parse(&p[at..at + len], count, offset)?;
+            info.loose = Some(p[at..at + len].to_vec());
             at += len;
         }
         if at != p.len() {

@@ -25,8 +25,9 @@
 //!
 //! Version 11 may add, last, for each vertex an unsigned LEB128 number:
 //! 0 for a vertex rebuilt from the grid, k + 1 for the file's loose vertex
-//! k (`super::loose`: a tiny part's vertex coded as itself every frame);
-//! the header's `loose` gives their count.
+//! k (`super::loose`: a tiny part's vertex coded as itself every frame),
+//! then each loose vertex's *anchor*, the grid sample whose motion it
+//! follows (LEB128, below N²); the header's `loose` gives their count.
 
 use super::{leb128, ContainerError};
 use serde::{Deserialize, Serialize};
@@ -81,7 +82,8 @@ impl SourceMeshInfo {
     /// The most bytes a vertex takes after the faces.
     fn vertex_bytes(&self) -> usize {
         let offsets = if self.offset_step.is_some() { 3 * 3 } else { 0 };
-        let loose = if self.loose.is_some() { 3 } else { 0 };
+        // Its loose vertex, and (at most one a vertex) an anchor.
+        let loose = if self.loose.is_some() { 3 + 5 } else { 0 };
         8 + offsets + loose
     }
 
@@ -102,6 +104,8 @@ pub struct SourceMesh {
     /// Version 11: each vertex's loose vertex plus one, 0 where the grid
     /// rebuilds it (empty: no loose vertices).
     pub loose_of: Vec<u32>,
+    /// Version 11: each loose vertex's anchor sample (empty: none).
+    pub loose_anchors: Vec<u32>,
 }
 
 /// Vertex offsets: `values` times `step` (mesh units) in each vertex's
@@ -178,7 +182,7 @@ impl SourceMesh {
             leb128::write(&mut raw, ((x << 1) ^ (x >> 63)) as u64);
         }
         if self.loose_count().is_some() {
-            for &k in &self.loose_of {
+            for &k in self.loose_of.iter().chain(&self.loose_anchors) {
                 leb128::write(&mut raw, u64::from(k));
             }
         }
@@ -222,14 +226,22 @@ impl SourceMesh {
             Some(step) => Some(Offsets { step, values: parse_offsets(&raw, &mut at, info.vertices, &bad)? }),
             None => None,
         };
-        let loose_of = match info.loose {
-            Some(count) => parse_loose_of(&raw, &mut at, info.vertices, count, &bad)?,
-            None => Vec::new(),
+        let (loose_of, loose_anchors) = match info.loose {
+            Some(count) => (
+                parse_loose_of(&raw, &mut at, info.vertices, count, &bad)?,
+                (0..count)
+                    .map(|k| {
+                        let a = leb128::read(&raw, &mut at, 5).and_then(|a| u32::try_from(a).ok());
+                        a.ok_or_else(|| bad(format!("loose vertex {k}'s anchor is cut short or out of range")))
+                    })
+                    .collect::<Result<Vec<u32>, _>>()?,
+            ),
+            None => (Vec::new(), Vec::new()),
         };
         if at != raw.len() {
             return Err(bad(format!("{} bytes after the vertex offsets", raw.len() - at)));
         }
-        Ok(SourceMesh { faces, places, offsets, loose_of })
+        Ok(SourceMesh { faces, places, offsets, loose_of, loose_anchors })
     }
 }
 

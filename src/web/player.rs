@@ -54,8 +54,11 @@ impl Player {
             self.dec = Some(SequenceDecoder::new(header.clone(), solver, self.memory_limit).map_err(js)?);
         }
         if let (None, Some(dec), Some(mesh)) =
-            (&self.source, &self.dec, self.reader.file().and_then(|f| f.source_mesh.as_ref()))
+            (&self.source, self.dec.as_mut(), self.reader.file().and_then(|f| f.source_mesh.as_ref()))
         {
+            if dec.header().loose_vertices().is_some() {
+                dec.set_loose_anchors(&mesh.loose_anchors).map_err(js)?;
+            }
             self.source = Some(SourceMeshDecoder::new(dec.grid(), mesh));
         }
         Ok(())
@@ -77,15 +80,21 @@ impl Player {
     }
 
     /// The input's vertices (x, y, z each) on a decoded grid frame (x, y,
-    /// z per grid sample, as [`decode_next`](Self::decode_next) returns it).
-    pub fn source_vertices(&self, grid_frame: &[f32]) -> std::result::Result<Vec<f32>, JsError> {
+    /// z per grid sample, as [`decode_next`](Self::decode_next) returns it)
+    /// and that frame's loose vertices (as
+    /// [`loose_vertices`](Self::loose_vertices) returned them after it;
+    /// empty in files without them).
+    pub fn source_vertices(&self, grid_frame: &[f32], loose: &[f32]) -> std::result::Result<Vec<f32>, JsError> {
         let source = self.source.as_ref().ok_or_else(|| JsError::new("the file carries no source mesh"))?;
         let n = self.dec.as_ref().map_or(0, |d| d.grid().len());
         if grid_frame.len() != 3 * n {
             return Err(JsError::new(&format!("{} values for a grid of {n} samples", grid_frame.len())));
         }
-        let loose = self.dec.as_ref().map_or(&[][..], |d| d.loose());
-        Ok(source.vertices(&positions(grid_frame), loose).iter().flat_map(|p| p.to_array()).collect())
+        let count = self.dec.as_ref().and_then(|d| d.header().loose_vertices()).unwrap_or(0) as usize;
+        if loose.len() != 3 * count {
+            return Err(JsError::new(&format!("{} values for {count} loose vertices", loose.len())));
+        }
+        Ok(source.vertices(&positions(grid_frame), &positions(loose)).iter().flat_map(|p| p.to_array()).collect())
     }
 
     /// The input's texture coordinates (u, v per source vertex) when the
@@ -216,6 +225,14 @@ impl Player {
         dec.seek(frame).map_err(js)?;
         self.lumas = vec![None; dec.header().streams.len()];
         Ok(())
+    }
+
+    /// Version 11: the loose vertices (x, y, z each) of the frame
+    /// [`decode_next`](Self::decode_next) rebuilt last; keep them with that
+    /// frame for [`source_vertices`](Self::source_vertices). Empty in files
+    /// without them.
+    pub fn loose_vertices(&self) -> Vec<f32> {
+        self.dec.as_ref().map_or_else(Vec::new, |d| d.loose().iter().flat_map(|p| p.to_array()).collect())
     }
 
     /// Rebuilds the next frame from the pictures supplied: x, y, z per grid sample.

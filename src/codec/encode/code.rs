@@ -94,6 +94,9 @@ pub(super) fn code(
     let mut index = Vec::new();
     let loose_ids = &image.carrier.loose;
     let mut loose = LooseVertices::for_header(header);
+    if header.loose_vertices().is_some() {
+        loose.set_anchors(&image.loose_anchors, map.grid.len())?;
+    }
     for fi in 0..plan.frames {
         let input = src.read_frame(fi)?;
         let g = map.apply(&input);
@@ -139,7 +142,7 @@ pub(super) fn code(
                 }
                 (false, _) => &[],
             };
-            info.loose = Some(loose.code(&truth, loose_step(normal, diagonal), grid));
+            info.loose = Some(loose.code(&truth, loose_step(normal, diagonal), grid).to_bytes());
         }
         seconds_coding += t.elapsed().as_secs_f64();
         let units: Vec<&[u8]> = coder.units.iter().flatten().map(Vec::as_slice).collect();
