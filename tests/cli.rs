@@ -211,10 +211,17 @@ fn encode_info_and_decode_motion_corrections() {
     );
     let bad = cgv(&["decode", points.to_str().unwrap(), "--frames", "5..9", "-o", part.to_str().unwrap()]);
     assert!(
-        String::from_utf8_lossy(&bad.stderr).contains("not inside the file's 8 frames"),
+        String::from_utf8_lossy(&bad.stderr).contains("--frames 5..9 are not inside its 8 frames"),
         "{}",
         String::from_utf8_lossy(&bad.stderr)
     );
+    // A range that starts past the end is refused by the same rule on input
+    // (it once left a frame count below zero).
+    let past = dir.join("past.cgv");
+    let bad = cgv(&["encode", "builtin:walk", "--frames", "500..", "-o", past.to_str().unwrap()]);
+    let e = String::from_utf8_lossy(&bad.stderr);
+    assert!(!bad.status.success() && e.contains("frames 500..72 are not inside its 72 frames"), "{e}");
+    assert!(!past.exists());
     let bad = cgv(&[&args[..], &["--random-access=-1", "-o", points.to_str().unwrap()]].concat());
     assert!(String::from_utf8_lossy(&bad.stderr).contains("random-access"), "{}", String::from_utf8_lossy(&bad.stderr));
     // Scaled corrections have no interval: refused by name, nothing written.

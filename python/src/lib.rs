@@ -318,10 +318,10 @@ fn decode<'py>(
 ) -> PyResult<Arrays<'py>> {
     let file = read_cgv(data)?;
     let total = file.header.frames as usize;
-    let (start, end) = frames.unwrap_or((0, total));
-    if start >= end || end > total {
-        return Err(invalid(format!("frames=({start}, {end}) is not inside the file's {total} frames")));
-    }
+    let (a, b) = frames.unwrap_or((0, total));
+    let (start, frames) = cgv::mesh::FrameSelection { start: a, end: Some(b) }
+        .resolve(total)
+        .map_err(|m| invalid(format!("frames=({a}, {b}): {m}")))?;
     let solver = file.header.solver;
     let mut dec = FileDecoder::with_memory_limit(file, solver, memory_limit_mib << 20).map_err(raise)?;
     let source = match (mesh, dec.source_mesh()) {
@@ -333,7 +333,6 @@ fn decode<'py>(
         (m, _) => return Err(invalid(format!("mesh {m:?}: expected \"auto\", \"source\" or \"grid\""))),
     };
     let faces = source.as_ref().map_or_else(|| dec.grid.topology().faces, |s| s.topology.faces.clone());
-    let frames = end - start;
     let coords = py
         .detach(|| -> cgv::Result<Vec<f32>> {
             let mut coords = Vec::new();

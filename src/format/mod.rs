@@ -944,7 +944,9 @@ impl StreamReader {
             return Err(bad("a jump needs the header, the source mesh and the index first".into()));
         }
         let offset = *file.index.get(point as usize).ok_or_else(|| bad(format!("no random-access point {point}")))?;
-        self.frame = point * h.random_access.unwrap_or(h.frames);
+        // An index was given, so the header has an interval.
+        let interval = h.random_access.ok_or_else(|| bad("a jump in a file without random-access points".into()))?;
+        self.frame = point * interval;
         (self.slot, self.indexed, self.ended) = (0, false, false);
         self.pending.clear();
         self.consumed = usize::try_from(offset).map_err(|_| bad("an offset past memory".into()))?;

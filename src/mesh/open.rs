@@ -58,6 +58,20 @@ impl std::str::FromStr for FrameSelection {
     }
 }
 
+impl FrameSelection {
+    /// The first frame and the count this range selects of `total` frames;
+    /// a message (to which the caller adds what it read) when the range is
+    /// not inside them. The one check that `--frames` in every command and
+    /// Python's `frames=` share.
+    pub fn resolve(self, total: usize) -> std::result::Result<(usize, usize), String> {
+        let end = self.end.unwrap_or(total);
+        if self.start >= end || end > total {
+            return Err(format!("frames {}..{end} are not inside its {total} frames", self.start));
+        }
+        Ok((self.start, end - self.start))
+    }
+}
+
 impl Default for OpenOptions {
     fn default() -> Self {
         OpenOptions { fps: 30.0, animation: None, fill_holes: false, frames: None }
@@ -103,16 +117,10 @@ pub fn open_sequence(spec: &str, opts: &OpenOptions) -> Result<Box<dyn FrameSour
         }
     }
     if let Some(sel) = opts.frames {
-        let count = source.frame_count();
-        let end = sel.end.unwrap_or(count);
-        if end > count {
-            return Err(Error::Argument(format!(
-                "{}: frames {}..{end} asked for, but the sequence has {count}",
-                source.label().display(),
-                sel.start
-            )));
-        }
-        source = Box::new(Slice { inner: source, start: sel.start, len: end - sel.start });
+        let (start, len) = sel
+            .resolve(source.frame_count())
+            .map_err(|m| Error::Argument(format!("{}: {m}", source.label().display())))?;
+        source = Box::new(Slice { inner: source, start, len });
     }
     Ok(source)
 }

@@ -161,13 +161,5 @@ pub fn run(args: Args) -> Result<()> {
 /// The first frame and the frame count `--frames` selects of `total`.
 fn selected(args: &Args, total: usize) -> Result<(usize, usize)> {
     let Some(sel) = args.frames else { return Ok((0, total)) };
-    let end = sel.end.unwrap_or(total);
-    if sel.start >= end || end > total {
-        anyhow::bail!(
-            "{}: --frames {}..{end} is not inside the file's {total} frames",
-            args.input.display(),
-            sel.start
-        );
-    }
-    Ok((sel.start, end - sel.start))
+    sel.resolve(total).map_err(|m| anyhow::anyhow!("{}: --{m}", args.input.display()))
 }
