@@ -204,7 +204,8 @@ fn check_cone_vertices(nv: usize, cones: [u32; 4], corner: u32) -> Result<()> {
 /// Shortest paths from `corner` to each cone, both ends included, in the
 /// order of `cones`. The paths are found one after the other, so an early
 /// one can wall a later cone off (on coarse meshes); then the other orders
-/// are tried.
+/// are tried, and last any four vertex-disjoint paths ([`disjoint_paths`]),
+/// which exist whenever a cut does.
 fn cut_paths(graph: &Graph, nv: usize, cones: [u32; 4], corner: u32) -> Result<Vec<Vec<u32>>> {
     let mut first_error = None;
     for order in ORDERS {
@@ -221,7 +222,112 @@ fn cut_paths(graph: &Graph, nv: usize, cones: [u32; 4], corner: u32) -> Result<V
             }
         }
     }
+    if let Some(paths) = disjoint_paths(graph, nv, cones, corner) {
+        return Ok(paths);
+    }
     Err(first_error.unwrap_or_else(|| Error::Numerical("no cut".into())))
+}
+
+/// Four paths from `corner` to the `cones` (in their order) that share no
+/// vertex but the corner and pass through no other cone, if there are any:
+/// a maximum flow of 4 (Edmonds and Karp 1972) through the graph with each
+/// vertex split into an in and an out node joined by one unit of capacity
+/// (Menger's theorem). Not the shortest paths, so only the last resort.
+fn disjoint_paths(graph: &Graph, nv: usize, cones: [u32; 4], corner: u32) -> Option<Vec<Vec<u32>>> {
+    let mut flow = UnitFlow::new(2 * nv + 1);
+    let (node_in, node_out, sink) = (|v: u32| 2 * v as usize, |v: u32| 2 * v as usize + 1, 2 * nv);
+    for v in 0..nv as u32 {
+        if !cones.contains(&v) && v != corner {
+            flow.edge(node_in(v), node_out(v));
+        }
+        for &(w, _) in graph.neighbours(v) {
+            flow.edge(node_out(v), node_in(w));
+        }
+    }
+    for &c in &cones {
+        flow.edge(node_in(c), sink);
+    }
+    let source = node_out(corner);
+    if (0..4).any(|_| !flow.augment(source, sink)) {
+        return None;
+    }
+    let mut paths = vec![Vec::new(); 4];
+    for _ in 0..4 {
+        let mut path = vec![corner];
+        let mut at = source;
+        while at != sink {
+            at = flow.take_unit(at)?;
+            let v = (at / 2) as u32;
+            if at != sink && path.last() != Some(&v) {
+                path.push(v);
+            }
+        }
+        let k = cones.iter().position(|c| path.last() == Some(c))?;
+        paths[k] = path;
+    }
+    Some(paths)
+}
+
+/// A flow network of unit capacities: the residual graph as edge lists.
+struct UnitFlow {
+    /// Per node, the indices of its edges in `to`/`cap`.
+    out: Vec<Vec<usize>>,
+    to: Vec<usize>,
+    cap: Vec<u8>,
+    /// Whether an edge is one of the network's (not a residual reverse).
+    forward: Vec<bool>,
+}
+
+impl UnitFlow {
+    fn new(nodes: usize) -> UnitFlow {
+        UnitFlow { out: vec![Vec::new(); nodes], to: Vec::new(), cap: Vec::new(), forward: Vec::new() }
+    }
+
+    /// A unit edge a -> b and its reverse (edge e's reverse is e ^ 1).
+    fn edge(&mut self, a: usize, b: usize) {
+        for (from, to, cap, forward) in [(a, b, 1, true), (b, a, 0, false)] {
+            self.out[from].push(self.to.len());
+            self.to.push(to);
+            self.cap.push(cap);
+            self.forward.push(forward);
+        }
+    }
+
+    /// Pushes one unit along a shortest augmenting path; false if none.
+    fn augment(&mut self, source: usize, sink: usize) -> bool {
+        let mut via = vec![usize::MAX; self.out.len()];
+        let mut queue = std::collections::VecDeque::from([source]);
+        let mut seen = vec![false; self.out.len()];
+        seen[source] = true;
+        while let Some(a) = queue.pop_front() {
+            for &e in &self.out[a] {
+                let b = self.to[e];
+                if self.cap[e] > 0 && !seen[b] {
+                    (seen[b], via[b]) = (true, e);
+                    queue.push_back(b);
+                }
+            }
+        }
+        if !seen[sink] {
+            return false;
+        }
+        let mut at = sink;
+        while at != source {
+            let e = via[at];
+            self.cap[e] -= 1;
+            self.cap[e ^ 1] += 1;
+            at = self.to[e ^ 1];
+        }
+        true
+    }
+
+    /// Follows and uses up one unit of flow leaving `a` along a network
+    /// edge; returns the node it reaches.
+    fn take_unit(&mut self, a: usize) -> Option<usize> {
+        let e = *self.out[a].iter().find(|&&e| self.forward[e] && self.cap[e] == 0 && self.cap[e ^ 1] > 0)?;
+        self.cap[e ^ 1] -= 1;
+        Some(self.to[e])
+    }
 }
 
 /// The 24 orders of four cones, the given one first.
