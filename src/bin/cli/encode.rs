@@ -135,9 +135,13 @@ pub struct Args {
     /// past velocities.
     #[arg(long, default_value_t = cgv::solve::predictor::DEFAULT_MAX_LAG)]
     max_lag: u8,
-    /// Grid size N: each frame is N x N samples (even, 16..=2160).
-    #[arg(long, default_value_t = 128)]
-    grid: usize,
+    /// Grid size N: each frame is N x N samples (even, 16..=2160), or
+    /// `auto`: 256 for a --kbps of 1.2 bits or more per 128 x 128 sample per
+    /// frame (about 590 kbit/s at 30 fps), 128 below and with --qp; with
+    /// --target-error, 256 when the target is below 1.1 times what 128
+    /// resamples the motion to (docs/RESULTS.md, "--grid auto").
+    #[arg(long, default_value = "auto", value_parser = parse_grid)]
+    grid: GridChoice,
     /// Seconds between random-access points, where a player can start
     /// decoding (a seek decodes at most this much before the frame it
     /// wants): each restarts every stream with an IDR picture and the
@@ -178,16 +182,35 @@ pub struct Args {
     json: bool,
 }
 
-/// The encoder's options for `args`, for a motion at `fps` frames/s.
-fn options(args: &Args, fps: f32) -> EncodeOptions {
+/// `--grid`: a size, or chosen for the rate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum GridChoice {
+    Auto,
+    Size(usize),
+}
+
+fn parse_grid(s: &str) -> std::result::Result<GridChoice, String> {
+    match s {
+        "auto" => Ok(GridChoice::Auto),
+        n => n.parse().map(GridChoice::Size).map_err(|_| format!("'{n}' is not a grid size (N, or auto)")),
+    }
+}
+
+/// The encoder's options for `args`, for a motion at `fps` frames/s, on
+/// grid `grid` when given (else `--grid`, `auto` by the bitrate).
+fn options_on(args: &Args, fps: f32, grid: Option<usize>) -> EncodeOptions {
     let video =
         VideoSettings { qp: args.qp, kbps: args.kbps, gop: args.gop, cabac: !args.cavlc, fps, ..Default::default() };
+    let grid = match (grid, args.grid) {
+        (Some(n), _) | (None, GridChoice::Size(n)) => n,
+        (None, GridChoice::Auto) => cgv::codec::auto_grid(&video, fps),
+    };
     let mut opts = EncodeOptions {
         codec: match args.codec {
             Codec::Cgv => CodecKind::Cgv,
             Codec::Gv => CodecKind::Gv,
         },
-        grid: args.grid,
+        grid,
         video,
         key_interval: args.keyframes,
         correction: !args.no_correction,
@@ -223,6 +246,11 @@ fn options(args: &Args, fps: f32) -> EncodeOptions {
         CorrectionLayout::Normal => opts.normal_correction = true,
     }
     opts
+}
+
+/// [`options_on`] the grid `--grid` says.
+fn options(args: &Args, fps: f32) -> EncodeOptions {
+    options_on(args, fps, None)
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -265,7 +293,7 @@ fn encode_one(args: &Args) -> Result<()> {
     // Every option is checked before the motion is read.
     options(args, input.fps).validate()?;
     let src = input.open()?;
-    let opts = options(args, src.fps());
+    let mut opts = options(args, src.fps());
     opts.validate()?;
     if opts.correction_interval > 1 && opts.corrections != CorrectionMode::Motion {
         bail!("--correction-interval applies to motion corrections, and these are scaled (add --corrections motion)");
@@ -280,9 +308,9 @@ fn encode_one(args: &Args) -> Result<()> {
     };
     let (bytes, report, target) = match args.target_error {
         None => encode(src.as_ref(), &opts, &mut progress).map(|(b, r)| (b, r, None)),
-        Some(percent) => cgv::codec::prepare(src.as_ref(), &opts).and_then(|image| {
-            let target = percent / 100.0;
-            cgv::eval::target::encode_to_error(src.as_ref(), &opts, &image, target, &mut progress)
+        Some(percent) => prepare_for_error(args, src.as_ref(), opts.clone(), percent / 100.0).and_then(|(o, image)| {
+            opts = o;
+            cgv::eval::target::encode_to_error(src.as_ref(), &opts, &image, percent / 100.0, &mut progress)
                 .map(|(b, r, t)| (b, r, Some(t)))
         }),
     }
@@ -290,6 +318,30 @@ fn encode_one(args: &Args) -> Result<()> {
     pb.finish_and_clear();
     cgv::fsutil::write_atomic(output, &bytes)?;
     print_report(args, src.as_ref(), &opts, &report, target.as_ref())
+}
+
+/// The options and geometry image for a target error: with `--grid auto`,
+/// N = 128's resampling floor decides (see `cgv::codec::auto_grid_for_error`).
+fn prepare_for_error(
+    args: &Args,
+    src: &dyn cgv::mesh::FrameSource,
+    opts: EncodeOptions,
+    target: f64,
+) -> cgv::Result<(EncodeOptions, cgv::geometry_image::GeometryImage)> {
+    let image = cgv::codec::prepare(src, &opts)?;
+    if args.grid != GridChoice::Auto {
+        return Ok((opts, image));
+    }
+    let diagonal = cgv::mesh::Bounds::of(&src.read_frame(opts.reference)?).diagonal() as f64;
+    let floor = image.param.score.unwrap_or(0.0) / diagonal.max(f64::MIN_POSITIVE);
+    match cgv::codec::auto_grid_for_error(target, floor) {
+        n if n == opts.grid => Ok((opts, image)),
+        n => {
+            let opts = options_on(args, src.fps(), Some(n));
+            let image = cgv::codec::prepare(src, &opts)?;
+            Ok((opts, image))
+        }
+    }
 }
 
 /// What `cgv encode` prints of what it made.

@@ -341,6 +341,39 @@ pub fn auto_corrections(video: &VideoSettings, grid: usize, fps: f32) -> Correct
 pub const AUTO_SCALED_BITS: f64 = 0.5;
 pub const AUTO_MOTION_QP: u8 = 26;
 
+/// The grid size for a bitrate (`--grid auto`): N = 256 from
+/// [`AUTO_GRID_BITS`] bits per N = 128 sample per frame up, else 128; 128
+/// without a bitrate (a QP). Where N = 128 stopped beating 256 in `cgv
+/// eval` (docs/eval, BD curves crossing): about 0.6 bits on samba, 1.2-1.8
+/// on pcow, past 4 on horse-gallop (N = 256 never won there).
+pub fn auto_grid(video: &VideoSettings, fps: f32) -> usize {
+    match video.kbps {
+        Some(kbps) if f64::from(kbps) * 1000.0 / f64::from(fps.max(1e-3)) / (128.0 * 128.0) >= AUTO_GRID_BITS => 256,
+        _ => 128,
+    }
+}
+
+/// See [`auto_grid`]: the middle of the crossings measured.
+pub const AUTO_GRID_BITS: f64 = 1.2;
+
+/// See [`auto_grid_for_error`]. Samba (12 frames, floor 0.044 % at 128,
+/// 0.015 % at 256), target 0.05 % (1.14 times the floor): N = 128 reached
+/// it at QP 26 in 848 kbit/s, N = 256 at QP 40 in 1103; a margin of 1.5
+/// had chosen 256. Over all frames, QP 0 at 128 reaches 1.07 times the floor.
+pub const AUTO_GRID_FLOOR_MARGIN: f64 = 1.1;
+
+/// The grid size for a target surface error (`--grid auto` with
+/// `--target-error`): 256 when the target is below [`AUTO_GRID_FLOOR_MARGIN`]
+/// times what N = 128 resamples the motion to (`floor_128`, relative to the
+/// diagonal: no encode goes below its grid's floor), else 128.
+pub fn auto_grid_for_error(target: f64, floor_128: f64) -> usize {
+    if target < AUTO_GRID_FLOOR_MARGIN * floor_128 {
+        256
+    } else {
+        128
+    }
+}
+
 /// Whether a normal correction measured better for these settings (`cgv
 /// eval --normal-correction` against without, on samba, horse-gallop and
 /// pcow at N = 128, docs/RESULTS.md): it won at every rate point from 0.29
@@ -364,3 +397,20 @@ pub fn auto_normal_correction(video: &VideoSettings, grid: usize, fps: f32, laye
 /// See [`auto_normal_correction`]: bits per grid sample per frame, and QPs.
 pub const AUTO_NORMAL_BITS: (f64, f64) = (0.25, 1.3);
 pub const AUTO_NORMAL_QP: (u8, u8) = (12, 30);
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_grid_follows_the_rate_and_the_target() {
+        let at = |kbps: Option<f32>| auto_grid(&VideoSettings { kbps, ..Default::default() }, 30.0);
+        // 1.2 bits per 128 x 128 sample per frame at 30 fps: 589.8 kbit/s.
+        assert_eq!(
+            (at(None), at(Some(300.0)), at(Some(589.0)), at(Some(590.0)), at(Some(4000.0))),
+            (128, 128, 128, 256, 256)
+        );
+        // Samba's floor at 128 is about 0.044 %: 0.05 % stays at 128, 0.03 % needs 256.
+        assert_eq!((auto_grid_for_error(0.0005, 0.00044), auto_grid_for_error(0.0003, 0.00044)), (128, 256));
+    }
+}
