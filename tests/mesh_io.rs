@@ -136,5 +136,8 @@ fn frame_selections_parse_and_slice() {
     assert!(same(0, 10) && same(1, 11) && same(2, 12) && !same(1, 1));
     assert!(some.read_frame(3).is_err());
     let e = cgv::mesh::open_sequence("builtin:walk", &opts("70..80")).err().unwrap();
-    assert!(e.to_string().contains("has 72"), "{e}");
+    assert!(e.to_string().contains("frames 70..80 are not inside its 72 frames"), "{e}");
+    // A range starting past the end is refused the same way (it once underflowed).
+    let e = cgv::mesh::open_sequence("builtin:walk", &opts("500..")).err().unwrap();
+    assert!(e.to_string().contains("frames 500..72 are not inside"), "{e}");
 }
