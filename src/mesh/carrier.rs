@@ -457,29 +457,30 @@ fn leave_out_tiny_parts(
     loose_max: usize,
     report: &mut CarrierReport,
 ) -> (Vec<[u32; 3]>, Vec<u32>) {
-    let mut part = Dsu::new(nv);
-    for f in &faces {
-        part.union(f[0], f[1]);
-        part.union(f[0], f[2]);
-    }
-    let mut size: HashMap<u32, usize> = HashMap::new();
-    let used: HashSet<u32> = faces.iter().flatten().copied().collect();
-    for &v in &used {
-        *size.entry(part.find(v)).or_default() += 1;
-    }
-    // The largest part (the lowest root among equals, for determinism)
-    // always stays.
-    let largest = size.iter().max_by_key(|(r, n)| (**n, std::cmp::Reverse(**r))).map(|(r, _)| *r);
-    let tiny: HashSet<u32> =
-        size.iter().filter(|(r, n)| **n <= loose_max && Some(**r) != largest).map(|(r, _)| *r).collect();
+    let parts = face_parts(&faces, nv);
+    let vertices: Vec<Vec<u32>> = parts
+        .iter()
+        .map(|p| {
+            let mut v: Vec<u32> = p.iter().flat_map(|&f| faces[f as usize]).collect();
+            v.sort_unstable();
+            v.dedup();
+            v
+        })
+        .collect();
+    // The largest part (the one with the lowest vertex among equals, for
+    // determinism) always stays.
+    let largest = (0..parts.len()).max_by_key(|&k| (vertices[k].len(), std::cmp::Reverse(vertices[k][0])));
+    let tiny: Vec<usize> = (0..parts.len()).filter(|&k| vertices[k].len() <= loose_max && Some(k) != largest).collect();
     if tiny.is_empty() {
         return (faces, Vec::new());
     }
-    let mut loose: Vec<u32> = used.into_iter().filter(|&v| tiny.contains(&part.find(v))).collect();
+    let mut left_out = vec![false; faces.len()];
+    tiny.iter().flat_map(|&k| &parts[k]).for_each(|&f| left_out[f as usize] = true);
+    let mut loose: Vec<u32> = tiny.iter().flat_map(|&k| vertices[k].iter().copied()).collect();
     loose.sort_unstable();
     report.loose_parts = tiny.len();
     report.loose_vertices = loose.len();
-    let kept = faces.into_iter().filter(|f| !tiny.contains(&part.find(f[0]))).collect();
+    let kept = faces.into_iter().zip(left_out).filter(|(_, out)| !out).map(|(f, _)| f).collect();
     (kept, loose)
 }
 

@@ -123,13 +123,18 @@ pub(super) fn code(
         let anchors: Vec<Vec3> = header.anchors.iter().map(|&a| g[a as usize]).collect();
         let anchor_xyz = anchors.iter().map(|p| p.to_array()).collect();
         let mut info = FrameInfo { anchors: anchor_xyz, seed_origin: origin, ..Default::default() };
-        let decoded = if plan.closed_loop {
+        let mut decoded = if plan.closed_loop {
             Some(close_loop(&mut coder, &mut streams, &post, &mut predictive, &mut info, (opts, plan), &anchors, &g)?)
         } else {
-            let vals = frame_values(header, &coder.decoded, 0.0)?;
-            Values::new(header, &vals).xyz(POSITION)
+            None
         };
         if header.loose_vertices().is_some() {
+            if decoded.is_none() {
+                // GV: the coordinates as decoded (only files with loose
+                // vertices need them here).
+                let vals = frame_values(header, &coder.decoded, 0.0)?;
+                decoded = Values::new(header, &vals).xyz(POSITION);
+            }
             let truth: Vec<Vec3> = loose_ids.iter().map(|&v| input[v as usize]).collect();
             let diagonal = f64::from(header.source.diagonal);
             // The paper's solver runs only in the decoder: its grid error
