@@ -7,11 +7,12 @@
 #   nasm                                     openh264's assembly (2-5x faster H.264)
 #   chromium, chromium-driver                browser tests
 #   mesa-vulkan-drivers                      lavapipe, for rendering without a GPU
-#   nodejs, npm; tests/node (npm ci)         the Khronos glTF-Validator the tests run on our GLBs
+#   nodejs, npm; tests/node (npm ci)         the Khronos glTF-Validator the tests run on our GLBs, and
+#                                            gltfpack + meshoptimizer for cgv.peers
 #   www (npm ci)                             three.js, for www/three/ (the three.js module's demo), and
 #                                            binaryen's wasm-opt for the web package (1.46 -> 1.29 MB gzipped)
 #   python3-venv; python/requirements-dev.txt the Python package's build (maturin) and tests (numpy,
-#                                            pytest, Ray), in a virtual environment under ~/.cache/cgv
+#                                            pytest, Ray, DracoPy), in a virtual environment under ~/.cache/cgv
 set -euo pipefail
 
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -68,9 +69,9 @@ if [ ! -d "$here/www/node_modules/three" ] || [ ! -x "$here/www/node_modules/.bi
   (cd "$here/www" && npm ci --no-audit --no-fund --silent)
 fi
 
-# The glTF-Validator for the tests, pinned by tests/node/package-lock.json.
-if [ ! -d "$here/tests/node/node_modules/gltf-validator" ]; then
-  say "installing the Khronos glTF-Validator (npm ci in tests/node)"
+# The glTF-Validator for the tests and the peers (gltfpack, meshoptimizer), pinned by tests/node/package-lock.json.
+if [ ! -d "$here/tests/node/node_modules/gltf-validator" ] || [ ! -d "$here/tests/node/node_modules/gltfpack" ]; then
+  say "installing the Khronos glTF-Validator, gltfpack and meshoptimizer (npm ci in tests/node)"
   (cd "$here/tests/node" && npm ci --no-audit --no-fund --silent)
 fi
 
@@ -81,7 +82,7 @@ if [ ! -x "$CGV_VENV/bin/python" ]; then
   python3 -m venv "$CGV_VENV"
 fi
 if ! cmp -s "$here/python/requirements-dev.txt" "$CGV_VENV/requirements-dev.txt"; then
-  say "installing maturin, numpy, pytest and Ray into $CGV_VENV (python/requirements-dev.txt)"
+  say "installing maturin, numpy, pytest, Ray and DracoPy into $CGV_VENV (python/requirements-dev.txt)"
   "$CGV_VENV/bin/pip" install -q --disable-pip-version-check -r "$here/python/requirements-dev.txt"
   cp "$here/python/requirements-dev.txt" "$CGV_VENV/requirements-dev.txt"
 fi

@@ -15,6 +15,7 @@
 //! others), or failing that the nearest.
 
 pub mod bdrate;
+pub mod peers;
 pub mod plot;
 pub mod report;
 pub mod source;
@@ -298,6 +299,9 @@ pub struct Report {
     /// these files; the sizes above leave it out.
     pub source_mesh_bytes: usize,
     pub seconds: f64,
+    /// What users ship today, when `cgv eval --peers` was given their figures.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub peers: Option<peers::Peers>,
 }
 
 pub const NORMALIZATION: &str = "errors and the smoothness metric are divided by the bounding-box diagonal of \
@@ -370,6 +374,7 @@ pub fn run(src: &dyn FrameSource, opts: &EvalOptions, progress: &(dyn Fn(&str) +
         source_floor: floor.finish(),
         source_mesh_bytes: format::write_source_mesh(&prepared.source_mesh(&mem.topology)).len(),
         seconds: t0.elapsed().as_secs_f64(),
+        peers: None,
     })
 }
 

@@ -71,10 +71,12 @@ fn rd_panel<DB: DrawingBackend>(
     r: &Report,
     title: &str,
     metric: &dyn Fn(&super::CodecResult) -> Option<f64>,
+    extra: &[Extra],
 ) -> Result<()> {
     let all = || r.points.iter().flat_map(|p| p.results.iter());
-    let xr = log_range(all().map(|c| c.kbps_30fps));
-    let yr = log_range(all().filter_map(metric));
+    let extra_points = || extra.iter().flat_map(|e| e.points.iter());
+    let xr = log_range(all().map(|c| c.kbps_30fps).chain(extra_points().map(|p| p.0)));
+    let yr = log_range(all().filter_map(metric).chain(extra_points().map(|p| p.1)));
     let mut chart = ChartBuilder::on(area)
         .caption(title, ("sans-serif", 18))
         .margin(12)
@@ -104,14 +106,53 @@ fn rd_panel<DB: DrawingBackend>(
             .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2)));
         chart.draw_series(pts.iter().map(|&p| Circle::new(p, 4, col.filled()))).map_err(err)?;
     }
+    for e in extra {
+        let col = e.color;
+        chart
+            .draw_series(DashedLineSeries::new(e.points.clone(), 6, 4, col.stroke_width(2)))
+            .map_err(err)?
+            .label(e.label.clone())
+            .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], col.stroke_width(2)));
+        chart.draw_series(e.points.iter().map(|&p| TriangleMarker::new(p, 5, col.filled()))).map_err(err)?;
+    }
     chart
         .configure_series_labels()
         .background_style(WHITE.mix(0.85))
         .border_style(BLACK)
-        .position(SeriesLabelPosition::UpperRight)
+        // The peers' curves fall steeply to the lower right; our codecs' flatten there.
+        .position(if extra.is_empty() { SeriesLabelPosition::UpperRight } else { SeriesLabelPosition::LowerLeft })
         .draw()
         .map_err(err)?;
     Ok(())
+}
+
+/// A dashed curve beside the codecs' own: a peer, or our file with its mesh.
+struct Extra {
+    label: String,
+    color: RGBColor,
+    points: Vec<(f64, f64)>,
+}
+
+const PEER_COLORS: [RGBColor; 4] =
+    [RGBColor(127, 127, 127), RGBColor(140, 86, 75), RGBColor(227, 119, 194), RGBColor(23, 190, 207)];
+
+/// The peers' surface RMS curves (`cgv eval --peers`), and ours as shipped
+/// beside them (the motion and the input's mesh, as the peers carry it).
+fn peer_curves(r: &Report) -> Vec<Extra> {
+    let Some(p) = &r.peers else { return Vec::new() };
+    let ours = r
+        .points
+        .iter()
+        .flat_map(|q| q.results.iter().filter(|c| c.codec == p.codec))
+        .filter_map(|c| c.surface_rms.map(|e| (super::peers::shipped_kbps_30fps(r, c), e)))
+        .collect();
+    let mut out =
+        vec![Extra { label: format!("{} with the input's mesh", p.codec), color: color(p.codec), points: ours }];
+    for (i, c) in p.report.curves.iter().enumerate() {
+        let points = c.points.iter().filter_map(|q| q.surface_rms.map(|e| (q.kbps_30fps, e))).collect();
+        out.push(Extra { label: c.name.clone(), color: PEER_COLORS[i % PEER_COLORS.len()], points });
+    }
+    out
 }
 
 fn draw_rd<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, r: &Report) -> Result<()> {
@@ -119,11 +160,11 @@ fn draw_rd<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, r: &Report) -> Resu
     let panels = root.split_evenly((1, 2));
     let surface = r.points.iter().flat_map(|p| &p.results).any(|c| c.surface_rms.is_some());
     if surface {
-        rd_panel(&panels[0], r, "surface RMS vs bitrate", &|c| c.surface_rms)?;
+        rd_panel(&panels[0], r, "surface RMS vs bitrate", &|c| c.surface_rms, &peer_curves(r))?;
     } else {
-        rd_panel(&panels[0], r, "vertex RMS vs bitrate", &|c| Some(c.vertex_rms))?;
+        rd_panel(&panels[0], r, "vertex RMS vs bitrate", &|c| Some(c.vertex_rms), &[])?;
     }
-    rd_panel(&panels[1], r, "smoothness metric vs bitrate", &|c| Some(c.smoothness))?;
+    rd_panel(&panels[1], r, "smoothness metric vs bitrate", &|c| Some(c.smoothness), &[])?;
     root.present().map_err(err)
 }
 

@@ -14,7 +14,10 @@ use std::path::PathBuf;
     Table 1. For each codec the QP (and a second layer when needed) is searched until the file is \
     within --tolerance of the target. Four or more points give a BD-rate against GV.\n\n\
     Examples:\n  cgv eval builtin:walk --frames 0..24 --grid 64 --md walk.md --plot walk.svg\n  \
-    cgv eval data/samba --grid 128 --kbps 1500,2600,5600 --json samba.json")]
+    cgv eval data/samba --grid 128 --kbps 1500,2600,5600 --json samba.json\n\n\
+    Against Draco and gltfpack (the Python package's cgv.peers measures them on the same frames):\n  \
+    python -m cgv.peers data/samba --frames 0..60 --json peers.json\n  \
+    cgv eval data/samba --frames 0..60 --codecs cgv --kbps 150,300,600,1200,2400 --peers peers.json --plot samba.svg")]
 pub struct Args {
     #[command(flatten)]
     input: InputArgs,
@@ -72,6 +75,10 @@ pub struct Args {
     /// Write the report as Markdown (printed to stdout when neither --md nor --json is given).
     #[arg(long, value_name = "OUT.md")]
     md: Option<PathBuf>,
+    /// Put Draco and gltfpack on the chart and tables: the JSON that
+    /// `python -m cgv.peers` wrote for the same input and frames.
+    #[arg(long, value_name = "PEERS.json")]
+    peers: Option<PathBuf>,
     /// Write the rate-distortion chart (.svg or .png) and, beside it, the per-frame chart (NAME-frames.EXT).
     #[arg(long, value_name = "OUT.svg|png")]
     plot: Option<PathBuf>,
@@ -89,6 +96,20 @@ fn plot_paths(p: &std::path::Path) -> Result<(PathBuf, PathBuf, bool)> {
     Ok((p.to_path_buf(), frames, png))
 }
 
+/// The peers' report, refused before the long run when it was made on
+/// other frames.
+fn read_peers(
+    path: &std::path::Path,
+    src: &dyn cgv::mesh::FrameSource,
+    every: usize,
+) -> Result<eval::peers::PeerReport> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("{}: cannot read", path.display()))?;
+    let peers = eval::peers::PeerReport::parse(path, &text)?;
+    let diagonal = cgv::mesh::Bounds::of(&src.read_frame(0)?).diagonal() as f64;
+    peers.check(path, src.frame_count(), src.topology().vertex_count, diagonal, every)?;
+    Ok(peers)
+}
+
 pub fn run(args: Args) -> Result<()> {
     for p in [&args.json, &args.md].into_iter().flatten() {
         if p.parent().is_some_and(|d| !d.as_os_str().is_empty() && !d.is_dir()) {
@@ -97,6 +118,7 @@ pub fn run(args: Args) -> Result<()> {
     }
     let plots = args.plot.as_deref().map(plot_paths).transpose()?;
     let src = args.input.open()?;
+    let peers = args.peers.as_deref().map(|p| read_peers(p, src.as_ref(), args.surface_every)).transpose()?;
     let mut base = EncodeOptions {
         grid: args.grid,
         key_interval: args.keyframes,
@@ -127,6 +149,10 @@ pub fn run(args: Args) -> Result<()> {
     let report = eval::run(src.as_ref(), &opts, &|m| pb.set_message(m.to_string()))
         .with_context(|| format!("evaluating {}", src.label().display()))?;
     pb.finish_and_clear();
+    let mut report = report;
+    if let Some(p) = peers {
+        report.peers = eval::peers::compare(&report, p);
+    }
     let md = eval::report::markdown(&report);
     // Render everything first, then write: an interrupted or failed run
     // leaves no half-written report.
