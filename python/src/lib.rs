@@ -114,13 +114,35 @@ fn flat<'a>(frames: &'a PyArrayLike3<'_, f32, AllowTypeChange>, owned: &'a mut V
 }
 
 /// The encoder's options from Python keywords, named as `cgv encode`'s
-/// flags are (with `_` for `-`); unknown keywords are a `TypeError`.
-/// The encoder's options, and a target error (percent of the diagonal) if one is asked.
-type Options = (EncodeOptions, Option<f64>);
+/// flags are (with `_` for `-`; unknown keywords are a `TypeError`): the
+/// options, the target error (percent of the diagonal) if one is asked,
+/// and with grid="auto" and a target error the options on N = 256 as well
+/// (N = 128's resampling floor chooses, as `cgv encode --grid auto` does).
+struct Options {
+    opts: EncodeOptions,
+    target: Option<f64>,
+    on_256: Option<EncodeOptions>,
+}
 
 fn encode_options(options: Option<&Bound<'_, PyDict>>, fps: f32) -> PyResult<Options> {
+    let (opts, target, auto) = options_on(options, fps, None)?;
+    let on_256 = match (auto, target) {
+        (true, Some(_)) => Some(options_on(options, fps, Some(256))?.0),
+        _ => None,
+    };
+    Ok(Options { opts, target, on_256 })
+}
+
+/// The options for `options`' keywords, on `grid` when given; also the
+/// target error, and whether the grid was "auto".
+fn options_on(
+    options: Option<&Bound<'_, PyDict>>,
+    fps: f32,
+    grid: Option<usize>,
+) -> PyResult<(EncodeOptions, Option<f64>, bool)> {
     let mut o = EncodeOptions::default();
     let mut target = None;
+    let mut asked_grid: Option<usize> = None;
     o.video.fps = fps;
     let mut layout: Option<String> = None;
     let mut corrections: Option<String> = None;
@@ -134,7 +156,13 @@ fn encode_options(options: Option<&Bound<'_, PyDict>>, fps: f32) -> PyResult<Opt
                     c => return Err(invalid(format!("codec {c:?}: expected \"cgv\" or \"gv\""))),
                 }
             }
-            "grid" => o.grid = value.extract()?,
+            "grid" => {
+                asked_grid = match value.extract::<String>() {
+                    Ok(a) if a == "auto" => None,
+                    Ok(a) => return Err(invalid(format!("grid {a:?}: expected a size N or \"auto\""))),
+                    Err(_) => Some(value.extract()?),
+                }
+            }
             "qp" => o.video.qp = value.extract()?,
             "kbps" => o.video.kbps = value.extract()?,
             "gop" => o.video.gop = value.extract()?,
@@ -156,6 +184,13 @@ fn encode_options(options: Option<&Bound<'_, PyDict>>, fps: f32) -> PyResult<Opt
             }
         }
     }
+    // grid="auto" (the default), as `cgv encode --grid auto`: for a bitrate
+    // from the bits a sample gets; for a target error N = 128 first.
+    o.grid = match (grid, asked_grid) {
+        (Some(n), _) | (None, Some(n)) => n,
+        (None, None) if target.is_some() => 128,
+        (None, None) => cgv::codec::auto_grid(&o.video, fps),
+    };
     let mut o = o.with_auto_choices();
     match layout.as_deref() {
         None | Some("auto") => {}
@@ -173,16 +208,22 @@ fn encode_options(options: Option<&Bound<'_, PyDict>>, fps: f32) -> PyResult<Opt
         return Err(invalid("kbps and target_error ask for the size two ways: give one".into()));
     }
     o.validate().map_err(raise)?;
-    Ok((o, target))
+    Ok((o, target, asked_grid.is_none()))
 }
 
-fn run_encode(py: Python<'_>, src: &dyn FrameSource, (opts, target): &Options) -> PyResult<Vec<u8>> {
-    py.detach(|| match target {
-        None => cgv::codec::encode(src, opts, &mut |_, _, _| {}).map(|(bytes, _)| bytes),
-        Some(percent) => cgv::codec::prepare(src, opts).and_then(|image| {
-            cgv::eval::target::encode_to_error(src, opts, &image, percent / 100.0, &mut |_, _, _| {})
-                .map(|(bytes, _, _)| bytes)
-        }),
+fn run_encode(py: Python<'_>, src: &dyn FrameSource, o: &Options) -> PyResult<Vec<u8>> {
+    py.detach(|| match o.target {
+        None => cgv::codec::encode(src, &o.opts, &mut |_, _, _| {}).map(|(bytes, _)| bytes),
+        Some(percent) => {
+            let regrid = |_| o.on_256.clone().unwrap_or_else(|| o.opts.clone());
+            let auto = o.on_256.is_some().then_some(&regrid as &dyn Fn(usize) -> EncodeOptions);
+            cgv::eval::target::prepare_for_error(src, o.opts.clone(), percent / 100.0, auto).and_then(
+                |(opts, image)| {
+                    cgv::eval::target::encode_to_error(src, &opts, &image, percent / 100.0, &mut |_, _, _| {})
+                        .map(|(bytes, _, _)| bytes)
+                },
+            )
+        }
     })
     .map_err(|e| invalid(format!("encoding {}: {e}", src.label().display())))
 }
@@ -192,7 +233,8 @@ fn run_encode(py: Python<'_>, src: &dyn FrameSource, (opts, target): &Options) -
 /// Encodes a motion into the bytes of a .cgv file. `frames`: positions of
 /// shape (F, V, 3); `faces`: vertex indices of shape (M, 3), the same for
 /// every frame. Options, as `cgv encode`'s flags: codec ("cgv" or "gv"),
-/// grid (N, default 128), qp (default 20) or kbps (a budget the whole file
+/// grid (N, or "auto", the default: 256 for a high enough kbps or a
+/// target error below N = 128's resampling floor, else 128), qp (default 20) or kbps (a budget the whole file
 /// keeps within 5 %, or an error), gop, keyframes, layers (1 or 2), max_lag,
 /// correction_layout ("auto", "world", "normal"), corrections ("auto",
 /// "scaled", "motion"), correction_shrink, source_mesh (default True: the

@@ -143,3 +143,16 @@ def test_encode_file_gives_the_cli_bytes(cgv_bin, tmp_path):
     subprocess.run([cgv_bin, "encode", "builtin:walk", "--frames", "0..5", "--grid", "16", "--qp", "30", "-o", str(out)],
                    check=True, capture_output=True)
     assert ours == out.read_bytes()
+
+
+def test_grid_auto_is_the_clis_rule(walk):
+    """grid="auto" (the default) picks N as `cgv encode --grid auto` does: 128 for a QP, 256 for a bitrate
+    of 1.2 bits or more per N = 128 sample per frame."""
+    positions, faces, fps = walk
+    grid = lambda data: cgv.info(data)["header"]["grid"]
+    assert grid(cgv.encode(positions[:3], faces, fps=fps, qp=40, source_mesh=False)) == 128
+    # 1.2 bits x 128^2 samples x 30 frames/s = 590 kbit/s.
+    assert grid(cgv.encode(positions[:3], faces, fps=fps, kbps=700, source_mesh=False)) == 256
+    assert grid(cgv.encode(positions[:3], faces, fps=fps, grid="auto", kbps=500, source_mesh=False)) == 128
+    with pytest.raises(cgv.Error, match='grid "big"'):
+        cgv.encode(positions[:3], faces, fps=fps, grid="big")

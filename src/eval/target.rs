@@ -32,6 +32,31 @@ pub struct TargetReport {
     pub encodes: usize,
 }
 
+/// The options and geometry image for a target error. `regrid` is given
+/// for `--grid auto`: `opts` are on N = 128, whose resampling floor then
+/// decides the grid ([`crate::codec::auto_grid_for_error`]), and
+/// `regrid(n)` makes the options on another grid. One rule for the CLI and
+/// Python.
+pub fn prepare_for_error(
+    src: &dyn FrameSource,
+    opts: EncodeOptions,
+    target: f64,
+    regrid: Option<&dyn Fn(usize) -> EncodeOptions>,
+) -> Result<(EncodeOptions, GeometryImage)> {
+    let image = crate::codec::prepare(src, &opts)?;
+    let Some(regrid) = regrid else { return Ok((opts, image)) };
+    let diagonal = Bounds::of(&src.read_frame(opts.reference)?).diagonal() as f64;
+    let floor = image.param.score.unwrap_or(0.0) / diagonal.max(f64::MIN_POSITIVE);
+    match crate::codec::auto_grid_for_error(target, floor) {
+        n if n == opts.grid => Ok((opts, image)),
+        n => {
+            let opts = regrid(n);
+            let image = crate::codec::prepare(src, &opts)?;
+            Ok((opts, image))
+        }
+    }
+}
+
 /// The frames measured: evenly spread, first and last included.
 fn sample(frames: usize) -> Vec<usize> {
     let k = SAMPLE_FRAMES.min(frames);

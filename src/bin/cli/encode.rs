@@ -3,6 +3,7 @@
 use super::InputArgs;
 use anyhow::{bail, Context, Result};
 use cgv::codec::{encode, h264::VideoSettings, EncodeOptions};
+use cgv::eval::target::prepare_for_error;
 use cgv::format::{CodecKind, CorrectionMode};
 use cgv::param::ParamOptions;
 use cgv::solve::SolverKind;
@@ -308,40 +309,22 @@ fn encode_one(args: &Args) -> Result<()> {
     };
     let (bytes, report, target) = match args.target_error {
         None => encode(src.as_ref(), &opts, &mut progress).map(|(b, r)| (b, r, None)),
-        Some(percent) => prepare_for_error(args, src.as_ref(), opts.clone(), percent / 100.0).and_then(|(o, image)| {
-            opts = o;
-            cgv::eval::target::encode_to_error(src.as_ref(), &opts, &image, percent / 100.0, &mut progress)
-                .map(|(b, r, t)| (b, r, Some(t)))
-        }),
+        Some(percent) => {
+            // With --grid auto, N = 128's resampling floor decides the grid.
+            let fps = src.fps();
+            let regrid = |n| options_on(args, fps, Some(n));
+            let auto = (args.grid == GridChoice::Auto).then_some(&regrid as &dyn Fn(usize) -> EncodeOptions);
+            prepare_for_error(src.as_ref(), opts.clone(), percent / 100.0, auto).and_then(|(o, image)| {
+                opts = o;
+                cgv::eval::target::encode_to_error(src.as_ref(), &opts, &image, percent / 100.0, &mut progress)
+                    .map(|(b, r, t)| (b, r, Some(t)))
+            })
+        }
     }
     .with_context(|| format!("encoding {}", src.label().display()))?;
     pb.finish_and_clear();
     cgv::fsutil::write_atomic(output, &bytes)?;
     print_report(args, src.as_ref(), &opts, &report, target.as_ref())
-}
-
-/// The options and geometry image for a target error: with `--grid auto`,
-/// N = 128's resampling floor decides (see `cgv::codec::auto_grid_for_error`).
-fn prepare_for_error(
-    args: &Args,
-    src: &dyn cgv::mesh::FrameSource,
-    opts: EncodeOptions,
-    target: f64,
-) -> cgv::Result<(EncodeOptions, cgv::geometry_image::GeometryImage)> {
-    let image = cgv::codec::prepare(src, &opts)?;
-    if args.grid != GridChoice::Auto {
-        return Ok((opts, image));
-    }
-    let diagonal = cgv::mesh::Bounds::of(&src.read_frame(opts.reference)?).diagonal() as f64;
-    let floor = image.param.score.unwrap_or(0.0) / diagonal.max(f64::MIN_POSITIVE);
-    match cgv::codec::auto_grid_for_error(target, floor) {
-        n if n == opts.grid => Ok((opts, image)),
-        n => {
-            let opts = options_on(args, src.fps(), Some(n));
-            let image = cgv::codec::prepare(src, &opts)?;
-            Ok((opts, image))
-        }
-    }
 }
 
 /// What `cgv encode` prints of what it made.
