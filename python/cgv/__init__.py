@@ -12,13 +12,21 @@ reports. numpy in, numpy out::
     rms, worst = cgv.vertex_error(positions[5], decoded[5])
     print(rms / cgv.diagonal(positions))                      # relative to the diagonal
 
+Long motions, one frame at a time (memory stays that of a frame)::
+
+    reader = cgv.MotionReader("data/samba")          # len(reader), reader.faces, reader[i]
+    for frame in cgv.Decoder(data):                   # (V, 3) arrays, in order; .seek(f)
+        ...
+
 Errors the library finds in its input are raised as :class:`cgv.Error` (a
 ``ValueError``), with a message that names the file and the problem.
 """
 
 from ._native import (  # noqa: F401
+    Decoder,
     Error,
     FORMAT_VERSION,
+    MotionReader,
     __version__,
     decode,
     diagonal,
@@ -32,8 +40,10 @@ from ._native import (  # noqa: F401
 )
 
 __all__ = [
+    "Decoder",
     "Error",
     "FORMAT_VERSION",
+    "MotionReader",
     "decode",
     "diagonal",
     "encode",

@@ -338,6 +338,162 @@ fn read_motion<'py>(
     Ok((positions, faces, src.fps()))
 }
 
+/// One frame's (V, 3) float32 array, moved into numpy.
+fn frame_array<'py>(py: Python<'py>, frame: &[Vec3]) -> PyResult<Bound<'py, PyAny>> {
+    let coords: Vec<f32> = frame.iter().flat_map(|p| p.to_array()).collect();
+    Ok(PyArray1::from_vec(py, coords).reshape([frame.len(), 3])?.into_any())
+}
+
+fn faces_array<'py>(py: Python<'py>, faces: &[[u32; 3]]) -> PyResult<Bound<'py, PyAny>> {
+    let flat: Vec<u32> = faces.iter().flatten().copied().collect();
+    Ok(PyArray1::from_vec(py, flat).reshape([faces.len(), 3])?.into_any())
+}
+
+/// MotionReader(path, *, fps=30.0, frames=None, fill_holes=False, animation=None)
+///
+/// A motion read one frame at a time, for motions too long to hold:
+/// ``len(reader)`` frames, ``reader.faces`` (M, 3) uint32, ``reader.fps``,
+/// ``reader[i]`` frame i as (V, 3) float32, and iteration over the frames.
+/// Memory stays that of one frame whatever the length (``read_motion``
+/// returns the whole (F, V, 3) array).
+#[pyclass(unsendable)]
+struct MotionReader {
+    src: Box<dyn FrameSource>,
+}
+
+#[pymethods]
+impl MotionReader {
+    #[new]
+    #[pyo3(signature = (path, *, fps = 30.0, frames = None, fill_holes = false, animation = None))]
+    fn new(
+        py: Python<'_>,
+        path: PathBuf,
+        fps: f32,
+        frames: Option<(usize, usize)>,
+        fill_holes: bool,
+        animation: Option<String>,
+    ) -> PyResult<Self> {
+        Ok(MotionReader { src: open(py, &path, fps, frames, fill_holes, animation)? })
+    }
+
+    fn __len__(&self) -> usize {
+        self.src.frame_count()
+    }
+
+    #[getter]
+    fn fps(&self) -> f32 {
+        self.src.fps()
+    }
+
+    #[getter]
+    fn faces<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        faces_array(py, &self.src.topology().faces)
+    }
+
+    fn __getitem__<'py>(&self, py: Python<'py>, i: isize) -> PyResult<Bound<'py, PyAny>> {
+        let n = self.src.frame_count() as isize;
+        let k = if i < 0 { i + n } else { i };
+        if !(0..n).contains(&k) {
+            return Err(pyo3::exceptions::PyIndexError::new_err(format!("frame {i} of a motion of {n} frames")));
+        }
+        let frame = self.src.read_frame(k as usize).map_err(raise)?;
+        frame_array(py, &frame)
+    }
+}
+
+/// Decoder(data, *, mesh="auto", memory_limit_mib=1024)
+///
+/// A .cgv file decoded one frame at a time, for motions too long to hold:
+/// ``len(decoder)`` frames, ``decoder.faces`` (M, 3) uint32 of the mesh
+/// ``decode`` would give (``mesh`` as there), ``decoder.fps``, iteration
+/// over the frames as (V, 3) float32 arrays in order, and
+/// ``decoder.seek(frame)`` to continue from there (decoded from its
+/// random-access point). Memory stays that of the file and one frame.
+#[pyclass(unsendable)]
+struct Decoder {
+    dec: FileDecoder,
+    source: Option<cgv::codec::SourceMeshDecoder>,
+    next: usize,
+    frames: usize,
+    fps: f32,
+}
+
+#[pymethods]
+impl Decoder {
+    #[new]
+    #[pyo3(signature = (data, *, mesh = "auto", memory_limit_mib = 1024))]
+    fn new(data: &[u8], mesh: &str, memory_limit_mib: u64) -> PyResult<Self> {
+        let file = read_cgv(data)?;
+        let (frames, fps, solver) = (file.header.frames as usize, file.header.fps, file.header.solver);
+        let dec = FileDecoder::with_memory_limit(file, solver, memory_limit_mib << 20).map_err(raise)?;
+        let source = pick_mesh(mesh, dec.source_mesh())?;
+        Ok(Decoder { dec, source, next: 0, frames, fps })
+    }
+
+    fn __len__(&self) -> usize {
+        self.frames
+    }
+
+    #[getter]
+    fn fps(&self) -> f32 {
+        self.fps
+    }
+
+    #[getter]
+    fn faces<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        match &self.source {
+            Some(s) => faces_array(py, &s.topology.faces),
+            None => faces_array(py, &self.dec.grid.topology().faces),
+        }
+    }
+
+    /// Continues from `frame` (the next frame iteration gives).
+    fn seek(&mut self, py: Python<'_>, frame: usize) -> PyResult<()> {
+        if frame >= self.frames {
+            return Err(invalid(format!("seek to frame {frame} of a file of {} frames", self.frames)));
+        }
+        let dec = &mut self.dec;
+        py.detach(|| dec.seek(frame as u32)).map_err(raise)?;
+        self.next = frame;
+        Ok(())
+    }
+
+    fn __iter__(slf: PyRef<'_, Self>) -> PyRef<'_, Self> {
+        slf
+    }
+
+    fn __next__<'py>(&mut self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        if self.next >= self.frames {
+            return Ok(None);
+        }
+        let (dec, source) = (&mut self.dec, &self.source);
+        let x = py
+            .detach(|| -> cgv::Result<Vec<Vec3>> {
+                let (x, _) = dec.next_frame()?;
+                Ok(match source {
+                    Some(s) => s.vertices(&x, dec.loose()),
+                    None => x,
+                })
+            })
+            .map_err(raise)?;
+        self.next += 1;
+        frame_array(py, &x).map(Some)
+    }
+}
+
+/// The source-mesh decoder `mesh` asks for ("auto", "source" or "grid").
+fn pick_mesh(
+    mesh: &str,
+    carried: Option<cgv::codec::SourceMeshDecoder>,
+) -> PyResult<Option<cgv::codec::SourceMeshDecoder>> {
+    match (mesh, carried) {
+        ("grid", _) | ("auto", None) => Ok(None),
+        ("source" | "auto", Some(m)) => Ok(Some(m)),
+        ("source", None) => Err(invalid("the file carries no source mesh (encode with source_mesh=True)".into())),
+        (m, _) => Err(invalid(format!("mesh {m:?}: expected \"auto\", \"source\" or \"grid\""))),
+    }
+}
+
 fn read_cgv(data: &[u8]) -> PyResult<cgv::format::CgvFile> {
     cgv::format::read(data).map_err(|e| raise(cgv::Error::Container { path: PathBuf::from("<bytes>"), source: e }))
 }
@@ -366,14 +522,7 @@ fn decode<'py>(
         .map_err(|m| invalid(format!("frames=({a}, {b}): {m}")))?;
     let solver = file.header.solver;
     let mut dec = FileDecoder::with_memory_limit(file, solver, memory_limit_mib << 20).map_err(raise)?;
-    let source = match (mesh, dec.source_mesh()) {
-        ("grid", _) | ("auto", None) => None,
-        ("source" | "auto", Some(m)) => Some(m),
-        ("source", None) => {
-            return Err(invalid("the file carries no source mesh (encode with source_mesh=True)".into()))
-        }
-        (m, _) => return Err(invalid(format!("mesh {m:?}: expected \"auto\", \"source\" or \"grid\""))),
-    };
+    let source = pick_mesh(mesh, dec.source_mesh())?;
     let faces = source.as_ref().map_or_else(|| dec.grid.topology().faces, |s| s.topology.faces.clone());
     let coords = py
         .detach(|| -> cgv::Result<Vec<f32>> {
@@ -512,5 +661,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(diagonal, m)?)?;
     m.add_function(wrap_pyfunction!(surface_distance, m)?)?;
     m.add_function(wrap_pyfunction!(kg_error, m)?)?;
+    m.add_class::<MotionReader>()?;
+    m.add_class::<Decoder>()?;
     Ok(())
 }

@@ -156,3 +156,25 @@ def test_grid_auto_is_the_clis_rule(walk):
     assert grid(cgv.encode(positions[:3], faces, fps=fps, grid="auto", kbps=500, source_mesh=False)) == 128
     with pytest.raises(cgv.Error, match='grid "big"'):
         cgv.encode(positions[:3], faces, fps=fps, grid="big")
+
+
+def test_frame_by_frame_reading_and_decoding(walk):
+    """MotionReader and Decoder give what read_motion and decode give, one frame at a time."""
+    positions, faces, fps = walk
+    reader = cgv.MotionReader("builtin:walk", frames=(0, 8))
+    assert len(reader) == 8 and reader.fps == fps and np.array_equal(reader.faces, faces)
+    assert np.array_equal(reader[3], positions[3]) and np.array_equal(reader[-1], positions[7])
+    with pytest.raises(IndexError, match="frame 8 of a motion of 8 frames"):
+        reader[8]
+    data = cgv.encode(positions, faces, fps=fps, grid=32, qp=24, random_access=0.1)
+    whole, whole_faces = cgv.decode(data)
+    dec = cgv.Decoder(data)
+    assert len(dec) == 8 and np.array_equal(dec.faces, whole_faces)
+    frames = list(dec)
+    assert len(frames) == 8 and all(np.array_equal(a, b) for a, b in zip(frames, whole))
+    dec.seek(5)
+    assert np.array_equal(next(iter(dec)), whole[5])
+    grid = cgv.Decoder(data, mesh="grid")
+    assert grid.faces.max() < 32 * 32 and next(grid).shape == (32 * 32, 3)
+    with pytest.raises(cgv.Error, match="seek to frame 8"):
+        dec.seek(8)
