@@ -135,3 +135,29 @@ fn bitrate_matcher_lands_within_five_percent_on_the_default_motion() {
     assert!(md.contains("| cgv |") && md.contains("BD-rate") && md.contains("variants not kept"), "{md}");
     assert!(md.contains("On the input's own vertices") && md.contains("KG, temporal mean"), "{md}");
 }
+
+#[test]
+fn a_motion_read_again_on_each_pass_gives_the_same_report() {
+    // A motion past `in_memory_bytes` is not held (memory flat in length)
+    // but read from its source on every pass: the figures must not change.
+    let src = cgv::mesh::builtin::motion(5);
+    let mut opts = EvalOptions {
+        codecs: vec![EvalCodec::Gv, EvalCodec::Cgv],
+        rates: Rates::Kbps(vec![300.0]),
+        surface_every: 2,
+        ..Default::default()
+    };
+    opts.base.grid = 32;
+    let held = eval::run(&src, &opts, &|_| {}).unwrap();
+    opts.in_memory_bytes = 0;
+    let streamed = eval::run(&src, &opts, &|_| {}).unwrap();
+    let figures = |r: &eval::Report| -> Vec<(usize, f64, Option<f64>, f64)> {
+        r.points
+            .iter()
+            .flat_map(|p| &p.results)
+            .map(|c| (c.bytes, c.vertex_rms, c.surface_rms, c.source.vertex_rms))
+            .collect()
+    };
+    assert_eq!(figures(&held), figures(&streamed));
+    assert_eq!(held.source_floor.vertex_rms, streamed.source_floor.vertex_rms);
+}

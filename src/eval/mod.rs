@@ -13,6 +13,11 @@
 //! cannot be reached is reported as such, with the nearest size found that
 //! is not above the window (so a missed point never has more bits than the
 //! others), or failing that the nearest.
+//!
+//! Memory: every encode and measure reads the input frames again. They are
+//! held in memory when they fit [`EvalOptions::in_memory_bytes`], else read
+//! from the source on each pass, and the uncompressed grids are made frame
+//! by frame, so a long motion costs time, not memory.
 
 pub mod bdrate;
 pub mod peers;
@@ -152,6 +157,10 @@ pub struct EvalOptions {
     pub surface_every: usize,
     /// Relative size tolerance of the bitrate matching.
     pub tolerance: f64,
+    /// Most bytes of input frames kept in memory for the many passes; a
+    /// longer motion is read again from its source on each pass, so memory
+    /// stays flat in its length (default [`IN_MEMORY_BYTES`]).
+    pub in_memory_bytes: usize,
 }
 
 impl Default for EvalOptions {
@@ -162,6 +171,7 @@ impl Default for EvalOptions {
             rates: Rates::Presets(PRESETS.iter().map(|p| p.0.to_string()).collect()),
             surface_every: 1,
             tolerance: 0.05,
+            in_memory_bytes: IN_MEMORY_BYTES,
         }
     }
 }
@@ -337,32 +347,40 @@ pub fn run(src: &dyn FrameSource, opts: &EvalOptions, progress: &(dyn Fn(&str) +
             return Err(Error::Argument(format!("a rate point of {bad} kbit/s is not above 0")));
         }
     }
-    // Everything in memory once: the input frames and the uncompressed grids.
+    // Every encode and measure reads the input again: from memory when it
+    // fits the budget, else from the source, so memory stays flat in length.
     let frames = src.frame_count();
-    let input: Vec<Vec<Vec3>> = (0..frames).map(|i| src.read_frame(i)).collect::<Result<_>>()?;
-    let mem =
-        InMemory { label: src.label().to_path_buf(), fps: src.fps(), topology: src.topology().clone(), frames: input };
-    let prepared = crate::codec::prepare(&mem, &opts.base)?;
-    let truth: Vec<Vec<Vec3>> = mem.frames.iter().map(|f| prepared.map.apply(f)).collect();
-    let diagonal = Bounds::of(&mem.frames[0]).diagonal() as f64;
+    let cached = (frames * src.topology().vertex_count * 12 <= opts.in_memory_bytes)
+        .then(|| -> Result<InMemory> {
+            let frames = (0..frames).map(|i| src.read_frame(i)).collect::<Result<_>>()?;
+            Ok(InMemory { label: src.label().to_path_buf(), fps: src.fps(), topology: src.topology().clone(), frames })
+        })
+        .transpose()?;
+    let input: &dyn FrameSource = match &cached {
+        Some(m) => m,
+        None => src,
+    };
+    let prepared = crate::codec::prepare(input, &opts.base)?;
+    let diagonal = Bounds::of(&input.read_frame(0)?).diagonal() as f64;
     progress(&format!("parameterized in {:.1} s", prepared.seconds()));
 
     let grid = Grid::new(opts.base.grid)?;
     let points = prepared.source_points();
-    let mut floor = SourceMeasure::new(&points, prepared.loose_of(mem.topology.vertex_count), diagonal);
-    for (input, g) in mem.frames.iter().zip(&truth) {
+    let mut floor = SourceMeasure::new(&points, prepared.loose_of(input.topology().vertex_count), diagonal);
+    for f in 0..frames {
+        let frame = input.read_frame(f)?;
         // Uncoded, the loose vertices are exact.
-        let loose: Vec<Vec3> = prepared.carrier.loose.iter().map(|&v| input[v as usize]).collect();
-        floor.add_frame(input, g, &loose);
+        let loose: Vec<Vec3> = prepared.carrier.loose.iter().map(|&v| frame[v as usize]).collect();
+        floor.add_frame(&frame, &prepared.map.apply(&frame), &loose);
     }
-    let ctx = Ctx { mem: &mem, prepared: &prepared, truth: &truth, grid, diagonal, opts, points: &points };
+    let ctx = Ctx { src: input, prepared: &prepared, grid, diagonal, opts, points: &points };
     let targets = ctx.targets()?;
     progress(&format!("{} rate points, {} codecs", targets.len(), opts.codecs.len()));
     let rate_points = ctx.rate_points(&targets, progress)?;
     let bd_rates = bd_rates(&rate_points, &opts.codecs);
     Ok(Report {
         input: src.label().display().to_string(),
-        input_vertices: mem.topology.vertex_count,
+        input_vertices: input.topology().vertex_count,
         frames,
         fps: src.fps(),
         grid: grid.n,
@@ -372,7 +390,7 @@ pub fn run(src: &dyn FrameSource, opts: &EvalOptions, progress: &(dyn Fn(&str) +
         points: rate_points,
         bd_rates,
         source_floor: floor.finish(),
-        source_mesh_bytes: format::write_source_mesh(&prepared.source_mesh(&mem.topology)).len(),
+        source_mesh_bytes: format::write_source_mesh(&prepared.source_mesh(input.topology())).len(),
         seconds: t0.elapsed().as_secs_f64(),
         peers: None,
     })
@@ -426,10 +444,15 @@ fn miss(size: usize, target: usize, tol: f64) -> (bool, f64) {
 /// tolerance, and how many encodes it tried.
 type Found = (Try, bool, usize);
 
+/// Most bytes of input frames `cgv eval` keeps in memory for its passes by
+/// default (a minute of samba is 215 MB); a longer motion is read again on
+/// each.
+pub const IN_MEMORY_BYTES: usize = 512 << 20;
+
 struct Ctx<'a> {
-    mem: &'a InMemory,
+    /// The input frames: in memory or read on demand (see [`EvalOptions::in_memory_bytes`]).
+    src: &'a dyn FrameSource,
     prepared: &'a GeometryImage,
-    truth: &'a [Vec<Vec3>],
     grid: Grid,
     diagonal: f64,
     opts: &'a EvalOptions,
@@ -445,7 +468,7 @@ impl Ctx<'_> {
     /// The rate points: named presets (the size GV reaches at a QP) or
     /// bitrates at 30 fps, as (name, file size in bytes).
     fn targets(&self) -> Result<Vec<(String, usize)>> {
-        let frames = self.mem.frames.len();
+        let frames = self.src.frame_count();
         let bytes_for_kbps30 = |k: f64| (k * 1000.0 / 8.0 * frames as f64 / 30.0).round() as usize;
         let targets: Vec<(String, usize)> = match &self.opts.rates {
             Rates::Kbps(k) => k.iter().map(|&k| (format!("{k} kbit/s"), bytes_for_kbps30(k))).collect(),
@@ -469,7 +492,7 @@ impl Ctx<'_> {
 
     /// Every codec at every rate point, in parallel; the points sorted by size.
     fn rate_points(&self, targets: &[(String, usize)], progress: &(dyn Fn(&str) + Sync)) -> Result<Vec<RatePoint>> {
-        let frames = self.mem.frames.len();
+        let frames = self.src.frame_count();
         let jobs: Vec<(usize, EvalCodec)> =
             (0..targets.len()).flat_map(|p| self.opts.codecs.iter().map(move |&c| (p, c))).collect();
         let done = std::sync::atomic::AtomicUsize::new(0);
@@ -512,7 +535,7 @@ impl Ctx<'_> {
         // Loose vertices are rebuilt through the source mesh.
         o.source_mesh = !self.prepared.carrier.loose.is_empty();
         let t = std::time::Instant::now();
-        let (bytes, report) = encode_prepared(self.mem, &o, self.prepared, &mut |_, _, _| {})?;
+        let (bytes, report) = encode_prepared(self.src, &o, self.prepared, &mut |_, _, _| {})?;
         let size = bytes.len() - report.source_mesh_bytes;
         Ok(Try { qp, layers, rc: rc.map(|r| r.1), bytes, size, encode_seconds: t.elapsed().as_secs_f64() })
     }
@@ -580,7 +603,7 @@ impl Ctx<'_> {
             // Adjacent QPs straddle the target: the rate control chooses
             // between them frame by frame.
             if let (Some(l), Some(h)) = (lo, hi) {
-                let seconds = self.mem.frames.len() as f64 / self.mem.fps as f64;
+                let seconds = self.src.frame_count() as f64 / self.src.fps() as f64;
                 let mut kbps = (target as f64 * 8.0 / 1000.0 / seconds) as f32;
                 for _ in 0..4 {
                     let t = self.encode(codec, interval, l.0, layers, Some((h.0, kbps)))?;
@@ -671,23 +694,25 @@ impl Ctx<'_> {
             .map(|(s, b)| (format!("{}{}", s.name, if s.layer == 2 { "/2" } else { "" }), b))
             .collect();
         let st = Stencils::new(self.grid);
-        let faces = self.prepared.surface_faces(&self.mem.topology);
-        let n = self.mem.frames.len();
+        let topology = self.src.topology();
+        let faces = self.prepared.surface_faces(topology);
+        let n = self.src.frame_count();
         let (mut video, mut solve) = (0.0, 0.0);
         let mut kg = metrics::KgError::default();
-        let loose_of = self.prepared.loose_of(self.mem.topology.vertex_count);
+        let loose_of = self.prepared.loose_of(topology.vertex_count);
         let mut source = SourceMeasure::new(self.points, loose_of, self.diagonal);
         let mut per_frame = Vec::with_capacity(n);
         for f in 0..n {
             let (x, stats) = dec.next_frame()?;
             video += stats.video_seconds;
             solve += stats.solve_seconds;
-            let truth = &self.truth[f];
+            let input = self.src.read_frame(f)?;
+            let truth = &self.prepared.map.apply(&input);
             let (rms, max) = metrics::vertex_error(&x, truth);
             kg.add_frame(truth, &x);
             let surf = if self.opts.surface_every > 0 && f % self.opts.surface_every == 0 {
                 let shown = surface_vertices(&x, dec.loose());
-                let d = surface::symmetric(&shown, &faces, &self.mem.frames[f], &self.mem.topology.faces)?;
+                let d = surface::symmetric(&shown, &faces, &input, &topology.faces)?;
                 Some(d)
             } else {
                 None
@@ -700,7 +725,7 @@ impl Ctx<'_> {
                 spacing_drift: metrics::spacing_drift(&st, truth, &x, &self.prepared.map.on_input),
                 surface_rms: surf.map(|d| d.rms / self.diagonal),
                 surface_max: surf.map(|d| d.max / self.diagonal),
-                source_vertex_rms: source.add_frame(&self.mem.frames[f], &x, dec.loose()),
+                source_vertex_rms: source.add_frame(&input, &x, dec.loose()),
             });
         }
         let mean = |g: &dyn Fn(&FrameMetrics) -> Option<f64>| -> Option<f64> {
@@ -713,7 +738,7 @@ impl Ctx<'_> {
             Some(s) if s > 0.0 => worst(&|m| m.surface_rms) / s,
             _ => worst(&|m| Some(m.vertex_rms)) / mean(&|m| Some(m.vertex_rms)).unwrap_or(1.0).max(f64::MIN_POSITIVE),
         };
-        let seconds = n as f64 / self.mem.fps as f64;
+        let seconds = n as f64 / self.src.fps() as f64;
         let bytes = t.size;
         Ok(CodecResult {
             codec,
@@ -726,7 +751,7 @@ impl Ctx<'_> {
             bytes,
             kbps: bytes as f64 * 8.0 / 1000.0 / seconds,
             kbps_30fps: bytes as f64 * 8.0 / 1000.0 * 30.0 / n as f64,
-            bits_per_input_vertex: bytes as f64 * 8.0 / (n * self.mem.topology.vertex_count) as f64,
+            bits_per_input_vertex: bytes as f64 * 8.0 / (n * topology.vertex_count) as f64,
             bits_per_grid_sample: bytes as f64 * 8.0 / (n * self.grid.len()) as f64,
             smoothness: mean(&|m| Some(m.smoothness)).unwrap_or(0.0),
             vertex_rms: mean(&|m| Some(m.vertex_rms)).unwrap_or(0.0),

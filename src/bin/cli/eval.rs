@@ -75,6 +75,11 @@ pub struct Args {
     /// Write the report as Markdown (printed to stdout when neither --md nor --json is given).
     #[arg(long, value_name = "OUT.md")]
     md: Option<PathBuf>,
+    /// Most MiB of input frames held in memory for the many encodes; a
+    /// longer motion is read again from its files on each pass (slower, but
+    /// memory stays flat in its length).
+    #[arg(long, value_name = "MIB", default_value_t = cgv::eval::IN_MEMORY_BYTES >> 20)]
+    in_memory_mib: usize,
     /// Put Draco and gltfpack on the chart and tables: the JSON that
     /// `python -m cgv.peers` wrote for the same input and frames.
     #[arg(long, value_name = "PEERS.json")]
@@ -142,6 +147,7 @@ pub fn run(args: Args) -> Result<()> {
         },
         surface_every: args.surface_every,
         tolerance: args.tolerance,
+        in_memory_bytes: args.in_memory_mib.saturating_mul(1 << 20),
     };
     let pb = indicatif::ProgressBar::new_spinner();
     pb.enable_steady_tick(std::time::Duration::from_millis(200));
