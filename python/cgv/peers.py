@@ -74,8 +74,9 @@ def match_trajectories(original: np.ndarray, decoded: np.ndarray, frames: int = 
     b = decoded[pick].transpose(1, 0, 2).reshape(decoded.shape[1], -1).astype(np.float64)
     bb = (b * b).sum(1)
     out = np.empty(a.shape[0], dtype=np.int64)
-    for s in range(0, a.shape[0], 1024):
-        out[s : s + 1024] = (bb[None, :] - 2.0 * a[s : s + 1024] @ b.T).argmin(1)
+    block = max(1, 4_000_000 // max(1, b.shape[0]))  # about 32 MB of distances at a time
+    for s in range(0, a.shape[0], block):
+        out[s : s + block] = (bb[None, :] - 2.0 * a[s : s + block] @ b.T).argmin(1)
     return out
 
 
@@ -155,9 +156,17 @@ def _pad(b: bytes, fill: bytes = b"\0") -> bytes:
     return b + fill * ((4 - len(b) % 4) % 4)
 
 
-def morph_glb(positions: np.ndarray, faces: np.ndarray, fps: float) -> bytes:
+#: The morph animation's clock: gltfpack resamples every animation at 30 Hz
+#: (``-af``, linearly), so frame t is keyed at t / 30 whatever the motion's
+#: frame rate, and every key lands on a sample (the times do not change the
+#: sizes).
+TIMELINE_HZ = 30.0
+
+
+def morph_glb(positions: np.ndarray, faces: np.ndarray) -> bytes:
     """A GLB of the motion as morph targets: frame 0 the base mesh, frame t
-    (t >= 1) target t-1, switched on at t/fps by a STEP weights animation."""
+    (t >= 1) target t-1, switched on at t / TIMELINE_HZ by a STEP weights
+    animation."""
     frames = positions.shape[0]
     chunks, views, accessors = [], [], []
 
@@ -181,7 +190,7 @@ def morph_glb(positions: np.ndarray, faces: np.ndarray, fps: float) -> bytes:
     }
     weights = np.zeros((frames, frames - 1), dtype=np.float32)
     weights[np.arange(1, frames), np.arange(frames - 1)] = 1.0
-    times = add((np.arange(frames) / fps).astype(np.float32), 5126, "SCALAR", bounds=True)
+    times = add((np.arange(frames) / TIMELINE_HZ).astype(np.float32), 5126, "SCALAR", bounds=True)
     values = add(weights.reshape(-1), 5126, "SCALAR")
     gltf = {
         "asset": {"version": "2.0", "generator": "cgv.peers"},
@@ -210,13 +219,16 @@ def read_accessor(gltf: dict, binary: bytes, index: int) -> np.ndarray:
     a = gltf["accessors"][index]
     if "sparse" in a or "bufferView" not in a:
         raise PeerError(f"accessor {index}: sparse or empty accessors are not read here")
+    if a.get("componentType") not in _COMPONENTS or a.get("type") not in _WIDTH:
+        raise PeerError(f"accessor {index}: {a.get('type')} of component type {a.get('componentType')} is not read here")
     view = gltf["bufferViews"][a["bufferView"]]
     dtype = np.dtype(_COMPONENTS[a["componentType"]]).newbyteorder("<")
     width = _WIDTH[a["type"]]
     stride = view.get("byteStride", dtype.itemsize * width)
     start = view.get("byteOffset", 0) + a.get("byteOffset", 0)
-    if a["count"] and start + stride * (a["count"] - 1) + dtype.itemsize * width > len(binary):
-        raise PeerError(f"accessor {index} runs past the end of the buffer")
+    end = start + (stride * (a["count"] - 1) + dtype.itemsize * width if a["count"] else 0)
+    if end > view.get("byteOffset", 0) + view["byteLength"] or end > len(binary):
+        raise PeerError(f"accessor {index} runs past the end of its buffer view")
     values = np.ndarray((a["count"], width), dtype=dtype, buffer=binary, offset=start, strides=(stride, dtype.itemsize)).astype(np.float64)
     if a.get("normalized"):
         values = np.maximum(values / _NORMALIZED[a["componentType"]], -1.0)
@@ -249,8 +261,8 @@ def _world_matrix(gltf: dict, index: int) -> np.ndarray:
     return m
 
 
-def _weights(gltf: dict, binary: bytes, node: int, targets: int, frames: int, fps: float) -> np.ndarray:
-    """The morph weights (frames, targets) the node's animation gives at t/fps."""
+def _weights(gltf: dict, binary: bytes, node: int, targets: int, frames: int) -> np.ndarray:
+    """The morph weights (frames, targets) the node's animation gives at t / TIMELINE_HZ."""
     for anim in gltf.get("animations", []):
         for ch in anim["channels"]:
             if ch["target"].get("node") == node and ch["target"]["path"] == "weights":
@@ -258,7 +270,7 @@ def _weights(gltf: dict, binary: bytes, node: int, targets: int, frames: int, fp
                 times = read_accessor(gltf, binary, s["input"])[:, 0]
                 values = read_accessor(gltf, binary, s["output"]).reshape(len(times), -1)
                 mode = s.get("interpolation", "LINEAR")
-                at = np.arange(frames) / fps
+                at = np.arange(frames) / TIMELINE_HZ
                 if mode == "STEP":
                     return values[np.clip(np.searchsorted(times, at + 1e-4, side="right") - 1, 0, len(times) - 1)]
                 if mode == "LINEAR":
@@ -267,15 +279,17 @@ def _weights(gltf: dict, binary: bytes, node: int, targets: int, frames: int, fp
     raise PeerError("the packed file has no weights animation")
 
 
-def read_morph_motion(gltf: dict, binary: bytes, frames: int, fps: float):
+def read_morph_motion(gltf: dict, binary: bytes, frames: int):
     """The frames (F, V, 3) and faces of a morph-target glTF like `morph_glb`'s."""
     nodes = [i for i, n in enumerate(gltf.get("nodes", [])) if "mesh" in n]
     if len(nodes) != 1 or len(gltf["meshes"][gltf["nodes"][nodes[0]]["mesh"]]["primitives"]) != 1:
         raise PeerError("the packed file does not hold exactly one mesh with one primitive")
     prim = gltf["meshes"][gltf["nodes"][nodes[0]]["mesh"]]["primitives"][0]
+    if "indices" not in prim or prim.get("mode", 4) != 4:
+        raise PeerError("the packed mesh is not an indexed triangle list")
     base = read_accessor(gltf, binary, prim["attributes"]["POSITION"])
     targets = np.stack([read_accessor(gltf, binary, t["POSITION"]) for t in prim.get("targets", [])]) if prim.get("targets") else np.zeros((0,) + base.shape)
-    w = _weights(gltf, binary, nodes[0], len(targets), frames, fps)
+    w = _weights(gltf, binary, nodes[0], len(targets), frames)
     local = base[None] + np.einsum("fk,kvc->fvc", w, targets)
     m = _world_matrix(gltf, nodes[0])
     world = local @ m[:3, :3].T + m[:3, 3]
@@ -301,14 +315,14 @@ def _run(cmd):
     return r.stdout
 
 
-def gltfpack_curves(positions, faces, fps, diagonal, bits=GLTFPACK_BITS, modes=GLTFPACK_MODES, surface_every=1, node_modules=None, node="node", progress=print):
+def gltfpack_curves(positions, faces, diagonal, bits=GLTFPACK_BITS, modes=GLTFPACK_MODES, surface_every=1, node_modules=None, node="node", progress=print):
     modules = _node_modules(node_modules)
     version = json.loads((modules / "gltfpack" / "package.json").read_text())["version"]
     frames, vertices, _ = positions.shape
     curves = []
     with tempfile.TemporaryDirectory(prefix="cgv-peers-") as tmp:
         tmp = pathlib.Path(tmp)
-        (tmp / "in.glb").write_bytes(morph_glb(positions, faces, fps))
+        (tmp / "in.glb").write_bytes(morph_glb(positions, faces))
         for mode in modes:
             points = []
             for b in bits:
@@ -318,7 +332,7 @@ def gltfpack_curves(positions, faces, fps, diagonal, bits=GLTFPACK_BITS, modes=G
                 data = packed.read_bytes()
                 size = len(gzip.compress(data, compresslevel=9, mtime=0))
                 _run([node, _DECODE_JS, modules / "meshoptimizer" / "meshopt_decoder.mjs", packed, plain])
-                decoded, decoded_faces = read_morph_motion(json.loads(plain.read_text()), (tmp / f"{plain.name}.bin").read_bytes(), frames, fps)
+                decoded, decoded_faces = read_morph_motion(json.loads(plain.read_text()), (tmp / f"{plain.name}.bin").read_bytes(), frames)
                 errors = measure(positions, faces, decoded, decoded_faces, diagonal, surface_every)
                 points.append({**point(f"-vp {b}", size, frames, vertices, errors, time.perf_counter() - t0), "bytes_before_gzip": len(data)})
                 progress(f"gltfpack -{mode} -vp {b}: {points[-1]['bits_per_input_vertex']:.2f} bits per vertex per frame")
@@ -342,13 +356,14 @@ def run(path, *, frames=None, fps=30.0, animation=None, draco_bits=DRACO_BITS, g
     if draco_bits:
         curves.append(draco_curve(positions, faces, diagonal, draco_bits, surface_every, progress))
     if gltfpack_bits and modes:
-        curves += gltfpack_curves(positions, faces, fps, diagonal, gltfpack_bits, modes, surface_every, node_modules, node, progress)
+        curves += gltfpack_curves(positions, faces, diagonal, gltfpack_bits, modes, surface_every, node_modules, node, progress)
     return {
         "input": str(path),
         "frames": int(positions.shape[0]),
         "fps": float(fps),
         "input_vertices": int(positions.shape[1]),
         "diagonal": float(diagonal),
+        "first_frame_centroid": [float(x) for x in positions[0].astype(np.float64).mean(0)],
         "surface_every": surface_every,
         "normalization": "errors divided by the bounding-box diagonal of the first input frame; surface RMS the mean over "
         "measured frames of cgv's symmetric surface distance, max the largest; vertex errors on each input vertex's "

@@ -215,7 +215,11 @@ fn run_encode(py: Python<'_>, src: &dyn FrameSource, o: &Options) -> PyResult<Ve
     py.detach(|| match o.target {
         None => cgv::codec::encode(src, &o.opts, &mut |_, _, _| {}).map(|(bytes, _)| bytes),
         Some(percent) => {
-            let regrid = |_| o.on_256.clone().unwrap_or_else(|| o.opts.clone());
+            // The floor's rule chooses 128 (opts) or 256 (on_256) only.
+            let regrid = |n: usize| {
+                debug_assert_eq!(n, 256, "auto_grid_for_error gave a grid Python did not prepare");
+                o.on_256.clone().unwrap_or_else(|| o.opts.clone())
+            };
             let auto = o.on_256.is_some().then_some(&regrid as &dyn Fn(usize) -> EncodeOptions);
             cgv::eval::target::prepare_for_error(src, o.opts.clone(), percent / 100.0, auto).and_then(
                 |(opts, image)| {
@@ -396,7 +400,8 @@ impl MotionReader {
         if !(0..n).contains(&k) {
             return Err(pyo3::exceptions::PyIndexError::new_err(format!("frame {i} of a motion of {n} frames")));
         }
-        let frame = self.src.read_frame(k as usize).map_err(raise)?;
+        let src = &self.src;
+        let frame = py.detach(|| src.read_frame(k as usize)).map_err(raise)?;
         frame_array(py, &frame)
     }
 }
@@ -448,10 +453,10 @@ impl Decoder {
     }
 
     /// Continues from `frame` (the next frame iteration gives).
-    fn seek(&mut self, py: Python<'_>, frame: usize) -> PyResult<()> {
-        if frame >= self.frames {
+    fn seek(&mut self, py: Python<'_>, frame: isize) -> PyResult<()> {
+        let Some(frame) = usize::try_from(frame).ok().filter(|&f| f < self.frames) else {
             return Err(invalid(format!("seek to frame {frame} of a file of {} frames", self.frames)));
-        }
+        };
         let dec = &mut self.dec;
         py.detach(|| dec.seek(frame as u32)).map_err(raise)?;
         self.next = frame;

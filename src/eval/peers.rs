@@ -23,6 +23,10 @@ pub struct PeerReport {
     pub frames: usize,
     pub input_vertices: usize,
     pub diagonal: f64,
+    /// The mean of the first frame's vertices (absent in reports made
+    /// before it was written; then only the counts and diagonal are checked).
+    #[serde(default)]
+    pub first_frame_centroid: Option<[f64; 3]>,
     pub surface_every: usize,
     pub curves: Vec<PeerCurve>,
 }
@@ -108,7 +112,7 @@ fn bad(path: &Path, msg: String) -> Error {
 
 impl PeerReport {
     /// Reads a peers report (JSON), refusing one whose figures cannot be
-    /// plotted (non-finite or non-positive sizes and errors).
+    /// plotted (an empty file, a negative or non-finite size or error).
     pub fn parse(path: &Path, text: &str) -> Result<PeerReport> {
         let r: PeerReport = serde_json::from_str(text).map_err(|e| Error::Parse {
             path: path.to_path_buf(),
@@ -125,7 +129,10 @@ impl PeerReport {
                 if !finite || p.bytes == 0 {
                     return Err(bad(
                         path,
-                        format!("{} {}: a size or an error is not a positive number", c.name, p.setting),
+                        format!(
+                            "{} {}: a size is zero, or a size or an error is negative or not a number",
+                            c.name, p.setting
+                        ),
                     ));
                 }
             }
@@ -134,15 +141,16 @@ impl PeerReport {
     }
 
     /// Refuses a report made on other frames than the evaluation's.
-    pub fn check(
-        &self,
-        path: &Path,
-        frames: usize,
-        vertices: usize,
-        diagonal: f64,
-        surface_every: usize,
-    ) -> Result<()> {
+    pub fn check(&self, path: &Path, input: &[glam::Vec3], frames: usize, surface_every: usize) -> Result<()> {
+        let vertices = input.len();
+        let diagonal = crate::mesh::Bounds::of(input).diagonal() as f64;
         let mut problems = Vec::new();
+        if let Some(c) = self.first_frame_centroid {
+            let ours = input.iter().map(|p| p.as_dvec3()).sum::<glam::DVec3>() / vertices.max(1) as f64;
+            if ours.distance(glam::DVec3::from(c)) > 1e-5 * diagonal {
+                problems.push(format!("a first frame centred at {c:?} where the input's is at {:?}", ours.to_array()));
+            }
+        }
         if (self.diagonal - diagonal).abs() > 1e-5 * diagonal.abs() {
             problems.push(format!("a first frame of diagonal {} where the input's is {diagonal}", self.diagonal));
         }
@@ -279,11 +287,19 @@ mod tests {
             "surface_rms": 0.0005, "surface_max": 0.002}]}]}"#;
         let p = Path::new("peers.json");
         let r = PeerReport::parse(p, text).expect("a valid report");
-        assert!(r.check(p, 10, 100, 1.0, 1).is_ok());
-        let e = r.check(p, 12, 100, 1.0, 1).expect_err("other frames").to_string();
+        // 100 vertices on a segment of length 1 (the diagonal), centred at (0.5, 0, 0).
+        let input: Vec<glam::Vec3> = (0..100).map(|i| glam::Vec3::new(i as f32 / 99.0, 0.0, 0.0)).collect();
+        assert!(r.check(p, &input, 10, 1).is_ok());
+        let e = r.check(p, &input, 12, 1).expect_err("other frames").to_string();
         assert!(e.contains("peers.json") && e.contains("10 frames where the evaluation has 12"), "{e}");
         let e = PeerReport::parse(p, &text.replace("1000,", "0,")).expect_err("empty file").to_string();
         assert!(e.contains("draco q=8"), "{e}");
         assert!(PeerReport::parse(p, "{").is_err());
+        // With the first frame's centroid written, another first frame is caught.
+        let moved = PeerReport { first_frame_centroid: Some([0.6, 0.0, 0.0]), ..r.clone() };
+        let e = moved.check(p, &input, 10, 1).expect_err("another first frame").to_string();
+        assert!(e.contains("centred at"), "{e}");
+        let same = PeerReport { first_frame_centroid: Some([0.5, 0.0, 0.0]), ..r };
+        assert!(same.check(p, &input, 10, 1).is_ok());
     }
 }

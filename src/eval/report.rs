@@ -49,13 +49,15 @@ pub fn markdown(r: &Report) -> String {
 /// "2.40x fewer", "1.30x more", or what our curve says instead.
 fn reach_cell(reach: super::peers::Reach, peer_bits: f64) -> (String, String) {
     use super::peers::Reach;
-    let ratio = |bits: f64| match peer_bits / bits {
-        q if q >= 1.0 => format!("{q:.2}x fewer"),
-        q => format!("{:.2}x more", 1.0 / q),
+    // `at_most`: our bits are at most `bits`, so "fewer" is at least and
+    // "more" at most what it says.
+    let ratio = |bits: f64, at_most: bool| match peer_bits / bits {
+        q if q >= 1.0 => format!("{}{q:.2}x fewer", if at_most { "≥ " } else { "" }),
+        q => format!("{}{:.2}x more", if at_most { "≤ " } else { "" }, 1.0 / q),
     };
     match reach {
-        Reach::At { bits } => (format!("{bits:.2}"), ratio(bits)),
-        Reach::AtMost { bits } => (format!("≤ {bits:.2}"), format!("≥ {}", ratio(bits))),
+        Reach::At { bits } => (format!("{bits:.2}"), ratio(bits, false)),
+        Reach::AtMost { bits } => (format!("≤ {bits:.2}"), ratio(bits, true)),
         Reach::Beyond { best, bits } => (format!("not reached (best {} at {bits:.2})", pct(best)), "–".into()),
         Reach::Unknown => ("–".into(), "–".into()),
     }

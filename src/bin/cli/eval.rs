@@ -110,8 +110,7 @@ fn read_peers(
 ) -> Result<eval::peers::PeerReport> {
     let text = std::fs::read_to_string(path).with_context(|| format!("{}: cannot read", path.display()))?;
     let peers = eval::peers::PeerReport::parse(path, &text)?;
-    let diagonal = cgv::mesh::Bounds::of(&src.read_frame(0)?).diagonal() as f64;
-    peers.check(path, src.frame_count(), src.topology().vertex_count, diagonal, every)?;
+    peers.check(path, &src.read_frame(0)?, src.frame_count(), every)?;
     Ok(peers)
 }
 
