@@ -37,7 +37,7 @@ def main(paths):
             s["peers"] = {c["name"]: [(q["bits_per_input_vertex"], q["surface_rms"]) for q in c["points"]] for c in r["peers"]["report"]["curves"]}
     for name, s in seqs.items():
         grids = sorted(s["ours"])
-        print(f"\n{name} ({s['frames']} frames, {s['vertices']} vertices); our lowest surface RMS: "
+        print(f"\n#### {name.rstrip('/').split('/')[-1]} ({s['frames']} frames, {s['vertices']} vertices); our lowest surface RMS: "
               + ", ".join(f"N = {n}: {100 * s['ours'][n][1]:.4f} %" for n in grids)
               + "; the input's mesh adds " + ", ".join(f"{s['ours'][n][2]:.2f}" for n in grids[:1]) + " bits/vertex/frame\n")
         peers = list(s["peers"] or {})
