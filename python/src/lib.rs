@@ -309,9 +309,7 @@ type Arrays<'py> = (Bound<'py, PyAny>, Bound<'py, PyAny>);
 fn arrays<'py>(py: Python<'py>, coords: Vec<f32>, frames: usize, faces: &[[u32; 3]]) -> PyResult<Arrays<'py>> {
     let v = coords.len() / (3 * frames.max(1));
     let positions = PyArray1::from_vec(py, coords).reshape([frames, v, 3])?.into_any();
-    let flat_faces: Vec<u32> = faces.iter().flatten().copied().collect();
-    let faces = PyArray1::from_vec(py, flat_faces).reshape([faces.len(), 3])?.into_any();
-    Ok((positions, faces))
+    Ok((positions, faces_array(py, faces)?))
 }
 
 /// read_motion(path, *, fps=30.0, frames=None, fill_holes=False, animation=None) -> (positions, faces, fps)
