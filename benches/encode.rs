@@ -8,7 +8,7 @@
 //! Run: `cargo bench --bench encode`
 #![allow(clippy::unwrap_used, clippy::expect_used)] // benchmarks may stop on any failure
 
-use cgv::codec::{encode_prepared, prepare, EncodeOptions};
+use cgv::codec::{encode_prepared, prepare, CodecChoice, EncodeOptions};
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
 
 const FRAMES: usize = 30;
@@ -23,7 +23,7 @@ fn bench(c: &mut Criterion) {
             let mut opts = EncodeOptions { grid: n, ..Default::default() };
             opts.video.qp = 30;
             opts.video.kbps = kbps;
-            let opts = opts.with_auto_choices();
+            let opts = CodecChoice::Auto.apply(opts, None).expect("options");
             let image = prepare(&src, &opts).expect("prepare");
             g.bench_function(format!("encode-prepared-{FRAMES}-frames/{name}/{n}"), |b| {
                 b.iter(|| encode_prepared(&src, &opts, &image, &mut |_, _, _| {}).expect("encode"))

@@ -17,7 +17,7 @@ mkdir -p out/demo www/media
 # The viewer draws the grid mesh, so the files leave out the figure's own
 # mesh (--no-source-mesh: it would add 110 KB to each; `cgv decode` of a
 # file that carries it gives back the input's vertices and faces).
-"$cgv" encode builtin:walk -o www/media/walk.cgv --codec cgv --grid 128 --qp 30 --no-source-mesh
+"$cgv" encode builtin:walk -o www/media/walk.cgv --codec auto --grid 128 --qp 30 --no-source-mesh
 # GV at the CGV file's bitrate (--kbps keeps it within 5 %).
 cgv_kbps=$(awk -v b="$(stat -c %s www/media/walk.cgv)" 'BEGIN { printf "%.0f", b * 8 / 1000 / 2.4 }')
 "$cgv" encode builtin:walk -o www/media/walk-gv.cgv --codec gv --grid 128 --kbps "$cgv_kbps" --no-source-mesh

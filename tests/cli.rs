@@ -69,6 +69,51 @@ fn encode_walk_gv16(extra: &[&str], out: &std::path::Path) -> std::process::Outp
 }
 
 #[test]
+fn each_codec_is_named_for_what_its_files_store() {
+    // Issue 18, honest names: `--codec` names what the file stores, `cgv
+    // info` reads it back from the streams, and the first round's `cgv`
+    // is `auto`'s other name.
+    let dir = common::temp_dir("cli-codec-names");
+    let cases = [
+        ("normal", &[][..], "normal"),
+        ("predictive", &[][..], "predictive"),
+        ("conformal", &[][..], "conformal"),
+        ("gv", &[][..], "gv"),
+        ("cgv", &["--qp", "40"][..], "predictive"),
+        ("auto", &["--qp", "20"][..], "normal"),
+    ];
+    for (codec, extra, stored) in cases {
+        let file = dir.join(format!("{codec}.cgv"));
+        let args = [&["encode", "builtin:walk", "--frames", "0..3", "--grid", "16", "--codec", codec][..], extra];
+        let out = cgv(&[&args.concat()[..], &["-o", file.to_str().unwrap()]].concat());
+        assert!(out.status.success(), "{codec}: {}", String::from_utf8_lossy(&out.stderr));
+        assert!(String::from_utf8_lossy(&out.stdout).contains(&format!("({stored} codec,")), "{codec}");
+        let info = cgv(&["info", file.to_str().unwrap(), "--json"]);
+        let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+        assert_eq!(v["codec"], stored, "{codec}");
+        let text = cgv(&["info", file.to_str().unwrap()]);
+        assert!(String::from_utf8_lossy(&text.stdout).contains(&format!("codec         {stored} (")), "{codec}");
+    }
+    // The conformal codec stores H and λ and no corrections; the others no λ.
+    let streams = |codec: &str| -> Vec<String> {
+        let info = cgv(&["info", dir.join(format!("{codec}.cgv")).to_str().unwrap(), "--json"]);
+        let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+        v["header"]["streams"].as_array().unwrap().iter().map(|s| s["name"].as_str().unwrap().to_string()).collect()
+    };
+    let conformal = streams("conformal");
+    let has = |s: &str| conformal.iter().any(|c| c == s);
+    assert!(has("H") && has("lambda") && !has("dx"), "{conformal:?}");
+    assert!(streams("normal").iter().any(|s| s == "dn"));
+    // The paper's solver cannot read corrections: refused before any work, by name.
+    let out = cgv(&["encode", "builtin:walk", "--codec", "normal", "--solver", "paper", "-o", "x.cgv"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("--codec conformal"), "{err}");
+    let out = cgv(&["encode", "builtin:walk", "--codec", "lambda", "-o", "x.cgv"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success() && err.contains("conformal") && err.contains("normal"), "{err}");
+}
+
+#[test]
 fn encode_info_and_decode_a_gv_file() {
     let dir = common::temp_dir("cli-codec");
     let cgv_file = dir.join("walk.cgv");
@@ -273,10 +318,12 @@ fn eval_writes_reports_and_plots_or_nothing() {
     let v: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("r.json")).unwrap()).unwrap();
     assert_eq!(v["points"].as_array().unwrap().len(), 2);
     assert_eq!(v["frames"], 6);
+    // `cgv`, the first round's name, runs the predictive codec and is reported by its name.
+    assert_eq!(v["points"][0]["results"][1]["codec"], "predictive");
     assert!(std::fs::read_to_string(dir.join("r.md")).unwrap().contains("Table 2"));
     for svg in ["r.svg", "r-frames.svg"] {
         let s = std::fs::read_to_string(dir.join(svg)).unwrap();
-        assert!(s.starts_with("<svg") && s.contains("cgv"), "{svg}");
+        assert!(s.starts_with("<svg") && s.contains("predictive"), "{svg}");
     }
     // No temporary files left beside the reports.
     let names: Vec<String> =

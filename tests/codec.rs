@@ -530,8 +530,15 @@ fn a_target_error_gives_the_coarsest_qp_within_it_or_is_refused() {
         sum / 12.0 / diagonal
     };
     let target = 0.004;
-    let (bytes, report, t) =
-        cgv::eval::target::encode_to_error(&src, &opts, &image, target, &mut |_, _, _| {}).unwrap();
+    let (bytes, report, t) = cgv::eval::target::encode_to_error(
+        &src,
+        &opts,
+        cgv::codec::CodecChoice::Auto,
+        &image,
+        target,
+        &mut |_, _, _| {},
+    )
+    .unwrap();
     let got = error(&bytes);
     eprintln!("target {target}: QP {} gives {got:.5} ({} encodes)", t.qp, t.encodes);
     assert!((got - t.surface_rms).abs() < 1e-9 && got <= target, "{got} for {target}");
@@ -541,12 +548,15 @@ fn a_target_error_gives_the_coarsest_qp_within_it_or_is_refused() {
     let h = cgv::format::read(&bytes).unwrap().header;
     let mut coarser = opts.clone();
     coarser.video.qp = t.qp + 1;
-    let mut coarser = coarser.with_auto_choices();
+    let mut coarser = cgv::codec::CodecChoice::Auto.apply(coarser, None).unwrap();
     coarser.corrections = h.corrections;
     coarser.normal_correction = h.stream(cgv::format::StreamName::Dn).is_some();
     let (b, _) = cgv::codec::encode_prepared(&src, &coarser, &image, &mut |_, _, _| {}).unwrap();
     assert!(error(&b) > target, "QP {} is within the target too", t.qp + 1);
-    let e = cgv::eval::target::encode_to_error(&src, &opts, &image, 1e-6, &mut |_, _, _| {}).unwrap_err().to_string();
+    let e =
+        cgv::eval::target::encode_to_error(&src, &opts, cgv::codec::CodecChoice::Auto, &image, 1e-6, &mut |_, _, _| {})
+            .unwrap_err()
+            .to_string();
     assert!(e.contains("below what this grid reaches") && e.contains("at QP 0"), "{e}");
 }
 

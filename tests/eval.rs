@@ -75,7 +75,7 @@ fn metrics_on_known_cases() {
 fn bitrate_matcher_lands_within_five_percent_on_the_default_motion() {
     let src = cgv::mesh::builtin::motion(8);
     let mut opts = EvalOptions {
-        codecs: vec![EvalCodec::Gv, EvalCodec::Cgv],
+        codecs: vec![EvalCodec::Gv, EvalCodec::Predictive, EvalCodec::Normal],
         rates: Rates::Kbps(vec![200.0, 400.0]),
         surface_every: 4,
         ..Default::default()
@@ -84,11 +84,18 @@ fn bitrate_matcher_lands_within_five_percent_on_the_default_motion() {
     let report = eval::run(&src, &opts, &|_| {}).unwrap();
     assert_eq!(report.points.len(), 2);
     for p in &report.points {
-        assert_eq!(p.results.len(), 2);
+        assert_eq!(p.results.len(), 3);
         for r in &p.results {
+            // Each codec's files store what its name says: only normal's a
+            // normal channel, only the closed-loop ones corrections.
+            let has = |s: &str| r.stream_bytes.iter().any(|(n, _)| n == s);
+            assert_eq!((has("dn"), has("dx")), (r.codec == EvalCodec::Normal, r.codec != EvalCodec::Gv), "{r:?}");
             let off = r.bytes as f64 / p.target_bytes as f64 - 1.0;
+            // The normal layout has no second layer: at N = 32 its QP 0
+            // file is 11 % under 400 kbit/s, and it is reported unmatched.
+            let cannot_spend = r.codec == EvalCodec::Normal && !r.matched && off < 0.0 && p.target_bytes > 10_000;
             assert!(
-                r.matched && off.abs() <= 0.05,
+                (r.matched && off.abs() <= 0.05) || cannot_spend,
                 "{} at {}: {} bytes for {} ({off:+.3})",
                 r.codec,
                 p.name,
@@ -111,11 +118,13 @@ fn bitrate_matcher_lands_within_five_percent_on_the_default_motion() {
             assert!(r.frames.iter().all(|f| f.source_vertex_rms > 0.0));
         }
     }
-    // The cgv entry kept, of its variants that fit, the lowest surface RMS
-    // (one without a frame past eval::SPIKE times its mean before one
-    // with), and reports the others it measured.
-    for p in &report.points {
-        let c = p.results.iter().find(|r| r.codec == EvalCodec::Cgv).unwrap();
+    // The best-of entries kept, of their variants that fit, the lowest
+    // surface RMS (one without a frame past eval::SPIKE times its mean
+    // before one with), and report the others they measured.
+    for c in
+        report.points.iter().flat_map(|p| p.results.iter().filter(|r| r.codec != EvalCodec::Gv).map(move |c| (p, c)))
+    {
+        let (p, c) = c;
         assert!(!c.passed_over.is_empty(), "{}: no variant reported", p.name);
         let spikes = |w: f64| w > eval::SPIKE;
         for v in &c.passed_over {
@@ -132,7 +141,13 @@ fn bitrate_matcher_lands_within_five_percent_on_the_default_motion() {
     // Two points per codec: no BD-rate (it needs four), said so.
     assert!(report.bd_rates.iter().all(|b| b.percent.is_none()));
     let md = eval::report::markdown(&report);
-    assert!(md.contains("| cgv |") && md.contains("BD-rate") && md.contains("variants not kept"), "{md}");
+    assert!(
+        md.contains("| predictive (")
+            && md.contains("| normal (")
+            && md.contains("BD-rate")
+            && md.contains("variants not kept"),
+        "{md}"
+    );
     assert!(md.contains("On the input's own vertices") && md.contains("KG, temporal mean"), "{md}");
 }
 
@@ -142,7 +157,7 @@ fn a_motion_read_again_on_each_pass_gives_the_same_report() {
     // but read from its source on every pass: the figures must not change.
     let src = cgv::mesh::builtin::motion(5);
     let mut opts = EvalOptions {
-        codecs: vec![EvalCodec::Gv, EvalCodec::Cgv],
+        codecs: vec![EvalCodec::Gv, EvalCodec::Predictive],
         rates: Rates::Kbps(vec![300.0]),
         surface_every: 2,
         ..Default::default()

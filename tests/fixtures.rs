@@ -68,6 +68,38 @@ fn compare(expected: &str, got: &[f32], tolerance: f64) {
 }
 
 #[test]
+fn every_fixture_is_named_for_what_it_stores() {
+    // Issue 18's honest names, read from the streams of files of every
+    // version (the header's `codec` field is `cgv` for all but GV).
+    use format::Representation::{Conformal, Gv, Normal, Predictive};
+    let named = [
+        ("v1/walk-gv.cgv", Gv),
+        ("v1/walk-cgv.cgv", Predictive),
+        ("v2/walk-cgv-motion.cgv", Predictive),
+        ("v3/walk-cgv-motion.cgv", Predictive),
+        ("v8/fox-textured.cgv", Predictive),
+        ("v9/walk-cgv-normal.cgv", Normal),
+        ("v10/walk-cgv-random-access.cgv", Normal),
+        ("v11/walk-conformal.cgv", Conformal),
+    ];
+    for (name, kind) in named {
+        assert_eq!(open(name).header.representation(), kind, "{name}");
+    }
+}
+
+#[test]
+fn v11_conformal_fixture_decodes_as_frozen_with_both_solvers() {
+    // The seed paper's representation alone: H every frame, λ at key
+    // frames, anchors, no corrections (`--codec conformal`).
+    let f = open("v11/walk-conformal.cgv");
+    assert!(f.header.correction_streams().is_none() && f.header.anchors.len() == 16);
+    assert!(f.header.stream(StreamName::H).is_some() && f.header.stream(StreamName::Lambda).is_some());
+    assert_eq!((f.header.solver, f.header.frames), (SolverKind::Paper, 4));
+    check("v11/walk-conformal.cgv", SolverKind::Paper, 1e-4);
+    check("v11/walk-conformal.cgv", SolverKind::Predictive, 1e-5);
+}
+
+#[test]
 fn v1_gv_fixture_decodes_as_frozen() {
     let f = open("v1/walk-gv.cgv");
     assert_eq!((f.header.codec, f.header.grid, f.header.frames), (CodecKind::Gv, 16, 4));

@@ -25,7 +25,7 @@ Run it, then give the JSON to ``cgv eval --peers``, which puts the peers on
 its chart and tables and says how many bits we need where they are::
 
     python -m cgv.peers data/samba --frames 0..60 --json samba-peers.json
-    cgv eval data/samba --frames 0..60 --codecs cgv --peers samba-peers.json --md samba.md
+    cgv eval data/samba --frames 0..60 --codecs predictive --peers samba-peers.json --md samba.md
 
 It needs DracoPy (``pip install DracoPy``) and Node with the ``gltfpack``
 and ``meshoptimizer`` packages (``--node-modules`` or ``CGV_NODE_MODULES``: the

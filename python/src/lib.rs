@@ -10,8 +10,8 @@
 //! `cgv.Error` (a `ValueError`), or `OSError` for a file that cannot be
 //! read, with the library's message, which names the file and the problem.
 
+use cgv::codec::CodecChoice;
 use cgv::codec::{EncodeOptions, FileDecoder};
-use cgv::format::CodecKind;
 use cgv::mesh::source::check_frame;
 use cgv::mesh::{Frame, FrameSource, OpenOptions, Topology};
 use glam::Vec3;
@@ -120,42 +120,37 @@ fn flat<'a>(frames: &'a PyArrayLike3<'_, f32, AllowTypeChange>, owned: &'a mut V
 /// (N = 128's resampling floor chooses, as `cgv encode --grid auto` does).
 struct Options {
     opts: EncodeOptions,
+    codec: CodecChoice,
     target: Option<f64>,
     on_256: Option<EncodeOptions>,
 }
 
 fn encode_options(options: Option<&Bound<'_, PyDict>>, fps: f32) -> PyResult<Options> {
-    let (opts, target, auto) = options_on(options, fps, None)?;
+    let (opts, codec, target, auto) = options_on(options, fps, None)?;
     let on_256 = match (auto, target) {
         (true, Some(_)) => Some(options_on(options, fps, Some(256))?.0),
         _ => None,
     };
-    Ok(Options { opts, target, on_256 })
+    Ok(Options { opts, codec, target, on_256 })
 }
 
 /// The options for `options`' keywords, on `grid` when given; also the
-/// target error, and whether the grid was "auto".
+/// codec, the target error, and whether the grid was "auto".
 fn options_on(
     options: Option<&Bound<'_, PyDict>>,
     fps: f32,
     grid: Option<usize>,
-) -> PyResult<(EncodeOptions, Option<f64>, bool)> {
+) -> PyResult<(EncodeOptions, CodecChoice, Option<f64>, bool)> {
     let mut o = EncodeOptions::default();
     let mut target = None;
     let mut asked_grid: Option<usize> = None;
     o.video.fps = fps;
-    let mut layout: Option<String> = None;
+    let mut codec = CodecChoice::default();
     let mut corrections: Option<String> = None;
     for (key, value) in options.into_iter().flat_map(|d| d.iter()) {
         let key: String = key.extract()?;
         match key.as_str() {
-            "codec" => {
-                o.codec = match value.extract::<String>()?.as_str() {
-                    "cgv" => CodecKind::Cgv,
-                    "gv" => CodecKind::Gv,
-                    c => return Err(invalid(format!("codec {c:?}: expected \"cgv\" or \"gv\""))),
-                }
-            }
+            "codec" => codec = CodecChoice::parse(&value.extract::<String>()?).map_err(invalid)?,
             "grid" => {
                 asked_grid = match value.extract::<String>() {
                     Ok(a) if a == "auto" => None,
@@ -169,7 +164,6 @@ fn options_on(
             "keyframes" => o.key_interval = value.extract()?,
             "layers" => o.layers = value.extract()?,
             "max_lag" => o.max_lag = value.extract()?,
-            "correction_layout" => layout = Some(value.extract()?),
             "corrections" => corrections = Some(value.extract()?),
             "correction_shrink" => o.correction_shrink = value.extract()?,
             "source_mesh" => o.source_mesh = value.extract()?,
@@ -178,7 +172,7 @@ fn options_on(
             _ => {
                 return Err(PyTypeError::new_err(format!(
                     "encode() got an unexpected keyword {key:?} (known: codec, grid, qp, kbps, gop, keyframes, layers, \
-                     max_lag, correction_layout, corrections, correction_shrink, source_mesh, random_access, \
+                     max_lag, corrections, correction_shrink, source_mesh, random_access, \
                      target_error)"
                 )))
             }
@@ -191,13 +185,7 @@ fn options_on(
         (None, None) if target.is_some() => 128,
         (None, None) => cgv::codec::auto_grid(&o.video, fps),
     };
-    let mut o = o.with_auto_choices();
-    match layout.as_deref() {
-        None | Some("auto") => {}
-        Some("world") => o.normal_correction = false,
-        Some("normal") => o.normal_correction = true,
-        Some(l) => return Err(invalid(format!("correction_layout {l:?}: expected \"auto\", \"world\" or \"normal\""))),
-    }
+    let mut o = codec.apply(o, None).map_err(raise)?;
     match corrections.as_deref() {
         None | Some("auto") => {}
         Some("scaled") => o.corrections = cgv::format::CorrectionMode::Scaled,
@@ -208,7 +196,7 @@ fn options_on(
         return Err(invalid("kbps and target_error ask for the size two ways: give one".into()));
     }
     o.validate().map_err(raise)?;
-    Ok((o, target, asked_grid.is_none()))
+    Ok((o, codec, target, asked_grid.is_none()))
 }
 
 fn run_encode(py: Python<'_>, src: &dyn FrameSource, o: &Options) -> PyResult<Vec<u8>> {
@@ -218,12 +206,13 @@ fn run_encode(py: Python<'_>, src: &dyn FrameSource, o: &Options) -> PyResult<Ve
             // The floor's rule chooses 128 (opts) or 256 (on_256) only.
             let regrid = |n: usize| {
                 debug_assert_eq!(n, 256, "auto_grid_for_error gave a grid Python did not prepare");
-                o.on_256.clone().unwrap_or_else(|| o.opts.clone())
+                Ok(o.on_256.clone().unwrap_or_else(|| o.opts.clone()))
             };
-            let auto = o.on_256.is_some().then_some(&regrid as &dyn Fn(usize) -> EncodeOptions);
+            let auto = o.on_256.is_some().then_some(&regrid as &dyn Fn(usize) -> cgv::Result<EncodeOptions>);
             cgv::eval::target::prepare_for_error(src, o.opts.clone(), percent / 100.0, auto).and_then(
                 |(opts, image)| {
-                    cgv::eval::target::encode_to_error(src, &opts, &image, percent / 100.0, &mut |_, _, _| {})
+                    let target = percent / 100.0;
+                    cgv::eval::target::encode_to_error(src, &opts, o.codec, &image, target, &mut |_, _, _| {})
                         .map(|(bytes, _, _)| bytes)
                 },
             )

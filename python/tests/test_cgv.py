@@ -54,11 +54,20 @@ def test_same_bytes_whatever_the_array_layout(walk):
 def test_gv_and_options(walk):
     positions, faces, fps = walk
     data = cgv.encode(positions, faces, fps=fps, grid=16, codec="gv", qp=30, source_mesh=False)
-    assert cgv.info(data)["header"]["codec"].lower() == "gv"
+    assert cgv.info(data)["codec"] == "gv"
     with pytest.raises(cgv.Error, match="carries no source mesh"):
         cgv.decode(data, mesh="source")
-    normal = cgv.encode(positions, faces, fps=fps, grid=32, correction_layout="normal", source_mesh=False)
+    # Each codec by its name; the file says what it stores. QP 40 is where
+    # the default (auto) takes predictive; "cgv" is auto's first-round name.
+    normal = cgv.encode(positions, faces, fps=fps, grid=32, codec="normal", qp=40, source_mesh=False)
+    assert cgv.info(normal)["codec"] == "normal"
     assert any(s["name"] == "dn" for s in cgv.info(normal)["header"]["streams"])
+    for codec, stored in [("predictive", "predictive"), ("cgv", "predictive"), ("auto", "predictive"),
+                          ("conformal", "conformal")]:
+        data = cgv.encode(positions, faces, fps=fps, grid=16, codec=codec, qp=40, source_mesh=False)
+        assert cgv.info(data)["codec"] == stored, codec
+    with pytest.raises(cgv.Error, match="unknown codec .paper."):
+        cgv.encode(positions, faces, fps=fps, grid=16, codec="paper")
     # Random-access points every 0.1 s (3 frames; the default, 2 s, is past these 8).
     points = cgv.encode(positions, faces, fps=fps, grid=16, random_access=0.1, source_mesh=False)
     header = cgv.info(points)["header"]

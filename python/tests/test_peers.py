@@ -86,14 +86,14 @@ def test_cgv_eval_puts_the_peers_on_its_chart(cgv_bin, tmp_path):
     assert [c["name"] for c in report["curves"]] == ["draco", "gltfpack -cc"]
     md = tmp_path / "walk.md"
     subprocess.run(
-        [cgv_bin, "eval", "builtin:walk", "--frames", "0..4", "--grid", "32", "--codecs", "cgv", "--kbps", "200,800",
+        [cgv_bin, "eval", "builtin:walk", "--frames", "0..4", "--grid", "32", "--codecs", "predictive", "--kbps", "200,800",
          "--peers", str(out), "--md", str(md), "--json", str(tmp_path / "walk.json"), "--plot", str(tmp_path / "walk.svg")],
         check=True, capture_output=True,
     )
     text = md.read_text()
     assert "## Against what users ship" in text and "| gltfpack -cc | -vp 10 |" in text
     joined = json.loads((tmp_path / "walk.json").read_text())["peers"]
-    assert len(joined["comparisons"]) == 4 and joined["codec"] == "cgv"
+    assert len(joined["comparisons"]) == 4 and joined["codec"] == "predictive"
     assert "gltfpack -cc" in (tmp_path / "walk.svg").read_text()
     # Made on other frames: refused before the run, naming the file.
     r = subprocess.run([cgv_bin, "eval", "builtin:walk", "--frames", "0..5", "--grid", "32", "--peers", str(out)], capture_output=True, text=True)

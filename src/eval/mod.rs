@@ -41,38 +41,54 @@ use rayon::prelude::*;
 use serde::Serialize;
 use source::{SourceErrors, SourceMeasure};
 
-/// A codec as `cgv eval` runs it.
+/// A codec as `cgv eval` runs it, named for what its files store (see
+/// [`format::Representation`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "kebab-case")]
 pub enum EvalCodec {
     /// Geometry video: x, y, z.
     Gv,
-    /// CGV as the paper stores it (H, λ at key frames, anchors, seed),
+    /// The seed paper's representation (H, λ at key frames, anchors, seed),
     /// decoded by the paper's Eq. 1 solver.
-    Paper,
-    /// The project's CGV: closed-loop prediction and corrections, each rate
-    /// point matched in both correction modes, and in motion mode with the
-    /// corrections on every frame and on every second one ([`VARIANTS`]);
-    /// of those no larger than the target allows, the one with the lower
-    /// vertex error is kept (what an encoder that knows its own
-    /// reconstruction can do; the surface distance is not consulted).
-    Cgv,
-    /// The project's CGV with scaled corrections only (format v1).
-    CgvScaled,
-    /// The project's CGV with motion corrections only (format v2).
-    CgvMotion,
+    Conformal,
+    /// Closed-loop prediction and x, y, z corrections, each rate point
+    /// matched with scaled corrections, and with motion corrections on
+    /// every frame and on every second one ([`EvalCodec::variants`]); of
+    /// those no larger than the target allows, the one with the lower
+    /// error is kept (what an encoder that knows its own reconstruction
+    /// can do).
+    Predictive,
+    /// The same with the normal layout: the corrections along the predicted
+    /// surface's normal at full size, x, y, z coarser (format v9).
+    Normal,
+    /// [`EvalCodec::Predictive`] with scaled corrections only (format v1).
+    PredictiveScaled,
+    /// [`EvalCodec::Predictive`] with motion corrections only (format v2).
+    PredictiveMotion,
+    /// [`EvalCodec::Normal`] with scaled corrections only.
+    NormalScaled,
+    /// [`EvalCodec::Normal`] with motion corrections only.
+    NormalMotion,
 }
 
-/// The encodes the `cgv` entry matches at each rate point: scaled
-/// corrections, motion corrections on every frame, and motion corrections
-/// on every second frame (which made samba's lowest point at N = 128
-/// reachable at all: with corrections on every frame the smallest file,
-/// at the loop's coarsest QP, is 10 % too large; every second frame fits
-/// at QP 37, with 1.07 % surface RMS against GV's 1.15 %).
-pub const VARIANTS: [(EvalCodec, u32); 3] =
-    [(EvalCodec::CgvScaled, 1), (EvalCodec::CgvMotion, 1), (EvalCodec::CgvMotion, 2)];
+/// Names `--codecs` accepts besides the codecs' own: those of the first
+/// round, when the closed-loop codecs were all called `cgv`.
+const ALIASES: [(&str, EvalCodec); 4] = [
+    ("paper", EvalCodec::Conformal),
+    ("cgv", EvalCodec::Predictive),
+    ("cgv-scaled", EvalCodec::PredictiveScaled),
+    ("cgv-motion", EvalCodec::PredictiveMotion),
+];
 
-/// The `cgv` entry passes over a variant whose worst frame's error is more
+/// The variants' correction interval: [`EvalCodec::variants`] tries motion
+/// corrections on every second frame too (which made samba's lowest point
+/// at N = 128 reachable at all: with corrections on every frame the
+/// smallest file, at the loop's coarsest QP, is 10 % too large; every
+/// second frame fits at QP 37, with 1.07 % surface RMS against GV's
+/// 1.15 %).
+const EVERY_SECOND: u32 = 2;
+
+/// The best-of entries pass over a variant whose worst frame's error is more
 /// than this many times its mean (the no-drift bound of issue 6) when
 /// another has none: pcow at N = 128, `max` point, the scaled encode had
 /// 0.181 % surface RMS with frame 122 at 0.620 % (3.4x), the motion encode
@@ -80,27 +96,84 @@ pub const VARIANTS: [(EvalCodec, u32); 3] =
 pub const SPIKE: f64 = 3.0;
 
 impl EvalCodec {
-    pub const ALL: [EvalCodec; 3] = [EvalCodec::Gv, EvalCodec::Paper, EvalCodec::Cgv];
+    /// What `cgv eval` runs unless told otherwise.
+    pub const ALL: [EvalCodec; 4] = [EvalCodec::Gv, EvalCodec::Conformal, EvalCodec::Predictive, EvalCodec::Normal];
+
+    /// Every codec `--codecs` names, in the order reports list them.
+    pub const NAMED: [EvalCodec; 8] = [
+        EvalCodec::Gv,
+        EvalCodec::Conformal,
+        EvalCodec::Predictive,
+        EvalCodec::Normal,
+        EvalCodec::PredictiveScaled,
+        EvalCodec::PredictiveMotion,
+        EvalCodec::NormalScaled,
+        EvalCodec::NormalMotion,
+    ];
+
+    /// The encodes a best-of entry matches at each rate point (codec,
+    /// correction interval); None for a codec encoded one way.
+    pub fn variants(self) -> Option<[(EvalCodec, u32); 3]> {
+        match self {
+            EvalCodec::Predictive => Some([
+                (EvalCodec::PredictiveScaled, 1),
+                (EvalCodec::PredictiveMotion, 1),
+                (EvalCodec::PredictiveMotion, EVERY_SECOND),
+            ]),
+            EvalCodec::Normal => Some([
+                (EvalCodec::NormalScaled, 1),
+                (EvalCodec::NormalMotion, 1),
+                (EvalCodec::NormalMotion, EVERY_SECOND),
+            ]),
+            _ => None,
+        }
+    }
+
+    /// Whether the codec lays its corrections out along the normal.
+    fn normal(self) -> bool {
+        matches!(self, EvalCodec::Normal | EvalCodec::NormalScaled | EvalCodec::NormalMotion)
+    }
 
     fn options(self, base: &EncodeOptions) -> EncodeOptions {
         let (codec, solver) = match self {
             EvalCodec::Gv => (CodecKind::Gv, SolverKind::Predictive),
-            EvalCodec::Paper => (CodecKind::Cgv, SolverKind::Paper),
+            EvalCodec::Conformal => (CodecKind::Cgv, SolverKind::Paper),
             _ => (CodecKind::Cgv, SolverKind::Predictive),
         };
         let corrections = match self {
-            EvalCodec::CgvMotion => CorrectionMode::Motion,
+            EvalCodec::PredictiveMotion | EvalCodec::NormalMotion => CorrectionMode::Motion,
             _ => CorrectionMode::Scaled,
         };
         // The grid codecs are compared as they code the motion; the source
         // mesh, the same for all, is reported once (Report::source_mesh_bytes).
-        EncodeOptions { codec, solver, corrections, source_mesh: false, ..base.clone() }
+        EncodeOptions {
+            codec,
+            solver,
+            corrections,
+            correction: self != EvalCodec::Conformal,
+            normal_correction: self.normal(),
+            source_mesh: false,
+            ..base.clone()
+        }
     }
 
     fn solver(self) -> SolverKind {
         match self {
-            EvalCodec::Paper => SolverKind::Paper,
+            EvalCodec::Conformal => SolverKind::Paper,
             _ => SolverKind::Predictive,
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            EvalCodec::Gv => "gv",
+            EvalCodec::Conformal => "conformal",
+            EvalCodec::Predictive => "predictive",
+            EvalCodec::Normal => "normal",
+            EvalCodec::PredictiveScaled => "predictive-scaled",
+            EvalCodec::PredictiveMotion => "predictive-motion",
+            EvalCodec::NormalScaled => "normal-scaled",
+            EvalCodec::NormalMotion => "normal-motion",
         }
     }
 }
@@ -108,26 +181,17 @@ impl EvalCodec {
 impl std::str::FromStr for EvalCodec {
     type Err = String;
     fn from_str(s: &str) -> std::result::Result<Self, String> {
-        match s {
-            "gv" => Ok(EvalCodec::Gv),
-            "paper" => Ok(EvalCodec::Paper),
-            "cgv" => Ok(EvalCodec::Cgv),
-            "cgv-scaled" => Ok(EvalCodec::CgvScaled),
-            "cgv-motion" => Ok(EvalCodec::CgvMotion),
-            _ => Err(format!("unknown codec '{s}' (expected gv, paper, cgv, cgv-scaled or cgv-motion)")),
-        }
+        let own = EvalCodec::NAMED.into_iter().find(|c| c.name() == s);
+        own.or_else(|| ALIASES.iter().find(|a| a.0 == s).map(|a| a.1)).ok_or_else(|| {
+            let names: Vec<&str> = EvalCodec::NAMED.iter().map(|c| c.name()).collect();
+            format!("unknown codec '{s}' (expected {})", names.join(", "))
+        })
     }
 }
 
 impl std::fmt::Display for EvalCodec {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            EvalCodec::Gv => "gv",
-            EvalCodec::Paper => "paper",
-            EvalCodec::Cgv => "cgv",
-            EvalCodec::CgvScaled => "cgv-scaled",
-            EvalCodec::CgvMotion => "cgv-motion",
-        })
+        f.write_str(self.name())
     }
 }
 
@@ -238,8 +302,8 @@ pub struct CodecResult {
     pub frames: Vec<FrameMetrics>,
 }
 
-/// A `cgv` variant measured at a rate point and not kept (see
-/// [`EvalCodec::Cgv`]).
+/// A best-of entry's variant measured at a rate point and not kept (see
+/// [`EvalCodec::variants`]).
 #[derive(Debug, Clone, Serialize)]
 pub struct Variant {
     pub corrections: Option<CorrectionMode>,
@@ -524,7 +588,7 @@ impl Ctx<'_> {
     /// One encode at constant `qp`, or with `rc = (qp_max, kbps)` the rate
     /// control choosing QPs in `qp..=qp_max`.
     /// `interval`: the motion mode's correction interval (1 unless a
-    /// [`VARIANTS`] entry asks for another).
+    /// [`EvalCodec::variants`] entry asks for another).
     fn encode(&self, codec: EvalCodec, interval: u32, qp: u8, layers: u8, rc: Option<(u8, f32)>) -> Result<Try> {
         let mut o = codec.options(&self.opts.base);
         o.correction_interval = interval;
@@ -553,8 +617,7 @@ impl Ctx<'_> {
             }
         };
         // A normal correction has no second layer (format v9).
-        let normal = self.opts.base.normal_correction && codec != EvalCodec::Gv;
-        let layer_choices: &[u8] = if normal { &[1] } else { &[1, 2] };
+        let layer_choices: &[u8] = if codec.normal() { &[1] } else { &[1, 2] };
         'layers: for &layers in layer_choices {
             // Secant steps on log(size) over integer QPs inside a shrinking
             // bracket: size(lo) > target > size(hi).
@@ -633,10 +696,10 @@ impl Ctx<'_> {
     }
 
     fn job(&self, codec: EvalCodec, target: usize) -> Result<CodecResult> {
-        if codec != EvalCodec::Cgv {
+        let Some(variants) = codec.variants() else {
             let (t, matched, tries) = self.search(codec, self.opts.base.correction_interval, target)?;
             return self.measure(codec, t, matched, tries);
-        }
+        };
         // Every variant no larger than the target allows is measured, and
         // the one with the lowest error is kept (smaller and better beats
         // matched: the rate control does not always land within the
@@ -651,11 +714,11 @@ impl Ctx<'_> {
         let mut tries = 0;
         let mut measured: Vec<CodecResult> = Vec::new();
         let mut too_large: Vec<Found> = Vec::new();
-        for (c, k) in VARIANTS {
+        for (c, k) in variants {
             let f = self.search(c, k, target)?;
             tries += f.2;
             match fits(&f.0) {
-                true => measured.push(self.measure(EvalCodec::Cgv, f.0, f.1, 0)?),
+                true => measured.push(self.measure(codec, f.0, f.1, 0)?),
                 false => too_large.push(f),
             }
         }
@@ -664,7 +727,7 @@ impl Ctx<'_> {
                 .into_iter()
                 .min_by_key(|f| f.0.size)
                 .ok_or_else(|| Error::Argument("no encode was made".into()))?;
-            measured.push(self.measure(EvalCodec::Cgv, t, matched, 0)?);
+            measured.push(self.measure(codec, t, matched, 0)?);
         }
         let scores: Vec<(f64, f64)> =
             measured.iter().map(|r| (r.surface_rms.unwrap_or(r.vertex_rms), r.worst_over_mean)).collect();
@@ -679,7 +742,7 @@ impl Ctx<'_> {
     fn measure(&self, codec: EvalCodec, t: Try, matched: bool, tries: usize) -> Result<CodecResult> {
         let mut dec = self.decoder(&t.bytes, codec.solver())?;
         let h = &dec.file.header;
-        let corrections = (h.codec == CodecKind::Cgv && codec != EvalCodec::Paper).then_some(h.corrections);
+        let corrections = h.correction_streams().map(|_| h.corrections);
         let correction_interval = corrections.map(|_| {
             match h.correction_streams().and_then(|c| h.stream(c[0])).map(|s| h.streams[s].coverage) {
                 // Frames 0 and 1, then every k-th.

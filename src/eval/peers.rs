@@ -175,9 +175,18 @@ impl PeerReport {
 
 /// The first of our codecs the report holds, best first.
 fn our_codec(r: &Report) -> Option<EvalCodec> {
-    [EvalCodec::Cgv, EvalCodec::CgvMotion, EvalCodec::CgvScaled, EvalCodec::Paper, EvalCodec::Gv]
-        .into_iter()
-        .find(|c| r.points.iter().any(|p| p.results.iter().any(|x| x.codec == *c)))
+    [
+        EvalCodec::Normal,
+        EvalCodec::Predictive,
+        EvalCodec::NormalMotion,
+        EvalCodec::NormalScaled,
+        EvalCodec::PredictiveMotion,
+        EvalCodec::PredictiveScaled,
+        EvalCodec::Conformal,
+        EvalCodec::Gv,
+    ]
+    .into_iter()
+    .find(|c| r.points.iter().any(|p| p.results.iter().any(|x| x.codec == *c)))
 }
 
 /// Our whole file's bits per input vertex per frame: the motion and the mesh.

@@ -39,18 +39,18 @@ fn register_font() -> Result<()> {
 fn color(c: EvalCodec) -> RGBColor {
     match c {
         EvalCodec::Gv => RGBColor(214, 39, 40),
-        EvalCodec::Paper => RGBColor(31, 119, 180),
-        EvalCodec::Cgv => RGBColor(44, 160, 44),
-        EvalCodec::CgvScaled => RGBColor(148, 103, 189),
-        EvalCodec::CgvMotion => RGBColor(255, 127, 14),
+        EvalCodec::Conformal => RGBColor(31, 119, 180),
+        EvalCodec::Predictive => RGBColor(44, 160, 44),
+        EvalCodec::Normal => RGBColor(23, 190, 207),
+        EvalCodec::PredictiveScaled => RGBColor(148, 103, 189),
+        EvalCodec::PredictiveMotion => RGBColor(255, 127, 14),
+        EvalCodec::NormalScaled => RGBColor(140, 86, 75),
+        EvalCodec::NormalMotion => RGBColor(227, 119, 194),
     }
 }
 
 fn codecs(r: &Report) -> Vec<EvalCodec> {
-    [EvalCodec::Gv, EvalCodec::Paper, EvalCodec::Cgv, EvalCodec::CgvScaled, EvalCodec::CgvMotion]
-        .into_iter()
-        .filter(|c| r.points.iter().any(|p| p.results.iter().any(|x| x.codec == *c)))
-        .collect()
+    EvalCodec::NAMED.into_iter().filter(|c| r.points.iter().any(|p| p.results.iter().any(|x| x.codec == *c))).collect()
 }
 
 fn log_range(v: impl Iterator<Item = f64>) -> std::ops::Range<f64> {

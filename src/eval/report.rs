@@ -137,7 +137,9 @@ fn bitrates(s: &mut String, r: &Report) {
                 p.target_kbps_30fps,
                 c.codec,
                 match (c.codec, c.correction_interval) {
-                    (EvalCodec::Cgv, _) => format!(" ({})", variant_label(c.corrections, c.correction_interval)),
+                    (codec, _) if codec.variants().is_some() => {
+                        format!(" ({})", variant_label(c.corrections, c.correction_interval))
+                    }
                     (_, Some(k)) if k > 1 => format!(" (corrections every {k} frames)"),
                     _ => String::new(),
                 },

@@ -10,7 +10,7 @@
 //! would, so the figure includes everything the decoder does. The QP is
 //! bisected (an error that falls as the QP falls): about seven encodes.
 
-use crate::codec::{encode_prepared, EncodeOptions, EncodeReport, FileDecoder};
+use crate::codec::{encode_prepared, CodecChoice, EncodeOptions, EncodeReport, FileDecoder};
 use crate::error::{Error, Result};
 use crate::geometry_image::{surface_vertices, GeometryImage};
 use crate::mesh::{Bounds, Frame, FrameSource};
@@ -41,7 +41,7 @@ pub fn prepare_for_error(
     src: &dyn FrameSource,
     opts: EncodeOptions,
     target: f64,
-    regrid: Option<&dyn Fn(usize) -> EncodeOptions>,
+    regrid: Option<&dyn Fn(usize) -> Result<EncodeOptions>>,
 ) -> Result<(EncodeOptions, GeometryImage)> {
     let image = crate::codec::prepare(src, &opts)?;
     let Some(regrid) = regrid else { return Ok((opts, image)) };
@@ -50,7 +50,7 @@ pub fn prepare_for_error(
     match crate::codec::auto_grid_for_error(target, floor) {
         n if n == opts.grid => Ok((opts, image)),
         n => {
-            let opts = regrid(n);
+            let opts = regrid(n)?;
             let image = crate::codec::prepare(src, &opts)?;
             Ok((opts, image))
         }
@@ -106,6 +106,7 @@ impl Truth {
 pub fn encode_to_error(
     src: &dyn FrameSource,
     opts: &EncodeOptions,
+    codec: CodecChoice,
     image: &GeometryImage,
     target: f64,
     progress: &mut dyn FnMut(&str, usize, usize),
@@ -116,12 +117,12 @@ pub fn encode_to_error(
     let start = std::time::Instant::now();
     let truth = Truth::read(src)?;
     let (mut encodes, mut coding) = (0, 0.0);
-    // One encode at `qp`, with the auto rules' corrections for it, or
-    // those of `pin` (see below).
+    // One encode at `qp`, with the codec's choices for it (the corrections
+    // and, for `auto`, the layout), or those of `pin` (see below).
     let mut try_qp = |qp: u8, pin: Option<&EncodeOptions>| -> Result<Found> {
         let mut o = opts.clone();
         (o.video.qp, o.video.kbps) = (qp, None);
-        let mut o = o.with_auto_choices();
+        let mut o = codec.apply(o, Some(opts.solver))?;
         if let Some(p) = pin {
             (o.corrections, o.normal_correction) = (p.corrections, p.normal_correction);
         }

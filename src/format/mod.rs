@@ -55,6 +55,7 @@ pub use predictor::{Extrapolation, PredictorCode, SolverKind, MAX_PREDICTOR, MAX
 pub use quant::Quantizer;
 use serde::{Deserialize, Serialize};
 pub use source_mesh::{Offsets, SourceMesh, SourceMeshInfo};
+use std::fmt;
 pub use stream::StreamName;
 
 pub const MAGIC: [u8; 8] = [0x89, b'C', b'G', b'V', b'\r', b'\n', 0x1A, b'\n'];
@@ -131,14 +132,56 @@ pub enum CorrectionMode {
     Motion,
 }
 
-/// Which representation the streams carry.
+/// The header's `codec` field, frozen since version 1: `gv` for a geometry
+/// video, `cgv` for every file built on the grid's intrinsic and extrinsic
+/// streams or on corrections to a prediction. What such a file really
+/// stores is its [`Representation`] ([`Header::representation`]), which
+/// is the name users see.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum CodecKind {
-    /// Conformal geometry video: H every frame, intrinsic streams at key frames.
+    /// H every frame and λ at key frames, corrections, or both (see
+    /// [`Representation`]).
     Cgv,
     /// Geometry video: x, y, z every frame.
     Gv,
+}
+
+/// What a file stores, named so: derived from the streams its header
+/// lists, so every version has one without a field of its own.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Representation {
+    /// Geometry video: x, y, z every frame.
+    Gv,
+    /// The seed paper's: mean curvature H every frame, the conformal factor
+    /// λ at key frames, anchors and a seed; no corrections.
+    Conformal,
+    /// A prediction from the decoded past plus closed-loop corrections in
+    /// three channels, x, y, z (H and λ beside them in scaled files).
+    Predictive,
+    /// The same prediction, corrected along the predicted surface's normal
+    /// (`dn`, one scalar channel at full size) and by x, y, z on a coarser
+    /// grid (version 9).
+    Normal,
+}
+
+impl Representation {
+    /// The name `cgv encode --codec` and `cgv info` use.
+    pub fn name(self) -> &'static str {
+        match self {
+            Representation::Gv => "gv",
+            Representation::Conformal => "conformal",
+            Representation::Predictive => "predictive",
+            Representation::Normal => "normal",
+        }
+    }
+}
+
+impl fmt::Display for Representation {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
 }
 
 /// One coded scalar stream.
@@ -571,6 +614,16 @@ impl Header {
         self.streams.iter().position(|s| s.layer == 1 && s.name == name)
     }
 
+    /// What the file stores (see [`Representation`]).
+    pub fn representation(&self) -> Representation {
+        match (self.codec, self.correction_streams()) {
+            (CodecKind::Gv, _) => Representation::Gv,
+            (CodecKind::Cgv, None) => Representation::Conformal,
+            (CodecKind::Cgv, Some(_)) if self.stream(StreamName::Dn).is_some() => Representation::Normal,
+            (CodecKind::Cgv, Some(_)) => Representation::Predictive,
+        }
+    }
+
     /// The names of the file's correction streams: `dx`, `dy`, `dz`, and
     /// from version 9 `dn` after them if the file has it; `None` without
     /// corrections.
@@ -833,7 +886,7 @@ impl CgvFile {
         let f = &self.frames;
         serde_json::json!({
             "version": self.version, "bytes": self.bytes, "kbps": self.bytes as f64 * 8.0 / 1000.0 / seconds,
-            "header": h, "stream_bytes": stream_bytes,
+            "codec": h.representation(), "header": h, "stream_bytes": stream_bytes,
             "predictors": f.iter().map(|f| f.predictor.to_byte()).collect::<Vec<_>>(),
             "lags": f.iter().map(|f| f.predictor.lag).collect::<Vec<_>>(),
             "filters": f.iter().map(|f| f.filter).collect::<Vec<_>>(),

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Draco per frame and gltfpack morph targets beside our codec, on the same
 # frames with the same surface distance (RESULTS, "Against what users ship").
-# For each sequence: python -m cgv.peers, then cgv eval --codecs cgv at
+# For each sequence: python -m cgv.peers, then cgv eval --codecs predictive at
 # N = 128 and 256 with the peers joined, then summary.py over all of them.
 # Our rate points are bits per input vertex per frame (motion only; the
 # report adds the input's mesh for the comparison).
@@ -29,7 +29,7 @@ for s in ${*:-samba horse-gallop pcow horse-collapse face-poses cylinder wolf}; 
   rates=${bpvf[$s]:-0.4 1 2.5 6 15}
   kbps=$("$py" -c "print(','.join(f'{float(b) * $v * 30 / 1000:.1f}' for b in '$rates'.split()))")
   for n in ${grids[$s]}; do
-    [ -e "$out/$s-$n.json" ] || "$cgv" eval "$input" --frames "${frames[$s]}" --grid "$n" --codecs cgv --kbps "$kbps" \
+    [ -e "$out/$s-$n.json" ] || "$cgv" eval "$input" --frames "${frames[$s]}" --grid "$n" --codecs predictive --kbps "$kbps" \
       --peers "$out/$s-peers.json" --json "$out/$s-$n.json" --md "$out/$s-$n.md" --plot "$out/$s-$n.svg"
   done
 done

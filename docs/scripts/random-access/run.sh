@@ -15,7 +15,7 @@ for name in "$@"; do
   [ -d "$dir/$name" ] && dir=$dir/$name   # the archive's own folder, as tar xJf leaves it
   for s in 0 "$seconds"; do
     json="$out/$name-128-ra$s.json"
-    [ -f "$json" ] || "$cgv" eval "$dir" --grid 128 --codecs cgv --surface-every 2 --random-access "$s" \
+    [ -f "$json" ] || "$cgv" eval "$dir" --grid 128 --codecs predictive --surface-every 2 --random-access "$s" \
       --json "$json" > "$out/$name-128-ra$s.log" 2>&1
   done
   echo "== $name, N = 128: points every $seconds s against none"

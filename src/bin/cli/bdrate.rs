@@ -5,6 +5,7 @@
 
 use anyhow::{bail, Context, Result};
 use cgv::eval::bdrate::{bd_rate, bd_rate_pchip};
+use cgv::eval::EvalCodec;
 use serde_json::Value;
 use std::path::PathBuf;
 
@@ -14,23 +15,25 @@ pub struct Args {
     reference: PathBuf,
     /// The report whose codec is measured against the reference's.
     test: PathBuf,
-    /// The codec whose curves are compared, in both reports (`cgv eval --codecs`).
-    #[arg(long, default_value = "cgv")]
-    codec: String,
+    /// The codec whose curves are compared, in both reports (`cgv eval
+    /// --codecs`; reports made before the codecs were renamed are read by
+    /// the old names too: cgv is predictive, paper conformal).
+    #[arg(long, default_value = "predictive")]
+    codec: EvalCodec,
     /// The reference's codec, when it is another one (default: --codec).
     #[arg(long)]
-    reference_codec: Option<String>,
+    reference_codec: Option<EvalCodec>,
 }
 
 const METRICS: [&str; 4] = ["surface_rms", "vertex_rms", "source_vertex_rms", "smoothness"];
 
 /// The (kbit/s at 30 fps, error) points of one codec and metric.
-fn curve(report: &Value, codec: &str, metric: &str) -> Vec<(f64, f64)> {
+fn curve(report: &Value, codec: EvalCodec, metric: &str) -> Vec<(f64, f64)> {
     let points = report["points"].as_array().map(Vec::as_slice).unwrap_or_default();
     points
         .iter()
         .flat_map(|p| p["results"].as_array().into_iter().flatten())
-        .filter(|r| r["codec"] == codec)
+        .filter(|r| r["codec"].as_str().and_then(|c| c.parse::<EvalCodec>().ok()) == Some(codec))
         .filter_map(|r| Some((r["kbps_30fps"].as_f64()?, r[metric].as_f64()?)))
         .collect()
 }
@@ -46,7 +49,7 @@ fn read(path: &PathBuf) -> Result<Value> {
 
 pub fn run(args: Args) -> Result<()> {
     let (reference, test) = (read(&args.reference)?, read(&args.test)?);
-    let ref_codec = args.reference_codec.as_deref().unwrap_or(&args.codec);
+    let ref_codec = args.reference_codec.unwrap_or(args.codec);
     let fmt = |p: Option<f64>| p.map_or("n/a".to_string(), |p| format!("{p:+.1} %"));
     println!(
         "BD-rate of {} ({}) against {} ({}):",
@@ -58,7 +61,7 @@ pub fn run(args: Args) -> Result<()> {
     println!("  {:<18} {:>10} {:>10}   points", "metric", "cubic", "pchip");
     let mut any = false;
     for m in METRICS {
-        let (r, t) = (curve(&reference, ref_codec, m), curve(&test, &args.codec, m));
+        let (r, t) = (curve(&reference, ref_codec, m), curve(&test, args.codec, m));
         if r.is_empty() || t.is_empty() {
             continue;
         }

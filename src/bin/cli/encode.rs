@@ -1,38 +1,19 @@
-//! `cgv encode`: a motion into a `.cgv` file (CGV or GV).
+//! `cgv encode`: a motion into a `.cgv` file, with any of the codecs.
 
 use super::InputArgs;
 use anyhow::{bail, Context, Result};
-use cgv::codec::{encode, h264::VideoSettings, EncodeOptions};
+use cgv::codec::{encode, h264::VideoSettings, CodecChoice, EncodeOptions};
 use cgv::eval::target::prepare_for_error;
-use cgv::format::{CodecKind, CorrectionMode};
+use cgv::format::CorrectionMode;
 use cgv::param::ParamOptions;
 use cgv::solve::SolverKind;
 use std::path::PathBuf;
-
-#[derive(Clone, Copy, clap::ValueEnum)]
-enum Codec {
-    /// The project's codec: a seed at frame 0, then closed-loop corrections
-    /// (dx, dy, dz) to a prediction from the decoded past. Motion-corrected
-    /// files (the default at low rates) carry no H or λ; scaled ones, and
-    /// files for `--solver paper`, also carry H every frame and λ at key
-    /// frames.
-    Cgv,
-    /// Geometry video: x, y, z every frame (the baseline).
-    Gv,
-}
 
 #[derive(Clone, Copy, clap::ValueEnum)]
 enum Corrections {
     Auto,
     Scaled,
     Motion,
-}
-
-#[derive(Clone, Copy, PartialEq, clap::ValueEnum)]
-enum CorrectionLayout {
-    Auto,
-    World,
-    Normal,
 }
 
 #[derive(clap::Args)]
@@ -51,11 +32,31 @@ pub struct Args {
     /// `cgv encode --manifest JOBS.json [OPTIONS]`, without INPUT and -o.
     #[arg(long, value_name = "JOBS.json")]
     manifest: Option<PathBuf>,
-    #[arg(long, value_enum, default_value = "cgv")]
-    codec: Codec,
-    /// The decoder recorded as intended (cgv or paper); `cgv decode --solver` overrides it.
-    #[arg(long, default_value = "cgv")]
-    solver: SolverKind,
+    /// What the file stores. All but gv start from a seed at frame 0 and
+    /// the grid's intrinsic and extrinsic geometry.
+    /// `normal`: a prediction from the decoded past, corrected in closed
+    /// loop along the predicted surface's normal (dn, one scalar picture
+    /// a frame at full size: the extrinsic channel) and by x, y, z on a
+    /// grid halved --correction-shrink times (format version 9).
+    /// `predictive`: the same prediction corrected by x, y, z at full size
+    /// (versions 1-8; scaled corrections also carry H and λ).
+    /// `auto` (the default; `cgv` is another name for it): normal from 0.25
+    /// to 1.3 bits per grid sample per frame (or QP 12 to 30) with one
+    /// layer, where it measured better, else predictive (docs/RESULTS.md,
+    /// "One scalar channel per frame").
+    /// `conformal`: the seed paper's representation, the mean curvature H
+    /// every frame, the conformal factor λ at key frames and anchors, no
+    /// corrections; decoded by the paper's solver, or by `--solver cgv` on
+    /// H and the anchors alone (it drifts; for measurement).
+    /// `gv`: geometry video, x, y, z every frame (the baseline).
+    #[arg(long, default_value = "auto", value_parser = CodecChoice::parse,
+          value_name = "auto|normal|predictive|conformal|gv")]
+    codec: CodecChoice,
+    /// The decoder the file names as intended, `cgv` (the predictive one)
+    /// or `paper` (only for --codec conformal, whose default it is);
+    /// `cgv decode --solver` overrides it.
+    #[arg(long)]
+    solver: Option<SolverKind>,
     /// Constant H.264 quantization parameter, 0..=51 (lower: larger and finer).
     #[arg(long, default_value_t = 20, conflicts_with = "kbps")]
     qp: u8,
@@ -76,15 +77,11 @@ pub struct Args {
     /// A key frame (λ) every N frames; 0 for the first frame only.
     #[arg(long, default_value_t = 10)]
     keyframes: u32,
-    /// Anchor samples stored per frame (float32 positions). Default: 16 for CGV
-    /// without corrections or for the paper solver (at least 4), none otherwise.
+    /// Anchor samples stored per frame (float32 positions). Default: 16 for
+    /// the conformal codec (at least 4), none otherwise.
     #[arg(long)]
     anchors: Option<usize>,
-    /// CGV: leave out the closed-loop corrections, so the cgv decoder runs on
-    /// H and the anchors alone (smaller, but it drifts; for measurement).
-    #[arg(long)]
-    no_correction: bool,
-    /// CGV: never filter a frame's correction (format v5 lets the encoder
+    /// normal and predictive: never filter a frame's correction (format v5 lets the encoder
     /// smooth each frame's correction by 1, 2 or 4 averaging passes where
     /// that lands closer to the true frame, which keeps H.264's block noise
     /// at low bitrates from piling up; for measurement).
@@ -95,7 +92,7 @@ pub struct Args {
     /// give back the grid mesh; smaller by what `source mesh` reports.
     #[arg(long)]
     no_source_mesh: bool,
-    /// CGV: how the corrections are coded. `scaled`: each frame's error,
+    /// normal and predictive: how the corrections are coded. `scaled`: each frame's error,
     /// scaled to the frame's largest. `motion`: their running sum at a
     /// fixed scale, so H.264 skips what the prediction got right (better at
     /// low and middle bitrates; such files leave out H and λ, which only the
@@ -104,31 +101,21 @@ pub struct Args {
     /// docs/RESULTS.md).
     #[arg(long, value_enum, default_value = "auto")]
     corrections: Corrections,
-    /// CGV: how the corrections are laid out. `normal`: their x, y, z on a
-    /// grid halved --correction-shrink times and what those leave along the
-    /// predicted surface's normal at full size (`dn`, one scalar picture a
-    /// frame: the extrinsic channel), with tangential relaxation chosen per
-    /// frame; format version 9. `world`: x, y, z at full size (versions
-    /// 1-8). `auto`: normal from 0.25 to 1.3 bits per grid sample per frame
-    /// (or QP 12 to 30) with one layer, where it measured better, else
-    /// world (docs/RESULTS.md, "One scalar channel per frame").
-    #[arg(long, value_enum, default_value = "auto")]
-    correction_layout: CorrectionLayout,
-    /// CGV with the normal layout: halve the x, y, z pictures' grid this
+    /// The normal codec: halve the x, y, z pictures' grid this
     /// many times (0..=3; as far as the grid allows, down to 16 a side).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(0..=3))]
     correction_shrink: u8,
-    /// CGV: most mean-curvature steps the encoder may choose per frame (0..=3).
+    /// All but gv: most mean-curvature steps the encoder may choose per frame (0..=3).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(0..=3))]
     max_steps: u8,
-    /// CGV with motion corrections: code the corrections on frames 0 and 1
+    /// normal and predictive with motion corrections: code the corrections on frames 0 and 1
     /// and every K-th frame after; the frames between are predicted alone
     /// and cost no picture. Worth it at the lowest bitrates, where a
     /// picture's fixed cost is a large part of a frame's bits (2 won
     /// samba's lowest points, see docs/RESULTS.md).
     #[arg(long, default_value_t = 1, value_name = "K", value_parser = clap::value_parser!(u32).range(1..))]
     correction_interval: u32,
-    /// CGV: the longest lag, in frames, of a cycle prediction (x₋₁ plus the
+    /// normal and predictive: the longest lag, in frames, of a cycle prediction (x₋₁ plus the
     /// smoothed velocity of LAG frames ago), which makes a repeating motion
     /// (a gait, a looped animation) nearly free after its first cycle. Used
     /// only if it cuts the corrections by a quarter; 0 turns it off. The
@@ -199,22 +186,17 @@ fn parse_grid(s: &str) -> std::result::Result<GridChoice, String> {
 
 /// The encoder's options for `args`, for a motion at `fps` frames/s, on
 /// grid `grid` when given (else `--grid`, `auto` by the bitrate).
-fn options_on(args: &Args, fps: f32, grid: Option<usize>) -> EncodeOptions {
+fn options_on(args: &Args, fps: f32, grid: Option<usize>) -> cgv::error::Result<EncodeOptions> {
     let video =
         VideoSettings { qp: args.qp, kbps: args.kbps, gop: args.gop, cabac: !args.cavlc, fps, ..Default::default() };
     let grid = match (grid, args.grid) {
         (Some(n), _) | (None, GridChoice::Size(n)) => n,
         (None, GridChoice::Auto) => cgv::codec::auto_grid(&video, fps),
     };
-    let mut opts = EncodeOptions {
-        codec: match args.codec {
-            Codec::Cgv => CodecKind::Cgv,
-            Codec::Gv => CodecKind::Gv,
-        },
+    let opts = EncodeOptions {
         grid,
         video,
         key_interval: args.keyframes,
-        correction: !args.no_correction,
         correction_filter: !args.no_correction_filter,
         correction_shrink: args.correction_shrink,
         max_steps: args.max_steps,
@@ -223,7 +205,6 @@ fn options_on(args: &Args, fps: f32, grid: Option<usize>) -> EncodeOptions {
         anchors: args.anchors,
         layers: args.layers,
         residual_steps: args.residual_steps,
-        solver: args.solver,
         param: ParamOptions {
             area_correction: args.area_correction,
             area_passes: args.area_passes,
@@ -234,23 +215,18 @@ fn options_on(args: &Args, fps: f32, grid: Option<usize>) -> EncodeOptions {
         source_mesh: !args.no_source_mesh,
         random_access: args.random_access,
         ..EncodeOptions::default()
-    }
-    .with_auto_choices();
+    };
+    let mut opts = args.codec.apply(opts, args.solver)?;
     match args.corrections {
         Corrections::Auto => {}
         Corrections::Scaled => opts.corrections = CorrectionMode::Scaled,
         Corrections::Motion => opts.corrections = CorrectionMode::Motion,
     }
-    match args.correction_layout {
-        CorrectionLayout::Auto => {}
-        CorrectionLayout::World => opts.normal_correction = false,
-        CorrectionLayout::Normal => opts.normal_correction = true,
-    }
-    opts
+    Ok(opts)
 }
 
 /// [`options_on`] the grid `--grid` says.
-fn options(args: &Args, fps: f32) -> EncodeOptions {
+fn options(args: &Args, fps: f32) -> cgv::error::Result<EncodeOptions> {
     options_on(args, fps, None)
 }
 
@@ -292,9 +268,9 @@ fn encode_one(args: &Args) -> Result<()> {
     }
     cgv::fsutil::check_output_folder(output)?;
     // Every option is checked before the motion is read.
-    options(args, input.fps).validate()?;
+    options(args, input.fps)?.validate()?;
     let src = input.open()?;
-    let mut opts = options(args, src.fps());
+    let mut opts = options(args, src.fps())?;
     opts.validate()?;
     if opts.correction_interval > 1 && opts.corrections != CorrectionMode::Motion {
         bail!("--correction-interval applies to motion corrections, and these are scaled (add --corrections motion)");
@@ -313,10 +289,12 @@ fn encode_one(args: &Args) -> Result<()> {
             // With --grid auto, N = 128's resampling floor decides the grid.
             let fps = src.fps();
             let regrid = |n| options_on(args, fps, Some(n));
-            let auto = (args.grid == GridChoice::Auto).then_some(&regrid as &dyn Fn(usize) -> EncodeOptions);
+            let auto = (args.grid == GridChoice::Auto)
+                .then_some(&regrid as &dyn Fn(usize) -> cgv::error::Result<EncodeOptions>);
             prepare_for_error(src.as_ref(), opts.clone(), percent / 100.0, auto).and_then(|(o, image)| {
                 opts = o;
-                cgv::eval::target::encode_to_error(src.as_ref(), &opts, &image, percent / 100.0, &mut progress)
+                let target = percent / 100.0;
+                cgv::eval::target::encode_to_error(src.as_ref(), &opts, args.codec, &image, target, &mut progress)
                     .map(|(b, r, t)| (b, r, Some(t)))
             })
         }
@@ -347,9 +325,10 @@ fn print_report(
         );
     } else {
         println!(
-            "{} -> {} ({} frames, {} bytes, {:.1} kbit/s at {} fps)",
+            "{} -> {} ({} codec, {} frames, {} bytes, {:.1} kbit/s at {} fps)",
             src.label().display(),
             output.display(),
+            report.codec,
             report.frames,
             report.bytes,
             kbps,

@@ -17,7 +17,7 @@ use std::path::PathBuf;
     cgv eval data/samba --grid 128 --kbps 1500,2600,5600 --json samba.json\n\n\
     Against Draco and gltfpack (the Python package's cgv.peers measures them on the same frames):\n  \
     python -m cgv.peers data/samba --frames 0..60 --json peers.json\n  \
-    cgv eval data/samba --frames 0..60 --codecs cgv --kbps 150,300,600,1200,2400 --peers peers.json --plot samba.svg")]
+    cgv eval data/samba --frames 0..60 --codecs predictive,normal --kbps 150,300,600,1200,2400 --peers peers.json --plot samba.svg")]
 pub struct Args {
     #[command(flatten)]
     input: InputArgs,
@@ -30,10 +30,16 @@ pub struct Args {
     /// Rate points in kbit/s at 30 fps.
     #[arg(long, value_delimiter = ',')]
     kbps: Option<Vec<f64>>,
-    /// Codecs to compare: gv, paper (the paper's CGV and Eq. 1 solver), cgv (the
-    /// project's: at each rate point the better of its two correction modes),
-    /// cgv-scaled or cgv-motion (one mode only).
-    #[arg(long, value_delimiter = ',', default_value = "gv,paper,cgv")]
+    /// Codecs to compare, named for what their files store (as `cgv encode
+    /// --codec`): gv (x, y, z), conformal (the paper's H and λ, decoded by
+    /// its Eq. 1 solver), predictive (closed-loop x, y, z corrections),
+    /// normal (closed-loop corrections along the normal, x, y, z coarser).
+    /// predictive and normal keep, at each rate point, the best of their
+    /// correction modes; predictive-scaled, predictive-motion,
+    /// normal-scaled and normal-motion run one mode only. The first
+    /// round's names still work: paper is conformal, cgv predictive,
+    /// cgv-scaled and cgv-motion predictive-scaled and predictive-motion.
+    #[arg(long, value_delimiter = ',', default_value = "gv,conformal,predictive,normal")]
     codecs: Vec<EvalCodec>,
     /// Parts of at most this many vertices (all but the largest) are coded
     /// as their own vertices (see `cgv encode --help`; 0: none).
@@ -52,23 +58,25 @@ pub struct Args {
     /// 0 only, as files before format version 10).
     #[arg(long, value_name = "SECONDS", default_value_t = cgv::codec::DEFAULT_RANDOM_ACCESS)]
     random_access: f32,
-    /// CGV: a key frame (λ) every N frames; 0 for the first frame only.
+    /// conformal and scaled corrections: a key frame (λ) every N frames; 0 for the first frame only.
     #[arg(long, default_value_t = 10)]
     keyframes: u32,
-    /// CGV: anchor samples per frame (default: 16 for the paper codec, none for cgv).
+    /// Anchor samples per frame (default: 16 for conformal, none for the others).
     #[arg(long)]
     anchors: Option<usize>,
-    /// cgv-motion: code the corrections on every K-th frame, as in `cgv encode`.
+    /// The motion-corrected codecs: code the corrections on every K-th frame, as in `cgv encode`.
     #[arg(long, default_value_t = 1, value_name = "K", value_parser = clap::value_parser!(u32).range(1..))]
     correction_interval: u32,
-    /// cgv: the longest lag of a cycle prediction (0: off), as in `cgv encode`.
+    /// predictive and normal: the longest lag of a cycle prediction (0: off), as in `cgv encode`.
     #[arg(long, default_value_t = cgv::solve::predictor::DEFAULT_MAX_LAG)]
     max_lag: u8,
-    /// cgv: never filter a frame's correction, as in `cgv encode` (for measurement).
+    /// predictive and normal: never filter a frame's correction, as in `cgv encode` (for measurement).
     #[arg(long)]
     no_correction_filter: bool,
-    #[command(flatten)]
-    layout: super::LayoutArgs,
+    /// normal: halve the x, y, z pictures' grid this many times (0..=3; as
+    /// far as the grid allows, down to 16 a side), as in `cgv encode`.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(0..=3))]
+    correction_shrink: u8,
     /// Write the report as JSON.
     #[arg(long, value_name = "OUT.json")]
     json: Option<PathBuf>,
@@ -130,8 +138,7 @@ pub fn run(args: Args) -> Result<()> {
         max_lag: args.max_lag,
         correction_interval: args.correction_interval,
         correction_filter: !args.no_correction_filter,
-        normal_correction: args.layout.normal_correction,
-        correction_shrink: args.layout.correction_shrink,
+        correction_shrink: args.correction_shrink,
         random_access: args.random_access,
         ..Default::default()
     };

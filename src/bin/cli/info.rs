@@ -159,7 +159,7 @@ fn cgv_info(args: &Args) -> Result<()> {
         return Ok(());
     }
     println!("{} (.cgv format version {})", path.display(), file.version);
-    println!("  codec         {:?}, intended solver {}", h.codec, h.solver);
+    println!("  codec         {} ({}), intended solver {}", h.representation(), representation_text(h), h.solver);
     println!("  frames        {} at {} fps ({:.2} s)", h.frames, h.fps, seconds);
     println!("  grid          {0} x {0} ({1})", h.grid, h.seam);
     println!("  size          {} bytes, {:.1} kbit/s", file.bytes, file.bytes as f64 * 8.0 / 1000.0 / seconds);
@@ -254,5 +254,19 @@ fn print_passes(frames: &[cgv::format::FrameInfo], verb: &str, what: &str, passe
     if !by.is_empty() {
         let list: Vec<String> = by.iter().map(|(p, n)| format!("{n} with {p}")).collect();
         println!("  corrections   {verb} on {} frames ({what}: {})", by.values().sum::<usize>(), list.join(", "));
+    }
+}
+
+/// What a file of this codec stores, in a few words.
+fn representation_text(h: &cgv::format::Header) -> &'static str {
+    use cgv::format::Representation as R;
+    match h.representation() {
+        R::Gv => "x, y, z every frame",
+        R::Conformal => "H every frame, λ at key frames, anchors",
+        R::Predictive if h.stream(cgv::format::StreamName::H).is_some() => {
+            "closed-loop x, y, z corrections to a prediction; H and λ beside them"
+        }
+        R::Predictive => "closed-loop x, y, z corrections to a prediction",
+        R::Normal => "closed-loop corrections along the normal, x, y, z coarser",
     }
 }

@@ -179,18 +179,3 @@ pub(crate) fn error_text(e: &anyhow::Error) -> String {
     }
     text
 }
-
-/// How the CGV corrections are laid out (`cgv encode`, `cgv eval`).
-#[derive(clap::Args)]
-pub struct LayoutArgs {
-    /// CGV: code the corrections' x, y, z on a coarser grid (see
-    /// --correction-shrink) and what they leave along the predicted
-    /// surface's normal at full size (`dn`, one scalar picture: the
-    /// extrinsic channel); format version 9.
-    #[arg(long)]
-    pub normal_correction: bool,
-    /// CGV with --normal-correction: halve the x, y, z pictures' grid this
-    /// many times (0..=3; as far as the grid allows, down to 16 a side).
-    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(0..=3))]
-    pub correction_shrink: u8,
-}

@@ -12,11 +12,13 @@
 
 mod analyse;
 mod budget;
+mod choice;
 mod code;
 mod plan;
 mod simulate;
 
 pub use budget::{encode_on_budget, BUDGET_TOLERANCE};
+pub use choice::CodecChoice;
 pub use simulate::MOTION_MARGIN;
 
 use super::h264::VideoSettings;
@@ -138,16 +140,6 @@ impl Default for EncodeOptions {
 }
 
 impl EncodeOptions {
-    /// These options with the correction mode and layout chosen by the
-    /// measured rules for their rate, grid and layers ([`auto_corrections`],
-    /// [`auto_normal_correction`]): what `cgv encode` and the Python package
-    /// do unless told otherwise.
-    pub fn with_auto_choices(mut self) -> Self {
-        self.corrections = auto_corrections(&self.video, self.grid, self.video.fps);
-        self.normal_correction = auto_normal_correction(&self.video, self.grid, self.video.fps, self.layers);
-        self
-    }
-
     /// Checks every option against what the codec can do, before any work:
     /// each problem gets one error that names the option.
     pub fn validate(&self) -> Result<()> {
@@ -199,6 +191,8 @@ impl EncodeOptions {
 /// What an encode produced.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct EncodeReport {
+    /// What the file stores, by the codec's name.
+    pub codec: format::Representation,
     pub bytes: usize,
     pub frames: usize,
     /// Bytes of H.264 per stream.
@@ -282,6 +276,7 @@ pub fn encode_prepared(
         code::code(src, opts, &plan, &header, (image, source_chunk.as_deref()), &st, progress)?;
     let seconds_parameterize = image.seconds();
     let report = EncodeReport {
+        codec: header.representation(),
         bytes: bytes.len(),
         frames: plan.frames,
         stream_bytes,
