@@ -163,9 +163,12 @@ fn quantized_place(uv: DVec2) -> [u32; 2] {
     // Any copy of a vertex on the extended lattice is the same place; the
     // one inside the square is what fits the quantizer's range.
     let uv = Grid::canonical_uv(uv);
+    // Rounded to the coarse steps, the square's far edge included (to the
+    // last step below 2^32), so that every place leaves the bits zero.
     let coarse = |q: u32| {
         let half = 1u64 << (PLACE_ZERO_BITS - 1);
-        (((u64::from(q) + half) >> PLACE_ZERO_BITS) << PLACE_ZERO_BITS).min(u64::from(u32::MAX)) as u32
+        let top = u64::from(u32::MAX >> PLACE_ZERO_BITS) << PLACE_ZERO_BITS;
+        (((u64::from(q) + half) >> PLACE_ZERO_BITS) << PLACE_ZERO_BITS).min(top) as u32
     };
     [coarse(quantize_place(uv.x)), coarse(quantize_place(uv.y))]
 }

@@ -576,7 +576,7 @@ fn random_access_points_decode_the_same_frames_from_anywhere() {
         let (bytes, _) = encode(&src, &opts, &mut |_, _, _| {}).unwrap();
         let file = format::read(&bytes).unwrap();
         let h = &file.header;
-        assert_eq!((file.version, h.random_access, &file.index.len()), (11, Some(8), &3));
+        assert_eq!((file.version, h.random_access, &file.index.len()), (12, Some(8), &3));
         for s in 0..h.streams.len() {
             for f in [0, 8, 16] {
                 assert!(is_idr(&file.units[s][f]), "{corrections:?}: stream {s} frame {f} is not an IDR picture");

@@ -1,6 +1,8 @@
 //! The .cgv reader on good, truncated, corrupted and oversized input.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // tests may stop on any failure
 
+mod common;
+
 use cgv::format::quant::Quantizer;
 use cgv::format::{
     self, CodecKind, ContainerError, CorrectionMode, Coverage, Header, PredictorCode, Settings, SolverKind, StreamInfo,
@@ -139,9 +141,9 @@ fn bad_magic_and_versions() {
     assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::BadMagic);
     assert_eq!(format::read(b"GIF89a").unwrap_err(), ContainerError::BadMagic);
     let mut bytes = file(&header());
-    bytes[8] = 12;
-    assert_eq!(format::VERSION, 11);
-    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 12 });
+    bytes[8] = 13;
+    assert_eq!(format::VERSION, 12);
+    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 13 });
     bytes[8] = 0;
     assert!(matches!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 0 }));
 }
@@ -517,10 +519,20 @@ fn file_with_source(h: &Header, info: format::SourceMeshInfo, chunk: Vec<u8>) ->
     [&plain[..header_len], &chunk, &plain[header_len..]].concat()
 }
 
+/// `mesh` as versions 6 to 11 describe it (no walk).
+fn plain_info(mesh: &format::SourceMesh) -> format::SourceMeshInfo {
+    format::SourceMeshInfo { walk: false, ..mesh.info() }
+}
+
+/// `mesh`'s chunk as versions 6 to 11 write it.
+fn plain_chunk(mesh: &format::SourceMesh) -> Vec<u8> {
+    format::write_chunk(format::TAG_SOURCE_MESH, 0, 0, &mesh.to_bytes_plain())
+}
+
 #[test]
 fn version_six_carries_the_source_mesh() {
     let (h, mesh) = (header(), source_mesh());
-    let bytes = file_with_source(&h, mesh.info(), format::write_source_mesh(&mesh));
+    let bytes = file_with_source(&h, plain_info(&mesh), plain_chunk(&mesh));
     let f = format::read(&bytes).unwrap();
     assert_eq!((f.version, f.header.min_version()), (format::VERSION, 6));
     assert_eq!(f.source_mesh.as_ref(), Some(&mesh));
@@ -538,10 +550,94 @@ fn version_six_carries_the_source_mesh() {
     assert!(format::read(&file(&h)).unwrap().source_mesh.is_none());
 }
 
+/// A sheet of `n` x `n` quads, two faces each, in a scrambled order, with
+/// places on the grid (16 low bits zero, as the encoder leaves them) and
+/// small offsets.
+fn larger_source_mesh(n: u32) -> format::SourceMesh {
+    let (_, mut faces) = common::sheet(n as usize);
+    // Scrambled as a scan's faces come: by a hash of their first vertex.
+    faces.sort_by_key(|f| (f[0] * 7919 + f[1]) % 1021);
+    let step = 65535 / n;
+    let places = (0..(n + 1) * (n + 1)).map(|v| [((v % (n + 1)) * step) << 16, ((v / (n + 1)) * step + v % 3) << 16]);
+    let places = places.collect();
+    let offsets: Vec<[f32; 3]> = (0..(n + 1) * (n + 1)).map(|v| [0.0, 0.0, (v % 7) as f32 * 1e-3]).collect();
+    format::SourceMesh {
+        faces,
+        places,
+        offsets: format::Offsets::quantize(&offsets, 1e-4),
+        loose_of: Vec::new(),
+        loose_anchors: Vec::new(),
+    }
+}
+
+/// `faces` with each face's rotation kept, in a canonical order.
+fn face_set(faces: &[[u32; 3]]) -> Vec<[u32; 3]> {
+    let mut f = faces.to_vec();
+    f.sort();
+    f
+}
+
+#[test]
+fn version_twelve_codes_faces_as_a_walk_and_places_from_predictions() {
+    let h = header();
+    for mesh in [source_mesh(), larger_source_mesh(24)] {
+        let bytes = file_with_source(&h, mesh.info(), format::write_source_mesh(&mesh));
+        let f = format::read(&bytes).unwrap();
+        assert_eq!((f.version, f.header.min_version()), (format::VERSION, 12));
+        let back = f.source_mesh.unwrap();
+        // Every face with its vertices in their order, perhaps in another
+        // order of faces; every vertex's place and offset exactly.
+        assert_eq!(face_set(&back.faces), face_set(&mesh.faces));
+        assert_eq!((&back.places, &back.offsets), (&mesh.places, &mesh.offsets));
+        // A version-11 file cannot hold it.
+        let e = format::read(&with_version(bytes, 11)).unwrap_err();
+        assert!(matches!(&e, ContainerError::Header(m) if m.contains("version 11")), "{e}");
+    }
+    // Smaller than versions 6 to 11 stored it: scrambled faces walked, places predicted.
+    let mesh = larger_source_mesh(24);
+    let (walked, plain) = (mesh.to_bytes().len(), mesh.to_bytes_plain().len());
+    assert!(walked * 2 < plain, "{walked} against {plain}");
+}
+
+#[test]
+fn broken_version_twelve_source_meshes_are_errors_never_panics() {
+    let h = header();
+    let mesh = larger_source_mesh(6);
+    let info = mesh.info();
+    let raw = miniz_oxide::inflate::decompress_to_vec(&mesh.to_bytes()).unwrap();
+    let chunk = |raw: &[u8]| {
+        let deflated = miniz_oxide::deflate::compress_to_vec(raw, 6);
+        format::write_chunk(format::TAG_SOURCE_MESH, 0, 0, &deflated)
+    };
+    // Cut anywhere: an error naming the source mesh.
+    for cut in 0..raw.len() {
+        let e = format::read(&file_with_source(&h, info, chunk(&raw[..cut]))).unwrap_err();
+        assert!(matches!(&e, ContainerError::Chunk { msg, .. } if msg.contains("source mesh")), "{cut}: {e}");
+    }
+    // Any byte changed: an error, or a mesh whose every index is in range.
+    for i in 0..raw.len() {
+        for b in [0u8, 1, 2, 17, 48, 0x7f, 0x80, 0xff] {
+            let mut c = raw.clone();
+            c[i] = b;
+            if let Ok(f) = format::read(&file_with_source(&h, info, chunk(&c))) {
+                let m = f.source_mesh.unwrap();
+                assert!(m.faces.iter().flatten().all(|&v| v < info.vertices) && m.places.len() == mesh.places.len());
+            }
+        }
+    }
+    // An order or a place shift this reader does not know.
+    for (at, b, want) in [(0, 2, "face order 2"), (1, 17, "place shift 17")] {
+        let mut c = raw.clone();
+        c[at] = b;
+        let e = format::read(&file_with_source(&h, info, chunk(&c))).unwrap_err();
+        assert!(e.to_string().contains(want), "{e}");
+    }
+}
+
 #[test]
 fn bad_source_meshes_are_errors() {
     let (h, mesh) = (header(), source_mesh());
-    let info = mesh.info();
+    let info = plain_info(&mesh);
     let chunk = |payload: &[u8]| format::write_chunk(format::TAG_SOURCE_MESH, 0, 0, payload);
     let deflate = |raw: &[u8]| miniz_oxide::deflate::compress_to_vec(raw, 6);
     let mut past_end = source_mesh();
@@ -549,19 +645,13 @@ fn bad_source_meshes_are_errors() {
     let cases: Vec<(&str, Vec<u8>)> = vec![
         // The header says a source mesh, the frame chunk comes first.
         ("expected the source mesh", file_with_source(&h, info, Vec::new())),
-        ("uses vertex 4", file_with_source(&h, info, format::write_source_mesh(&past_end))),
+        ("uses vertex 4", file_with_source(&h, info, plain_chunk(&past_end))),
         ("does not inflate", file_with_source(&h, info, chunk(&[1, 2, 3, 4]))),
         // More bytes than the counts allow (a deflate bomb): refused while inflating.
         ("does not inflate", file_with_source(&h, info, chunk(&deflate(&vec![0u8; 1 << 20])))),
         // Counts that disagree with the payload.
-        (
-            "vertex places",
-            file_with_source(&h, format::SourceMeshInfo { vertices: 5, ..info }, format::write_source_mesh(&mesh)),
-        ),
-        (
-            "vertex places",
-            file_with_source(&h, format::SourceMeshInfo { faces: 5, ..info }, format::write_source_mesh(&mesh)),
-        ),
+        ("vertex places", file_with_source(&h, format::SourceMeshInfo { vertices: 5, ..info }, plain_chunk(&mesh))),
+        ("vertex places", file_with_source(&h, format::SourceMeshInfo { faces: 5, ..info }, plain_chunk(&mesh))),
     ];
     for (want, bytes) in cases {
         let e = format::read(&bytes).unwrap_err();
@@ -569,10 +659,10 @@ fn bad_source_meshes_are_errors() {
     }
     // Counts past the limits, in the header itself.
     for info in [
-        format::SourceMeshInfo { vertices: 2, faces: 1, offset_step: None, loose: None },
-        format::SourceMeshInfo { vertices: 3, faces: 0, offset_step: None, loose: None },
-        format::SourceMeshInfo { vertices: 3, faces: 1, offset_step: Some(0.0), loose: None },
-        format::SourceMeshInfo { vertices: 3, faces: 1, offset_step: Some(f32::NAN), loose: None },
+        format::SourceMeshInfo { vertices: 2, faces: 1, offset_step: None, loose: None, walk: false },
+        format::SourceMeshInfo { vertices: 3, faces: 0, offset_step: None, loose: None, walk: false },
+        format::SourceMeshInfo { vertices: 3, faces: 1, offset_step: Some(0.0), loose: None, walk: false },
+        format::SourceMeshInfo { vertices: 3, faces: 1, offset_step: Some(f32::NAN), loose: None, walk: false },
     ] {
         let e = format::write_header(&Header { source_mesh: Some(info), ..h.clone() }).unwrap_err();
         assert!(matches!(&e, ContainerError::Header(m) if m.contains("source mesh")), "{e}");
@@ -589,7 +679,7 @@ fn version_seven_carries_vertex_offsets() {
     let offsets = mesh.offsets.as_ref().unwrap();
     assert_eq!(offsets.values[2], [-32767, 0, 0]);
     assert!((offsets.get(0)[0] - 0.5).abs() < 1e-4);
-    let bytes = file_with_source(&h, mesh.info(), format::write_source_mesh(&mesh));
+    let bytes = file_with_source(&h, plain_info(&mesh), plain_chunk(&mesh));
     let f = format::read(&bytes).unwrap();
     assert_eq!((f.version, f.header.min_version()), (format::VERSION, 7));
     assert_eq!(f.source_mesh.as_ref(), Some(&mesh));
@@ -598,9 +688,9 @@ fn version_seven_carries_vertex_offsets() {
     assert!(matches!(&e, ContainerError::Header(m) if m.contains("version 6")), "{e}");
     // The header saying offsets that the chunk lacks (or the other way round).
     let plain = source_mesh();
-    let with_step = format::SourceMeshInfo { offset_step: Some(1.0), ..plain.info() };
-    for (info, m) in [(with_step, &plain), (plain.info(), &mesh)] {
-        let e = format::read(&file_with_source(&h, info, format::write_source_mesh(m))).unwrap_err();
+    let with_step = format::SourceMeshInfo { offset_step: Some(1.0), ..plain_info(&plain) };
+    for (info, m) in [(with_step, &plain), (plain_info(&plain), &mesh)] {
+        let e = format::read(&file_with_source(&h, info, plain_chunk(m))).unwrap_err();
         assert!(matches!(&e, ContainerError::Chunk { msg, .. } if msg.contains("offsets")), "{e}");
     }
     // No offsets to keep: none written.
@@ -622,7 +712,7 @@ fn look() -> format::Appearance {
 fn file_with_look(h: &Header, info: format::AppearanceInfo, chunk: Vec<u8>) -> Vec<u8> {
     let mesh = source_mesh();
     let h = Header { appearance: Some(info), ..h.clone() };
-    file_with_source(&h, mesh.info(), [format::write_source_mesh(&mesh), chunk].concat())
+    file_with_source(&h, plain_info(&mesh), [plain_chunk(&mesh), chunk].concat())
 }
 
 #[test]
@@ -779,10 +869,10 @@ fn loose_vertices_from_version_eleven() {
     let with =
         |loose_of: Vec<u32>, loose_anchors: Vec<u32>| format::SourceMesh { loose_of, loose_anchors, ..source_mesh() };
     let (h, mesh) = (header(), with(vec![0, 0, 2, 1], vec![3, 7]));
-    assert_eq!(mesh.info().loose, Some(2));
-    let bytes = file_with_source(&h, mesh.info(), format::write_source_mesh(&mesh));
+    assert_eq!(plain_info(&mesh).loose, Some(2));
+    let bytes = file_with_source(&h, plain_info(&mesh), plain_chunk(&mesh));
     let f = format::read(&bytes).unwrap();
-    assert_eq!((f.version, f.header.min_version(), f.header.loose_vertices()), (11, 11, Some(2)));
+    assert_eq!((f.version, f.header.min_version(), f.header.loose_vertices()), (format::VERSION, 11, Some(2)));
     assert_eq!(f.source_mesh.as_ref(), Some(&mesh));
     for (k, info) in f.frames.iter().enumerate() {
         let l = format::LooseFrame::parse(info.loose.as_ref().unwrap(), 2, 0).unwrap();
@@ -800,19 +890,20 @@ fn loose_vertices_from_version_eleven() {
     // past the mesh's, a vertex naming one past the count, one unnamed, an
     // anchor missing.
     for loose in [Some(0), Some(5)] {
-        assert!(format::SourceMeshInfo { loose, ..mesh.info() }.validate().is_err(), "{loose:?}");
+        assert!(format::SourceMeshInfo { loose, ..plain_info(&mesh) }.validate().is_err(), "{loose:?}");
     }
     for bad in [with(vec![0, 0, 3, 1], vec![3, 7]), with(vec![0, 0, 1, 1], vec![3, 7]), with(vec![0, 0, 2, 1], vec![3])]
     {
-        let e = format::read(&file_with_source(&h, mesh.info(), format::write_source_mesh(&bad))).unwrap_err();
+        let e = format::read(&file_with_source(&h, plain_info(&mesh), plain_chunk(&bad))).unwrap_err();
         assert!(matches!(&e, ContainerError::Chunk { msg, .. } if msg.contains("loose")), "{e}");
     }
     // Frames without the loose unit the header promises.
-    let no_loose = Header { source_mesh: Some(format::SourceMeshInfo { loose: None, ..mesh.info() }), ..h.clone() };
+    let no_loose =
+        Header { source_mesh: Some(format::SourceMeshInfo { loose: None, ..plain_info(&mesh) }), ..h.clone() };
     let frames = file(&no_loose);
     let frames = &frames[format::parse_header(&frames).unwrap().unwrap().1..];
     let prefix = &bytes[..format::parse_header(&bytes).unwrap().unwrap().1];
-    let without = [prefix, &format::write_source_mesh(&mesh), frames].concat();
+    let without = [prefix, &plain_chunk(&mesh), frames].concat();
     let e = format::read(&without).unwrap_err();
     assert!(matches!(&e, ContainerError::Chunk { msg, .. } if msg.contains("loose")), "{e}");
 }

@@ -197,6 +197,21 @@ fn v6_source_mesh_fixture_decodes_as_frozen() {
 }
 
 #[test]
+fn v12_walked_source_mesh_fixture_decodes_as_frozen() {
+    // The built-in figure's faces coded as a walk, its places from their
+    // predictions: every face comes back with its vertices in their order.
+    let f = open("v12/walk-source-walked.cgv");
+    assert_eq!(f.version, 12);
+    assert!(f.header.source_mesh.is_some_and(|m| m.walk));
+    let walk = cgv::mesh::builtin::motion(1);
+    let mesh = f.source_mesh.as_ref().expect("the file carries its input's mesh");
+    assert_eq!(common::sorted_faces(&mesh.faces), common::sorted_faces(&walk.topology.faces));
+    assert_eq!(mesh.places.len(), walk.topology.vertex_count);
+    check("v12/walk-source-walked.cgv", SolverKind::Predictive, 1e-5);
+    check_source("v12/walk-source-walked.cgv", f);
+}
+
+#[test]
 fn v7_source_offsets_fixture_decodes_as_frozen() {
     let f = open("v7/walk-cgv-offsets.cgv");
     assert_eq!(f.version, 7);

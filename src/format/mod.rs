@@ -42,8 +42,10 @@
 //! file has arrived.
 
 pub mod appearance;
+pub mod connectivity;
 mod leb128;
 pub mod loose;
+pub mod places;
 pub mod predictor;
 pub mod quant;
 pub mod source_mesh;
@@ -60,7 +62,7 @@ pub use stream::StreamName;
 
 pub const MAGIC: [u8; 8] = [0x89, b'C', b'G', b'V', b'\r', b'\n', 0x1A, b'\n'];
 /// The newest version this reader reads and this writer writes.
-pub const VERSION: u16 = 11;
+pub const VERSION: u16 = 12;
 /// Largest header accepted.
 pub const MAX_HEADER: usize = 1 << 20;
 /// Largest chunk payload accepted (an access unit of a 2160² frame at QP 0
@@ -522,7 +524,8 @@ impl Header {
         Ok(())
     }
 
-    /// The oldest format version that can hold this header: 11 for loose
+    /// The oldest format version that can hold this header: 12 for a
+    /// source mesh coded as a walk, 11 for loose
     /// vertices, 10 for random-access points, 9 for a normal
     /// correction or a shrunk stream, 8 for an
     /// appearance, 7 for the
@@ -530,7 +533,9 @@ impl Header {
     /// predictions, 3 for a CGV file without H, 2 for motion corrections,
     /// else 1.
     pub fn min_version(&self) -> u16 {
-        if self.loose_vertices().is_some() {
+        if self.source_mesh.is_some_and(|m| m.walk) {
+            12
+        } else if self.loose_vertices().is_some() {
             11
         } else if self.random_access.is_some() {
             10

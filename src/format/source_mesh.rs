@@ -28,8 +28,18 @@
 //! k (`super::loose`: a tiny part's vertex coded as itself every frame),
 //! then each loose vertex's *anchor*, the grid sample whose motion it
 //! follows (LEB128, below N²); the header's `loose` gives their count.
+//!
+//! Version 12 (the header's `walk`) codes the faces and the places
+//! instead: a byte giving the faces' order (0: the input's, 1: a walk over
+//! the mesh, see `super::connectivity`), a byte `shift` (0..=16: the low
+//! bits every place leaves zero), the faces as `super::connectivity`
+//! codes them, then each vertex's u and v, shifted right by `shift`, as
+//! zigzag LEB128 differences from their prediction (`super::places`), in
+//! the order the coded faces first use the vertices; the offsets and the
+//! loose vertices follow as in versions 7 and 11, in vertex order.
 
-use super::{leb128, ContainerError};
+use super::connectivity::{self, Order};
+use super::{leb128, places, ContainerError};
 use serde::{Deserialize, Serialize};
 
 /// Most bytes one byte of the deflated payload may inflate to (a real
@@ -56,6 +66,10 @@ pub struct SourceMeshInfo {
     /// Version 11: how many loose vertices the frames carry (absent: none).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub loose: Option<u32>,
+    /// Version 12: the faces are coded as a walk and the places from their
+    /// predictions (absent: versions 6 to 11's plain layout).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub walk: bool,
 }
 
 impl SourceMeshInfo {
@@ -84,12 +98,16 @@ impl SourceMeshInfo {
         let offsets = if self.offset_step.is_some() { 3 * 3 } else { 0 };
         // Its loose vertex, and (at most one a vertex) an anchor.
         let loose = if self.loose.is_some() { 3 + 5 } else { 0 };
-        8 + offsets + loose
+        // Two u32, or (version 12) two differences of up to 5 bytes.
+        let place = if self.walk { 2 * 5 } else { 8 };
+        place + offsets + loose
     }
 
     /// The most bytes the inflated payload can have.
     fn max_inflated(&self) -> usize {
-        self.faces as usize * 3 * 5 + self.vertices as usize * self.vertex_bytes()
+        // Version 12: an op, three references and three 5-byte differences.
+        let face = if self.walk { 1 + 3 + 3 * 5 } else { 3 * 5 };
+        2 + self.faces as usize * face + self.vertices as usize * self.vertex_bytes()
     }
 }
 
@@ -156,6 +174,7 @@ impl SourceMesh {
             faces: self.faces.len() as u32,
             offset_step: self.offsets.as_ref().map(|o| o.step),
             loose: self.loose_count(),
+            walk: true,
         }
     }
 
@@ -164,28 +183,68 @@ impl SourceMesh {
         self.loose_of.iter().copied().max().filter(|&m| m > 0)
     }
 
-    /// The chunk's payload.
+    /// The chunk's payload (version 12): the faces in the input's order
+    /// or walked, whichever deflates smaller.
     pub fn to_bytes(&self) -> Vec<u8> {
+        let [input, walked] = [Order::Input, Order::Walk].map(|o| self.payload(o));
+        if walked.len() < input.len() {
+            walked
+        } else {
+            input
+        }
+    }
+
+    /// The payload with the faces coded in `order`.
+    fn payload(&self, order: Order) -> Vec<u8> {
+        let v = self.places.len();
+        let faces: Vec<[u32; 3]> = match order {
+            Order::Input => self.faces.clone(),
+            Order::Walk => connectivity::walk_order(&self.faces, v).into_iter().map(|i| self.faces[i]).collect(),
+        };
+        // The low bits every place leaves zero (the encoder leaves 16).
+        let shift = self.places.iter().flatten().map(|q| q.trailing_zeros()).min().unwrap_or(0).min(MAX_SHIFT);
+        let mut raw = vec![order as u8, shift as u8];
+        raw.extend(connectivity::encode(&faces, v));
+        let max = i64::from(u32::MAX >> shift);
+        let coded = places::walk(&faces, v, max, &mut |vertex, guess| {
+            let p = self.places[vertex as usize].map(|q| i64::from(q >> shift));
+            for c in 0..2 {
+                leb128::write(&mut raw, zigzag(p[c] - guess[c]));
+            }
+            Ok(p)
+        });
+        debug_assert!(coded.is_ok(), "the coder's visit never fails");
+        self.write_tail(&mut raw);
+        miniz_oxide::deflate::compress_to_vec(&raw, 9)
+    }
+
+    /// The offsets and the loose vertices, in vertex order.
+    fn write_tail(&self, raw: &mut Vec<u8>) {
+        for &x in self.offsets.iter().flat_map(|o| &o.values).flatten() {
+            leb128::write(raw, zigzag(x as i64));
+        }
+        if self.loose_count().is_some() {
+            for &k in self.loose_of.iter().chain(&self.loose_anchors) {
+                leb128::write(raw, u64::from(k));
+            }
+        }
+    }
+
+    /// Versions 6 to 11's payload (what `to_bytes` wrote before version
+    /// 12; kept to make files of those versions in tests).
+    pub fn to_bytes_plain(&self) -> Vec<u8> {
         let mut raw = Vec::with_capacity(self.faces.len() * 4 + self.places.len() * 8);
         let mut prev = 0i64;
         for &i in self.faces.iter().flatten() {
             let d = i as i64 - prev;
             prev = i as i64;
-            leb128::write(&mut raw, ((d << 1) ^ (d >> 63)) as u64);
+            leb128::write(&mut raw, zigzag(d));
         }
         for p in &self.places {
             raw.extend_from_slice(&p[0].to_le_bytes());
             raw.extend_from_slice(&p[1].to_le_bytes());
         }
-        for &x in self.offsets.iter().flat_map(|o| &o.values).flatten() {
-            let x = x as i64;
-            leb128::write(&mut raw, ((x << 1) ^ (x >> 63)) as u64);
-        }
-        if self.loose_count().is_some() {
-            for &k in self.loose_of.iter().chain(&self.loose_anchors) {
-                leb128::write(&mut raw, u64::from(k));
-            }
-        }
+        self.write_tail(&mut raw);
         miniz_oxide::deflate::compress_to_vec(&raw, 9)
     }
 
@@ -196,32 +255,11 @@ impl SourceMesh {
         let raw = miniz_oxide::inflate::decompress_to_vec_with_limit(payload, limit)
             // Only the status: the error also holds the output buffer.
             .map_err(|e| bad(format!("does not inflate within its size ({:?})", e.status)))?;
-        let (mut at, mut prev) = (0usize, 0i64);
-        // At least a byte per index: the inflated bytes bound the faces.
-        let mut faces = Vec::with_capacity((info.faces as usize).min(raw.len() / 3));
-        for f in 0..info.faces {
-            let mut face = [0u32; 3];
-            for c in &mut face {
-                let z = leb128::read(&raw, &mut at, 5).ok_or_else(|| bad(format!("face {f} is cut short")))?;
-                let d = (z >> 1) as i64 ^ -((z & 1) as i64);
-                prev += d;
-                if !(0..info.vertices as i64).contains(&prev) {
-                    return Err(bad(format!("face {f} uses vertex {prev}, but there are {}", info.vertices)));
-                }
-                *c = prev as u32;
-            }
-            faces.push(face);
-        }
-        let rest = &raw[at..];
-        let place_bytes = info.vertices as usize * 8;
-        let nothing_after = info.offset_step.is_none() && info.loose.is_none();
-        if rest.len() < place_bytes || (nothing_after && rest.len() != place_bytes) {
-            let what = if info.offset_step.is_some() { "" } else { " (no offsets: the header has no offset_step)" };
-            return Err(bad(format!("{} bytes of vertex places, expected {place_bytes}{what}", rest.len())));
-        }
-        let u32_at = |c: &[u8]| u32::from_le_bytes([c[0], c[1], c[2], c[3]]);
-        let places = rest[..place_bytes].chunks_exact(8).map(|c| [u32_at(&c[..4]), u32_at(&c[4..])]).collect();
-        at += place_bytes;
+        let mut at = 0usize;
+        let (faces, places) = match info.walk {
+            true => parse_walked(&raw, &mut at, info).map_err(bad)?,
+            false => parse_plain(&raw, &mut at, info).map_err(bad)?,
+        };
         let offsets = match info.offset_step {
             Some(step) => Some(Offsets { step, values: parse_offsets(&raw, &mut at, info.vertices, &bad)? }),
             None => None,
@@ -243,6 +281,72 @@ impl SourceMesh {
         }
         Ok(SourceMesh { faces, places, offsets, loose_of, loose_anchors })
     }
+}
+
+/// Most low bits a version-12 place may leave out.
+const MAX_SHIFT: u32 = 16;
+
+fn zigzag(d: i64) -> u64 {
+    ((d << 1) ^ (d >> 63)) as u64
+}
+
+type FacesAndPlaces = (Vec<[u32; 3]>, Vec<[u32; 2]>);
+
+/// Versions 6 to 11: the faces' indices as differences, the places as u32.
+fn parse_plain(raw: &[u8], at: &mut usize, info: &SourceMeshInfo) -> Result<FacesAndPlaces, String> {
+    let mut prev = 0i64;
+    // At least a byte per index: the inflated bytes bound the faces.
+    let mut faces = Vec::with_capacity((info.faces as usize).min(raw.len() / 3));
+    for f in 0..info.faces {
+        let mut face = [0u32; 3];
+        for c in &mut face {
+            let z = leb128::read(raw, at, 5).ok_or_else(|| format!("face {f} is cut short"))?;
+            let d = (z >> 1) as i64 ^ -((z & 1) as i64);
+            prev += d;
+            if !(0..info.vertices as i64).contains(&prev) {
+                return Err(format!("face {f} uses vertex {prev}, but there are {}", info.vertices));
+            }
+            *c = prev as u32;
+        }
+        faces.push(face);
+    }
+    let rest = &raw[*at..];
+    let place_bytes = info.vertices as usize * 8;
+    let nothing_after = info.offset_step.is_none() && info.loose.is_none();
+    if rest.len() < place_bytes || (nothing_after && rest.len() != place_bytes) {
+        let what = if info.offset_step.is_some() { "" } else { " (no offsets: the header has no offset_step)" };
+        return Err(format!("{} bytes of vertex places, expected {place_bytes}{what}", rest.len()));
+    }
+    let u32_at = |c: &[u8]| u32::from_le_bytes([c[0], c[1], c[2], c[3]]);
+    let places = rest[..place_bytes].chunks_exact(8).map(|c| [u32_at(&c[..4]), u32_at(&c[4..])]).collect();
+    *at += place_bytes;
+    Ok((faces, places))
+}
+
+/// Version 12: the faces as a walk codes them, the places from their predictions.
+fn parse_walked(raw: &[u8], at: &mut usize, info: &SourceMeshInfo) -> Result<FacesAndPlaces, String> {
+    let (&order, &shift) = (raw.first().ok_or("no face order")?, raw.get(1).ok_or("no place shift")?);
+    if order > Order::Walk as u8 || u32::from(shift) > MAX_SHIFT {
+        return Err(format!("face order {order} or place shift {shift} is not one this reader knows"));
+    }
+    *at = 2;
+    let faces = connectivity::decode(raw, at, info.faces, info.vertices)?;
+    let shift = u32::from(shift);
+    let max = i64::from(u32::MAX >> shift);
+    let mut places = vec![[0u32; 2]; info.vertices as usize];
+    places::walk(&faces, info.vertices as usize, max, &mut |v, guess| {
+        let mut p = [0i64; 2];
+        for c in 0..2 {
+            let z = leb128::read(raw, at, 5).ok_or_else(|| format!("vertex {v}'s place is cut short"))?;
+            p[c] = guess[c].saturating_add((z >> 1) as i64 ^ -((z & 1) as i64));
+            if !(0..=max).contains(&p[c]) {
+                return Err(format!("vertex {v}'s place is out of range"));
+            }
+        }
+        places[v as usize] = p.map(|x| (x as u32) << shift);
+        Ok(p)
+    })?;
+    Ok((faces, places))
 }
 
 /// Each of `vertices` vertices' loose vertex plus one (or 0), every loose

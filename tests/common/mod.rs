@@ -285,3 +285,11 @@ pub fn parts(meshes: &[(Vec<Vec3>, Vec<[u32; 3]>)]) -> (Vec<Vec3>, Vec<[u32; 3]>
     }
     (p, f)
 }
+
+/// `faces` in a canonical order, each face as it is: a decoded source mesh
+/// (format v12) gives back the input's faces, perhaps in another order.
+pub fn sorted_faces(faces: &[[u32; 3]]) -> Vec<[u32; 3]> {
+    let mut f = faces.to_vec();
+    f.sort();
+    f
+}
