@@ -33,4 +33,4 @@ for s in ${*:-samba horse-gallop pcow horse-collapse face-poses cylinder wolf}; 
       --peers "$out/$s-peers.json" --json "$out/$s-$n.json" --md "$out/$s-$n.md" --plot "$out/$s-$n.svg"
   done
 done
-"$py" docs/scripts/peers/summary.py "$out"/*-1*.json "$out"/*-2*.json
+"$py" docs/scripts/peers/summary.py "$out"/*-1[0-9][0-9].json "$out"/*-2[0-9][0-9].json

@@ -2,10 +2,13 @@
 at each grid size, with the input's mesh (the user's mesh out, like the
 peers) and without it (the grid mesh out), read off each curve log-log
 between neighbouring points, from `cgv eval --peers --json` reports.
-Usage: summary.py REPORT.json ...  (one per sequence and grid)."""
+Usage: summary.py REPORT.json ...  (one per sequence and grid).
+Where mesh.sh left REPORT.mesh.json beside a report (the input's mesh as
+today's encoder stores it), its bytes replace the report's."""
 
 import json
 import math
+import os
 import sys
 
 LEVELS = [0.5, 0.2, 0.1, 0.05, 0.03, 0.02]  # percent of the diagonal
@@ -28,6 +31,9 @@ def main(paths):
     seqs = {}
     for p in paths:
         r = json.load(open(p))
+        mesh = p[: -len(".json")] + ".mesh.json"
+        if os.path.exists(mesh):
+            r["source_mesh_bytes"] = json.load(open(mesh))["source_mesh_bytes"]
         s = seqs.setdefault(r["input"], {"ours": {}, "peers": None, "frames": r["frames"], "vertices": r["input_vertices"]})
         scale = 8.0 / (r["frames"] * r["input_vertices"])
         ours = [((c["bytes"] + r["source_mesh_bytes"]) * scale, c["surface_rms"]) for q in r["points"] for c in q["results"]]
