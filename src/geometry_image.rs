@@ -237,7 +237,7 @@ pub fn parameterize_carrier(
             let cones = c.map(|i| e[i]);
             let corner = cut::corner_for(&graph, nv, &cones);
             let o = ParamOptions { cones: Some((cones, corner)), ..opts.clone() };
-            AreaPasses::start_with(topology, reference, Some(&carrier.real), &o)
+            Ok(AreaPasses::start_with(topology, reference, Some(&carrier.real), &o)?.score_from(RACE_FROM))
         })
         .collect();
     for r in started {
@@ -328,7 +328,7 @@ fn grid_score(
         return Ok(f64::INFINITY);
     };
     let g = map.apply(reference);
-    Ok(surface::symmetric_to(&g, &map.surface_faces(), reference, &source.faces, target)?.rms)
+    surface::symmetric_rms_to(&g, &map.surface_faces(), reference, &source.faces, target)
 }
 
 /// The finest step of the vertex offsets, relative to the reference

@@ -1,23 +1,24 @@
-//! Sparse solves: a thin layer over faer's supernodal Cholesky (LLᵀ, for
-//! symmetric positive-definite systems) and LU (for unsymmetric ones), so the
-//! rest of the crate states systems as (row, column, value) entries and never
-//! sees faer's types.
+//! Sparse solves: a thin layer over faer's sparse Cholesky (LLᵀ, for
+//! symmetric positive-definite systems), so the rest of the crate states
+//! systems as (row, column, value) entries and never sees faer's types.
 
 use crate::error::{Error, Result};
-use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
-use faer::linalg::solvers::Solve;
-use faer::sparse::linalg::lu;
-use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky, SymmetricOrdering,
+};
 use faer::sparse::linalg::SupernodalThreshold;
-use faer::sparse::{SparseColMat, Triplet};
+use faer::sparse::{SparseColMat, SparseColMatRef, SymbolicSparseColMat, Triplet};
 use faer::{Conj, Par};
 use faer::{Mat, Side};
 
 /// A factored sparse SPD matrix.
 pub struct Cholesky {
     n: usize,
-    symbolic: SymbolicLlt<usize>,
-    llt: Llt<usize, f64>,
+    /// Boxed: the analysis is large, and the predictor holds a Cholesky.
+    symbolic: Box<SymbolicCholesky<usize>>,
+    /// The factor's values (in `symbolic`'s layout).
+    values: Vec<f64>,
 }
 
 /// Sums duplicate entries and keeps the lower triangle.
@@ -28,21 +29,56 @@ fn assemble(n: usize, entries: &[(u32, u32, f64)]) -> Result<SparseColMat<usize,
 
 impl Cholesky {
     /// Factors the symmetric matrix given by `entries` (either triangle or
-    /// both; duplicates are summed, and (r, c) and (c, r) are the same entry).
+    /// both; duplicates are summed, and (r, c) and (c, r) are the same entry),
+    /// simplicial or supernodal as faer chooses.
     pub fn factor(n: usize, entries: &[(u32, u32, f64)]) -> Result<Cholesky> {
-        let a = assemble(n, entries)?;
-        let symbolic = SymbolicLlt::try_new(a.symbolic(), Side::Lower)
-            .map_err(|e| Error::Numerical(format!("Cholesky analysis: {e:?}")))?;
-        let llt = Llt::try_new_with_symbolic(symbolic.clone(), a.as_ref(), Side::Lower)
-            .map_err(|e| Error::Numerical(format!("matrix is not positive definite: {e:?}")))?;
-        Ok(Cholesky { n, symbolic, llt })
+        Cholesky::factor_with(n, entries, SupernodalThreshold::AUTO)
     }
 
-    /// Factors a matrix with the same sparsity pattern as this one, reusing
-    /// the fill-reducing ordering and symbolic analysis.
-    pub fn refactor(&mut self, entries: &[(u32, u32, f64)]) -> Result<()> {
-        let a = assemble(self.n, entries)?;
-        self.llt = Llt::try_new_with_symbolic(self.symbolic.clone(), a.as_ref(), Side::Lower)
+    /// [`factor`](Self::factor), always supernodal. faer's choice is the
+    /// simplicial factorization for the parameterization's mesh systems,
+    /// where it was 17 % of samba's parameterization at N = 256 (`perf`)
+    /// and the supernodal one is 3-4x faster (as for the LU it replaced).
+    pub fn factor_supernodal(n: usize, entries: &[(u32, u32, f64)]) -> Result<Cholesky> {
+        Cholesky::factor_with(n, entries, SupernodalThreshold::FORCE_SUPERNODAL)
+    }
+
+    fn factor_with(n: usize, entries: &[(u32, u32, f64)], threshold: SupernodalThreshold) -> Result<Cholesky> {
+        let a = assemble(n, entries)?;
+        let params = CholeskySymbolicParams { supernodal_flop_ratio_threshold: threshold, ..Default::default() };
+        let symbolic = factorize_symbolic_cholesky(a.symbolic(), Side::Lower, SymmetricOrdering::Amd, params)
+            .map_err(|e| Error::Numerical(format!("Cholesky analysis: {e:?}")))?;
+        let mut c = Cholesky { n, values: vec![0.0; symbolic.len_val()], symbolic: Box::new(symbolic) };
+        c.numeric(a.as_ref())?;
+        Ok(c)
+    }
+
+    /// Factors a matrix of the same sparsity pattern as this one, with its
+    /// entries laid out by `pattern` (made from this matrix's entries),
+    /// reusing the fill-reducing ordering and symbolic analysis.
+    pub fn refactor_in(&mut self, pattern: &Pattern, entries: &[(u32, u32, f64)]) -> Result<()> {
+        if pattern.n != self.n {
+            return Err(Error::Numerical(format!("a {} x {0} layout for a {} x {1} matrix", pattern.n, self.n)));
+        }
+        let values = pattern.values(entries)?;
+        self.numeric(SparseColMatRef::new(pattern.symbolic.as_ref(), &values))
+    }
+
+    fn numeric(&mut self, a: SparseColMatRef<'_, usize, f64>) -> Result<()> {
+        let par = Par::Seq;
+        let scratch = self.symbolic.factorize_numeric_llt_scratch::<f64>(par, Default::default());
+        let mut buf =
+            MemBuffer::try_new(scratch).map_err(|e| Error::Numerical(format!("Cholesky workspace: {e:?}")))?;
+        self.symbolic
+            .factorize_numeric_llt(
+                &mut self.values,
+                a,
+                Side::Lower,
+                Default::default(),
+                par,
+                MemStack::new(&mut buf),
+                Default::default(),
+            )
             .map_err(|e| Error::Numerical(format!("matrix is not positive definite: {e:?}")))?;
         Ok(())
     }
@@ -54,13 +90,79 @@ impl Cholesky {
     /// Solves A X = B for `k` right-hand sides stored one after another in `rhs`.
     pub fn solve(&self, rhs: &mut [f64], k: usize) {
         assert_eq!(rhs.len(), self.n * k, "right-hand side has the wrong length");
+        let par = Par::Seq;
         let mut b = Mat::<f64>::from_fn(self.n, k, |i, j| rhs[j * self.n + i]);
-        self.llt.solve_in_place(b.as_mut());
+        let scratch = self.symbolic.solve_in_place_scratch::<f64>(k, par);
+        // A workspace of a few vectors: only an allocator failure can stop it.
+        let Ok(mut buf) = MemBuffer::try_new(scratch) else { return };
+        LltRef::new(&self.symbolic, &self.values).solve_in_place_with_conj(
+            Conj::No,
+            b.as_mut(),
+            par,
+            MemStack::new(&mut buf),
+        );
         for j in 0..k {
             for i in 0..self.n {
                 rhs[j * self.n + i] = b[(i, j)];
             }
         }
+    }
+}
+
+/// The lower triangle's layout of a symmetric matrix given by a list of
+/// (row, column, value) entries, and where each entry lands in it: matrices
+/// listed by the same entries in the same order (new values, the area
+/// passes') are then laid out without sorting, which took as long as their
+/// factorization.
+pub struct Pattern {
+    n: usize,
+    /// Each entry's (row, column), lower triangle, as first listed.
+    at: Vec<(u32, u32)>,
+    /// Each entry's place among the matrix's values.
+    slot: Vec<u32>,
+    symbolic: SymbolicSparseColMat<usize>,
+}
+
+impl Pattern {
+    pub fn new(n: usize, entries: &[(u32, u32, f64)]) -> Result<Pattern> {
+        let at: Vec<(u32, u32)> = entries.iter().map(|&(r, c, _)| (r.max(c), r.min(c))).collect();
+        if let Some(&(r, c)) = at.iter().find(|&&(r, _)| r as usize >= n) {
+            return Err(Error::Numerical(format!("matrix entry ({r}, {c}) outside a {n} x {n} system")));
+        }
+        let mut order: Vec<u32> = (0..at.len() as u32).collect();
+        order.sort_unstable_by_key(|&k| (at[k as usize].1, at[k as usize].0));
+        let (mut slot, mut col_ptr, mut row_idx) = (vec![0u32; at.len()], vec![0usize; n + 1], Vec::new());
+        let mut last = None;
+        for k in order {
+            let (r, c) = at[k as usize];
+            if last != Some((r, c)) {
+                row_idx.push(r as usize);
+                col_ptr[c as usize + 1] += 1;
+                last = Some((r, c));
+            }
+            slot[k as usize] = row_idx.len() as u32 - 1;
+        }
+        for c in 0..n {
+            col_ptr[c + 1] += col_ptr[c];
+        }
+        // Sorted and without repeats by construction, which is what it checks.
+        let symbolic = SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx);
+        Ok(Pattern { n, at, slot, symbolic })
+    }
+
+    /// The matrix's values (in this layout) for `entries`, which must list
+    /// the same (row, column) pairs in the same order as the first.
+    fn values(&self, entries: &[(u32, u32, f64)]) -> Result<Vec<f64>> {
+        let same = entries.len() == self.at.len()
+            && entries.iter().zip(&self.at).all(|(&(r, c, _), &rc)| (r.max(c), r.min(c)) == rc);
+        if !same {
+            return Err(Error::Numerical("a matrix listed in another pattern than its layout's".into()));
+        }
+        let mut values = vec![0.0; self.symbolic.row_idx().len()];
+        for (&(_, _, v), &k) in entries.iter().zip(&self.slot) {
+            values[k as usize] += v;
+        }
+        Ok(values)
     }
 }
 
@@ -81,82 +183,8 @@ fn assemble_general(n: usize, entries: &[(u32, u32, f64)]) -> Result<SparseColMa
     SparseColMat::try_new_from_triplets(n, n, &trip).map_err(|e| Error::Numerical(format!("sparse assembly: {e:?}")))
 }
 
-/// Sparse square solves by LU with partial pivoting, for the unsymmetric
-/// systems of barycentric (Tutte-type) maps. The fill-reducing ordering and
-/// symbolic analysis of the first matrix are reused for the next ones (same
-/// pattern, new values: the area-correction passes).
-///
-/// The factorization is forced supernodal. faer's automatic choice takes the
-/// simplicial one for these mesh systems, and there it was 44 % of a
-/// parameterization's time (the default motion at N = 128, `perf`); the
-/// supernodal one takes 6 %, and `cgv remesh` of horse-gallop's first
-/// frames went from 25 s to 13 s (same maps to 1e-12, up to pivoting).
-pub struct SparseLu {
-    n: usize,
-    symbolic: Option<lu::SymbolicLu<usize>>,
-    numeric: lu::NumericLu<usize, f64>,
-}
-
-impl SparseLu {
-    pub fn new(n: usize) -> SparseLu {
-        SparseLu { n, symbolic: None, numeric: lu::NumericLu::new() }
-    }
-
-    /// Factors the matrix given by (row, column, value) entries (duplicates
-    /// are summed) and solves A X = B for `k` right-hand sides stored one
-    /// after another in `rhs`.
-    pub fn solve(&mut self, entries: &[(u32, u32, f64)], rhs: &mut [f64], k: usize) -> Result<()> {
-        if rhs.len() != self.n * k {
-            return Err(Error::Numerical(format!(
-                "right-hand side of length {} for {k} columns of {}",
-                rhs.len(),
-                self.n
-            )));
-        }
-        let a = assemble_general(self.n, entries)?;
-        if self.symbolic.is_none() {
-            let params = lu::LuSymbolicParams {
-                supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SUPERNODAL,
-                ..Default::default()
-            };
-            let symbolic = lu::factorize_symbolic_lu(a.symbolic(), params)
-                .map_err(|e| Error::Numerical(format!("LU analysis: {e:?}")))?;
-            self.symbolic = Some(symbolic);
-        }
-        let symbolic = self.symbolic.as_ref().ok_or_else(|| Error::Numerical("LU analysis missing".into()))?;
-        // Sequential: the wasm build has no thread pool. (Natively faer's
-        // global parallelism could be passed here; not measured.)
-        let par = Par::Seq;
-        let scratch = StackReq::any_of(&[
-            symbolic.factorize_numeric_lu_scratch::<f64>(par, Default::default()),
-            symbolic.solve_in_place_scratch::<f64>(k, par),
-        ]);
-        let mut buf = MemBuffer::try_new(scratch).map_err(|e| Error::Numerical(format!("LU workspace: {e:?}")))?;
-        let factors = symbolic
-            .factorize_numeric_lu(&mut self.numeric, a.as_ref(), par, MemStack::new(&mut buf), Default::default())
-            .map_err(|e| Error::Numerical(format!("singular matrix: {e:?}")))?;
-        let mut b = Mat::<f64>::from_fn(self.n, k, |i, j| rhs[j * self.n + i]);
-        factors.solve_in_place_with_conj(Conj::No, b.as_mut(), par, MemStack::new(&mut buf));
-        for j in 0..k {
-            for i in 0..self.n {
-                rhs[j * self.n + i] = b[(i, j)];
-            }
-        }
-        Ok(())
-    }
-}
-
 #[cfg(test)]
 mod tests {
-    #[test]
-    fn solves_small_unsymmetric_system() {
-        // [2 1; 0 3] x = [3 3] -> x = [1 1]
-        let mut lu = SparseLu::new(2);
-        let mut b = vec![3.0, 3.0];
-        lu.solve(&[(0, 0, 2.0), (0, 1, 1.0), (1, 1, 3.0)], &mut b, 1).unwrap();
-        assert!((b[0] - 1.0).abs() < 1e-12 && (b[1] - 1.0).abs() < 1e-12, "{b:?}");
-    }
-
     use super::*;
 
     #[test]
@@ -169,6 +197,27 @@ mod tests {
         let x = b;
         let r = [4.0 * x[0] + x[1] - 1.0, x[0] + 3.0 * x[1] + x[2] - 2.0, x[1] + 2.0 * x[2] - 3.0];
         assert!(r.iter().all(|v| v.abs() < 1e-12), "{r:?}");
+    }
+
+    /// A matrix laid out once and refactored with new values solves as if
+    /// assembled from scratch; entries listed otherwise are refused.
+    #[test]
+    fn pattern_refactors_new_values() {
+        let entries =
+            |d: f64| vec![(0, 0, d), (1, 0, 1.0), (0, 1, 0.0), (1, 1, 3.0), (2, 1, 1.0), (2, 2, 2.0), (0, 0, 1.0)];
+        let mut c = Cholesky::factor_supernodal(3, &entries(3.0)).unwrap();
+        let pattern = Pattern::new(3, &entries(3.0)).unwrap();
+        c.refactor_in(&pattern, &entries(9.0)).unwrap();
+        let mut x = vec![1.0, 2.0, 3.0];
+        c.solve(&mut x, 1);
+        // [10 1 0; 1 3 1; 0 1 2] x = [1 2 3]
+        let r = [10.0 * x[0] + x[1] - 1.0, x[0] + 3.0 * x[1] + x[2] - 2.0, x[1] + 2.0 * x[2] - 3.0];
+        assert!(r.iter().all(|v| v.abs() < 1e-12), "{r:?}");
+        let mut other = entries(9.0);
+        other.swap(0, 1);
+        assert!(c.refactor_in(&pattern, &other).is_err());
+        assert!(c.refactor_in(&pattern, &other[1..]).is_err());
+        assert!(Pattern::new(2, &entries(1.0)).is_err());
     }
 
     #[test]

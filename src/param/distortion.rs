@@ -90,25 +90,40 @@ fn image_scale(faces: &[[u32; 3]], pos: &[DVec3], face_uv: &impl Fn(usize) -> [D
     (total2 / total3).abs().max(1e-300)
 }
 
+/// Each face's area ratio σ1 σ2 (image area over surface area, the image
+/// scaled to the surface's total area; 0 where the surface triangle has no
+/// area), from the areas alone: what the area passes need of a map, without
+/// the singular values [`measure`] takes.
+pub fn area_ratios(area3: &[f64], face_uv: impl Fn(usize) -> [DVec2; 3]) -> Vec<f64> {
+    let uv_area: Vec<f64> = (0..area3.len()).map(|f| signed_area(face_uv(f))).collect();
+    let scale = (uv_area.iter().sum::<f64>() / area3.iter().sum::<f64>()).abs().max(1e-300);
+    uv_area.iter().zip(area3).map(|(&q, &a)| if a > 0.0 { q / (scale * a) } else { 0.0 }).collect()
+}
+
 /// Per-face area stretch of the inverse map (square to surface), 1/sqrt(σ1 σ2)
 /// with the image scaled to the surface's total area: above 1 where a face
-/// gets less than its share of the square. (Yoshizawa et al. use the L2
+/// gets less than its share of the square, infinite where its image is
+/// reversed or flat. (Yoshizawa et al. use the L2
 /// stretch; on samba that leaves 1 % of the surface with under a tenth of
 /// its share and doubles the angle distortion, so we measure area alone.)
-pub fn face_stretch(faces: &[[u32; 3]], pos: &[DVec3], face_uv: impl Fn(usize) -> [DVec2; 3]) -> Vec<f64> {
-    let scale = image_scale(faces, pos, &face_uv);
-    faces
-        .iter()
-        .enumerate()
-        .map(|(fi, f)| {
-            let (s1, s2, sign) = face_singular_values(f.map(|i| pos[i as usize]), face_uv(fi), scale);
-            if sign <= 0.0 || s2 <= 0.0 {
-                f64::INFINITY
-            } else {
-                1.0 / (s1 * s2).sqrt()
-            }
-        })
-        .collect()
+pub fn face_stretch(ratios: &[f64]) -> Vec<f64> {
+    ratios.iter().map(|&r| if r > 0.0 { 1.0 / r.sqrt() } else { f64::INFINITY }).collect()
+}
+
+/// The two figures of [`measure`] an area pass is judged by.
+pub struct AreaSummary {
+    /// Area-weighted mean of |ln(σ1 σ2)|.
+    pub area_log_mean: f64,
+    /// Faces whose image is reversed or has no area.
+    pub flipped_faces: usize,
+}
+
+/// [`AreaSummary`] of the map `face_uv` of faces with 3D areas `area3`.
+pub fn area_summary(area3: &[f64], ratios: &[f64], face_uv: impl Fn(usize) -> [DVec2; 3]) -> AreaSummary {
+    let total3: f64 = area3.iter().sum();
+    let log_sum: f64 = ratios.iter().zip(area3).map(|(&r, &w)| r.abs().max(1e-12).ln().abs() * w).sum();
+    let flipped_faces = (0..area3.len()).filter(|&f| signed_area(face_uv(f)) <= 0.0).count();
+    AreaSummary { area_log_mean: log_sum / total3, flipped_faces }
 }
 
 /// Measures the map `uv` (per face, as the face sees it) of a surface.

@@ -18,7 +18,8 @@
 //!    stretch-minimizing mesh parameterization", SMI 2004), with area
 //!    stretch in place of their L2 stretch: divide each half-edge weight by
 //!    the area stretch at its far vertex to the power η, re-solve the (now
-//!    unsymmetric) Tutte system, and repeat while the mean |ln area ratio|
+//!    unsymmetric, but a symmetric one rescaled: `orbifold::OrbifoldSystem::
+//!    solve_scaled`) Tutte system, and repeat while the mean |ln area ratio|
 //!    decreases. Unsymmetric positive weights keep the orbifold
 //!    Tutte guarantee of a bijection. η = 0 (or zero passes) keeps the
 //!    conformal map.
