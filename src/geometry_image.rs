@@ -328,7 +328,13 @@ fn grid_score(
         return Ok(f64::INFINITY);
     };
     let g = map.apply(reference);
-    surface::symmetric_rms_to(&g, &map.surface_faces(), reference, &source.faces, target)
+    let faces = map.surface_faces();
+    // A grid face's first sample lies on an input face: near the grid face.
+    let near = |f: usize| {
+        let c = map.corners[faces[f][0] as usize];
+        c.iter().all(|&v| (v as usize) < reference.len()).then(|| c.map(|v| reference[v as usize]))
+    };
+    surface::symmetric_rms_to(&g, &faces, &near, reference, &source.faces, target)
 }
 
 /// The finest step of the vertex offsets, relative to the reference

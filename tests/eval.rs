@@ -176,3 +176,22 @@ fn a_motion_read_again_on_each_pass_gives_the_same_report() {
     assert_eq!(figures(&held), figures(&streamed));
     assert_eq!(held.source_floor.vertex_rms, streamed.source_floor.vertex_rms);
 }
+
+/// The RMS that ranks maps (`symmetric_rms_to`) is `symmetric`'s own, with
+/// or without near triangles to start each search from, good ones or poor.
+#[test]
+fn ranking_rms_is_the_symmetric_rms_whatever_the_hints() {
+    let (b, fb) = common::icosphere(3);
+    // A: the sphere's vertices pushed off it unevenly, its own faces.
+    let a: Vec<Vec3> = b.iter().enumerate().map(|(i, p)| *p * (1.0 + 0.02 * (i as f32 * 1.3).sin())).collect();
+    let full = surface::symmetric(&a, &fb, &b, &fb).unwrap();
+    let target = surface::Target::new(&b, &fb).unwrap();
+    let own = |f: usize| Some(fb[f].map(|v| b[v as usize]));
+    let far = |f: usize| Some(fb[(f + fb.len() / 2) % fb.len()].map(|v| b[v as usize]));
+    let hints: [&(dyn Fn(usize) -> Option<[Vec3; 3]> + Sync); 3] = [&|_| None, &own, &far];
+    for hint in hints {
+        let rms = surface::symmetric_rms_to(&a, &fb, hint, &b, &fb, &target).unwrap();
+        assert!((rms - full.rms).abs() <= 1e-9 * full.rms, "{rms} against {}", full.rms);
+    }
+    assert!(full.rms > 1e-3, "the surfaces are apart: {full:?}");
+}

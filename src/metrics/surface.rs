@@ -10,7 +10,7 @@
 use crate::error::{Error, Result};
 use glam::Vec3;
 use parry3d::query::PointQuery;
-use parry3d::shape::TriMesh;
+use parry3d::shape::{TriMesh, Triangle};
 
 #[derive(Debug, Clone, Copy, Default, serde::Serialize)]
 pub struct SurfaceDistance {
@@ -38,32 +38,56 @@ impl Target {
         let proj = self.mesh.project_local_point(p, false);
         p.distance(proj.point) as f64
     }
+
+    /// [`distance`](Self::distance), given a triangle of this mesh near
+    /// `p`: its distance bounds the search, so the tree is walked only
+    /// where something is as near (the same figure, found sooner).
+    pub fn distance_near(&self, p: Vec3, near: [Vec3; 3]) -> f64 {
+        let d = p.distance(Triangle::new(near[0], near[1], near[2]).project_local_point(p, false).point);
+        // A little slack: the near triangle itself must fall within the bound.
+        match self.mesh.project_local_point_with_max_dist(p, false, d * (1.0 + 1e-4) + 1e-12) {
+            Some(proj) => p.distance(proj.point) as f64,
+            None => self.distance(p),
+        }
+    }
 }
 
 /// (RMS, max) of the distance from surface A to `target`.
 pub fn one_sided(positions: &[Vec3], faces: &[[u32; 3]], target: &Target) -> (f64, f64) {
     use rayon::prelude::*;
-    let (rms, max) = face_rms(positions, faces, target);
+    let (rms, max) = face_rms(positions, faces, target, &|_| None);
     let max = positions.par_iter().map(|p| target.distance(*p)).reduce(|| max, f64::max);
     (rms, max)
 }
 
 /// (RMS, max) of the distance from A's faces' quadrature points to
-/// `target`. Faces are split among threads (rayon); the sums are combined
+/// `target` (each face's `near` triangle of it, if any, speeding the
+/// search). Faces are split among threads (rayon); the sums are combined
 /// in a fixed order, so the result does not depend on the thread count
 /// beyond rounding.
-fn face_rms(positions: &[Vec3], faces: &[[u32; 3]], target: &Target) -> (f64, f64) {
+fn face_rms(
+    positions: &[Vec3],
+    faces: &[[u32; 3]],
+    target: &Target,
+    near: &(dyn Fn(usize) -> Option<[Vec3; 3]> + Sync),
+) -> (f64, f64) {
     use rayon::prelude::*;
+    const CHUNK: usize = 4096;
     let parts: Vec<(f64, f64, f64)> = faces
-        .par_chunks(4096)
-        .map(|chunk| {
+        .par_chunks(CHUNK)
+        .enumerate()
+        .map(|(c, chunk)| {
             let (mut sum, mut area, mut max) = (0.0, 0.0, 0.0f64);
-            for f in chunk {
+            for (k, f) in chunk.iter().enumerate() {
+                let hint = near(c * CHUNK + k);
                 let [a, b, c] = f.map(|i| positions[i as usize]);
                 let w = 0.5 * (b - a).cross(c - a).length() as f64 / 3.0;
                 for (x, y, z) in [(a, b, c), (b, c, a), (c, a, b)] {
                     let p = x * (2.0 / 3.0) + y * (1.0 / 6.0) + z * (1.0 / 6.0);
-                    let d = target.distance(p);
+                    let d = match hint {
+                        Some(t) => target.distance_near(p, t),
+                        None => target.distance(p),
+                    };
                     sum += w * d * d;
                     area += w;
                     max = max.max(d);
@@ -83,16 +107,19 @@ fn face_rms(positions: &[Vec3], faces: &[[u32; 3]], target: &Target) -> (f64, f6
 
 /// [`symmetric_to`]'s RMS alone, for ranking many maps of one surface:
 /// the same figure, without the vertices' queries that only its maxima use
-/// (a seventh of them at N = 256 on samba).
+/// (a seventh of them at N = 256 on samba). `a_on_b` may name, for each of
+/// A's faces, a triangle of B near it, which speeds its queries up
+/// ([`Target::distance_near`]) without changing the figure.
 pub fn symmetric_rms_to(
     a: &[Vec3],
     a_faces: &[[u32; 3]],
+    a_on_b: &(dyn Fn(usize) -> Option<[Vec3; 3]> + Sync),
     b: &[Vec3],
     b_faces: &[[u32; 3]],
     b_target: &Target,
 ) -> Result<f64> {
     let ta = Target::new(a, a_faces)?;
-    Ok(face_rms(a, a_faces, b_target).0.max(face_rms(b, b_faces, &ta).0))
+    Ok(face_rms(a, a_faces, b_target, a_on_b).0.max(face_rms(b, b_faces, &ta, &|_| None).0))
 }
 
 /// Symmetric distance between surfaces A and B.
