@@ -88,13 +88,13 @@ impl Cholesky {
     }
 
     /// Solves A X = B for `k` right-hand sides stored one after another in `rhs`.
-    pub fn solve(&self, rhs: &mut [f64], k: usize) {
+    pub fn solve(&self, rhs: &mut [f64], k: usize) -> Result<()> {
         assert_eq!(rhs.len(), self.n * k, "right-hand side has the wrong length");
         let par = Par::Seq;
         let mut b = Mat::<f64>::from_fn(self.n, k, |i, j| rhs[j * self.n + i]);
         let scratch = self.symbolic.solve_in_place_scratch::<f64>(k, par);
-        // A workspace of a few vectors: only an allocator failure can stop it.
-        let Ok(mut buf) = MemBuffer::try_new(scratch) else { return };
+        let mut buf =
+            MemBuffer::try_new(scratch).map_err(|e| Error::Numerical(format!("Cholesky workspace: {e:?}")))?;
         LltRef::new(&self.symbolic, &self.values).solve_in_place_with_conj(
             Conj::No,
             b.as_mut(),
@@ -106,6 +106,7 @@ impl Cholesky {
                 rhs[j * self.n + i] = b[(i, j)];
             }
         }
+        Ok(())
     }
 }
 
@@ -193,7 +194,7 @@ mod tests {
         let e = [(0, 0, 2.0), (0, 0, 2.0), (1, 0, 1.0), (1, 1, 3.0), (2, 1, 1.0), (1, 2, 0.0), (2, 2, 2.0)];
         let c = Cholesky::factor(3, &e).unwrap();
         let mut b = vec![1.0, 2.0, 3.0];
-        c.solve(&mut b, 1);
+        c.solve(&mut b, 1).unwrap();
         let x = b;
         let r = [4.0 * x[0] + x[1] - 1.0, x[0] + 3.0 * x[1] + x[2] - 2.0, x[1] + 2.0 * x[2] - 3.0];
         assert!(r.iter().all(|v| v.abs() < 1e-12), "{r:?}");
@@ -209,7 +210,7 @@ mod tests {
         let pattern = Pattern::new(3, &entries(3.0)).unwrap();
         c.refactor_in(&pattern, &entries(9.0)).unwrap();
         let mut x = vec![1.0, 2.0, 3.0];
-        c.solve(&mut x, 1);
+        c.solve(&mut x, 1).unwrap();
         // [10 1 0; 1 3 1; 0 1 2] x = [1 2 3]
         let r = [10.0 * x[0] + x[1] - 1.0, x[0] + 3.0 * x[1] + x[2] - 2.0, x[1] + 2.0 * x[2] - 3.0];
         assert!(r.iter().all(|v| v.abs() < 1e-12), "{r:?}");

@@ -273,6 +273,7 @@ impl<'a> AreaPasses<'a> {
         for (passes, uv) in std::mem::take(&mut self.early) {
             let map = Parameterization { uv, area_passes: passes, ..self.p.clone() };
             let s = score(&map)?;
+            // Ties go to the earlier map, as when it was scored first.
             if self.kept.as_ref().is_none_or(|k| s <= k.0) {
                 self.kept = Some((s, map.uv, passes));
             }

@@ -172,7 +172,7 @@ impl<'a> OrbifoldSystem<'a> {
             }
         }
         if let Some(chol) = &self.chol {
-            chol.solve(&mut rhs, 2);
+            chol.solve(&mut rhs, 2)?;
         }
         for (v, &i) in self.index.iter().enumerate() {
             if i != u32::MAX {

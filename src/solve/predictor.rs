@@ -242,7 +242,7 @@ impl Predictor {
                 }
             }
         }
-        self.factor()?.solve(&mut rhs, 3);
+        self.factor()?.solve(&mut rhs, 3)?;
         for (v, p) in x.iter_mut().enumerate() {
             *p = Vec3::new(rhs[v] as f32, rhs[n + v] as f32, rhs[2 * n + v] as f32);
         }
