@@ -33,6 +33,8 @@
 use crate::format::{CorrectionMode, Header};
 use crate::grid::{coarse, Grid, Stencils};
 use glam::Vec3;
+use std::collections::VecDeque;
+use std::sync::{Arc, Mutex};
 
 /// The filters (averaging passes) the encoder tries on each frame's
 /// correction; it keeps the one that lands closest to the true frame.
@@ -104,11 +106,41 @@ pub struct Corrections {
     layout: Layout,
     st: Stencils,
     prev: Option<Pictures>,
+    normals: NormalCache,
+}
+
+/// The smoothed normals of the last few surfaces, shared by clones. The
+/// encoder takes a frame's prediction's normals four times (normal
+/// picture, filter choice, relaxation choice, the decoder's step) and each
+/// relaxed surface's twice; at N = 256 that was a third of its time. A
+/// surface is known by its values, so what comes out is the same.
+#[derive(Debug, Clone, Default)]
+struct NormalCache(Arc<Mutex<VecDeque<Surface>>>);
+
+/// A surface and its smoothed normals.
+type Surface = (Vec<Vec3>, Vec<Vec3>);
+
+/// Surfaces the cache keeps: a prediction and its two relaxations.
+const NORMAL_CACHE: usize = 3;
+
+impl NormalCache {
+    fn normals(&self, st: &Stencils, x: &[Vec3]) -> Vec<Vec3> {
+        let hit = |c: &VecDeque<Surface>| c.iter().find(|(k, _)| k.as_slice() == x).map(|e| e.1.clone());
+        if let Some(n) = self.0.lock().ok().and_then(|c| hit(&c)) {
+            return n;
+        }
+        let n = smoothed_normals(st, x);
+        if let Ok(mut c) = self.0.lock() {
+            c.push_front((x.to_vec(), n.clone()));
+            c.truncate(NORMAL_CACHE);
+        }
+        n
+    }
 }
 
 impl Corrections {
     pub fn new(mode: CorrectionMode, layout: Layout, st: Stencils) -> Corrections {
-        Corrections { mode, layout, st, prev: None }
+        Corrections { mode, layout, st, prev: None, normals: NormalCache::default() }
     }
 
     /// The corrections of a file with this header.
@@ -138,7 +170,7 @@ impl Corrections {
         let mut inc = self.world_increment(decoded);
         if self.layout.normal {
             let dn = self.delta(decoded, 3);
-            let normals = smoothed_normals(&self.st, x);
+            let normals = self.normals.normals(&self.st, x);
             inc.iter_mut().zip(&normals).zip(&dn).for_each(|((d, n), a)| *d += *n * *a);
         }
         inc
@@ -167,7 +199,7 @@ impl Corrections {
     /// [`smoothed_normals`]. The encoder chooses the passes per frame.
     pub fn relax(&self, x: &mut [Vec3]) {
         let (st, k) = (&self.st, self.layout.shrink);
-        let normals = smoothed_normals(st, x);
+        let normals = self.normals.normals(st, x);
         let t: Vec<Vec3> = (0..x.len())
             .map(|v| {
                 let l = st.laplacian(x, v);
@@ -265,7 +297,7 @@ impl Corrections {
     /// to the prediction `x`: the rest of `err` along the normal.
     pub fn normal_picture(&self, x: &[Vec3], err: &[Vec3], world: &[Vec<f32>], scale: f32) -> Vec<f32> {
         let moved = self.world_increment(world);
-        let normals = smoothed_normals(&self.st, x);
+        let normals = self.normals.normals(&self.st, x);
         let left = err.iter().zip(&moved).zip(&normals).map(|((e, m), n)| (*e - *m).dot(*n)).collect();
         self.carried(3, left, scale)
     }

@@ -45,21 +45,44 @@ pub fn shrink(fine: Grid, v: &[f32], levels: u8) -> Vec<f32> {
 pub fn expand(coarse: Grid, v: &[f32], levels: u8) -> Vec<f32> {
     let (mut g, mut v) = (coarse, v.to_vec());
     for _ in 0..levels {
-        let n = 2 * g.n;
-        v = (0..n * n)
-            .map(|k| {
-                let (i, j) = ((k % n) as i64, (k / n) as i64);
-                // The nearest coarse sample and the next one towards this
-                // fine sample, in each direction.
-                let (ci, cj) = (i / 2, j / 2);
-                let (di, dj) = (if i % 2 == 0 { -1 } else { 1 }, if j % 2 == 0 { -1 } else { 1 });
-                let at = |a: i64, b: i64| v[g.canonical_index(a, b) as usize];
-                (9.0 * at(ci, cj) + 3.0 * at(ci + di, cj) + 3.0 * at(ci, cj + dj) + at(ci + di, cj + dj)) / 16.0
-            })
-            .collect();
-        g = Grid { n };
+        v = double(g, &v);
+        g = Grid { n: 2 * g.n };
     }
     v
+}
+
+/// One doubling: each fine sample blends the nearest coarse sample and the
+/// next ones towards it in each direction (9, 3, 3, 1 over 16).
+fn double(g: Grid, v: &[f32]) -> Vec<f32> {
+    let (m, n) = (g.n, 2 * g.n);
+    // Towards the next coarse sample: down for even fine indices, up for odd.
+    let toward = |i: usize| if i % 2 == 0 { (i / 2) as i64 - 1 } else { (i / 2) as i64 + 1 };
+    let blend = |a: f32, b: f32, c: f32, d: f32| (9.0 * a + 3.0 * b + 3.0 * c + d) / 16.0;
+    // Any sample, by the gluing rule.
+    let glued = |i: usize, j: usize| {
+        let at = |a: i64, b: i64| v[g.canonical_index(a, b) as usize];
+        let (ci, cj, ti, tj) = ((i / 2) as i64, (j / 2) as i64, toward(i), toward(j));
+        blend(at(ci, cj), at(ti, cj), at(ci, tj), at(ti, tj))
+    };
+    let mut out = Vec::with_capacity(n * n);
+    for j in 0..n {
+        let tj = toward(j);
+        if !(0..m as i64).contains(&tj) || n < 4 {
+            out.extend((0..n).map(|i| glued(i, j)));
+            continue;
+        }
+        // Inside the coarse square no gluing applies: rows are read directly,
+        // as `canonical_index` would index them; only the first and last
+        // fine samples of the row reach across a side.
+        let (here, next) = (&v[(j / 2) * m..][..m], &v[tj as usize * m..][..m]);
+        out.push(glued(0, j));
+        out.extend((1..n - 1).map(|i| {
+            let (ci, ti) = (i / 2, toward(i) as usize);
+            blend(here[ci], here[ti], next[ci], next[ti])
+        }));
+        out.push(glued(n - 1, j));
+    }
+    out
 }
 
 #[cfg(test)]
@@ -77,6 +100,29 @@ mod tests {
         let e = expand(coarse, &s, 2);
         assert_eq!(e.len(), fine.len());
         assert!(e.iter().all(|&x| (x - 2.5).abs() < 1e-6));
+    }
+
+    #[test]
+    fn doubling_reads_the_gluing_everywhere_to_the_bit() {
+        // The direct indices inside the square against the gluing rule for
+        // every sample, on a field with no symmetry.
+        for m in [2, 4, 8] {
+            doubling_reads_the_gluing_on(Grid { n: m });
+        }
+    }
+
+    fn doubling_reads_the_gluing_on(coarse: Grid) {
+        let v: Vec<f32> = (0..coarse.len()).map(|k| (k as f32 * 0.61).sin() + (k % 5) as f32).collect();
+        let m = coarse.n as i64;
+        let by_rule: Vec<f32> = (0..4 * coarse.len() as i64)
+            .map(|k| {
+                let (i, j) = (k % (2 * m), k / (2 * m));
+                let (ci, cj, di, dj) = (i / 2, j / 2, if i % 2 == 0 { -1 } else { 1 }, if j % 2 == 0 { -1 } else { 1 });
+                let at = |a: i64, b: i64| v[coarse.canonical_index(a, b) as usize];
+                (9.0 * at(ci, cj) + 3.0 * at(ci + di, cj) + 3.0 * at(ci, cj + dj) + at(ci + di, cj + dj)) / 16.0
+            })
+            .collect();
+        assert_eq!(expand(coarse, &v, 1), by_rule);
     }
 
     #[test]

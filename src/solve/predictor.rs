@@ -213,8 +213,10 @@ impl Predictor {
     fn step(&mut self, x: &mut [Vec3], h: &[f32], anchors: &[Vec3]) -> Result<()> {
         let n = self.st.grid.len();
         if self.a.len() != n {
-            // Frame 0: the seed's own tangential coefficients.
-            let f = self.st.features(x);
+            // The last decoded frame's tangential coefficients, taken here
+            // rather than at each commit since only H steps use them; at
+            // frame 0, the seed's own.
+            let f = self.st.features(self.past.front().map_or(&*x, Vec::as_slice));
             (self.a, self.b) = (f.a, f.b);
         }
         let mut rhs = vec![0.0f64; 3 * n];
@@ -340,13 +342,10 @@ impl Predictor {
         let longest = (self.max_lag as usize).min(self.velocities.len());
         let mut best: Option<(f64, u8)> = None;
         for l in 2..=longest {
-            let e: f64 = truth
-                .iter()
-                .zip(p.iter().zip(&self.velocities[l - 1]))
-                .map(|(t, (p, v))| (*p + *v).distance_squared(*t) as f64)
-                .sum();
-            if best.is_none_or(|b| e < b.0) {
-                best = Some((e, l as u8));
+            let bound = best.map_or(f64::INFINITY, |b| b.0);
+            match lag_error_below(truth, p, &self.velocities[l - 1], bound) {
+                Some(e) if best.is_none_or(|b| e < b.0) => best = Some((e, l as u8)),
+                _ => {}
             }
         }
         best.map(|b| b.1)
@@ -354,8 +353,9 @@ impl Predictor {
 
     /// Records the decoded frame (prediction plus correction).
     pub fn commit(&mut self, x: Vec<Vec3>, anchors: &[Vec3]) {
-        let f = self.st.features(&x);
-        (self.a, self.b) = (f.a, f.b);
+        // Its a, b are taken when a step first needs them.
+        self.a.clear();
+        self.b.clear();
         if let (true, Some(p)) = (self.max_lag > 0, self.past.front()) {
             let v = self.smooth(x.iter().zip(p).map(|(a, b)| *a - *b).collect());
             self.velocities.push_front(v);
@@ -365,6 +365,22 @@ impl Predictor {
         self.past.truncate(2);
         self.prev_anchors = anchors.to_vec();
     }
+}
+
+/// The squared distance of `p + v` to `truth`, if it is below `bound`.
+/// The sum only grows, so a lag is dropped as soon as a block of samples
+/// takes it past the best so far (most lags are, early); the sum kept is the
+/// one a single pass gives, so the same lag wins.
+fn lag_error_below(truth: &[Vec3], p: &[Vec3], v: &[Vec3], bound: f64) -> Option<f64> {
+    const BLOCK: usize = 2048;
+    let mut e = 0.0f64;
+    for ((t, p), v) in truth.chunks(BLOCK).zip(p.chunks(BLOCK)).zip(v.chunks(BLOCK)) {
+        e = t.iter().zip(p.iter().zip(v)).fold(e, |e, (t, (p, v))| e + (*p + *v).distance_squared(*t) as f64);
+        if e >= bound {
+            return None;
+        }
+    }
+    Some(e)
 }
 
 /// Sum of squared distances between corresponding points.

@@ -130,9 +130,10 @@ impl Plan {
     }
 
     /// Whether any stream carries a differential quantity (H, λ) rather
-    /// than positions, so the frames' features must be computed.
+    /// than positions, so the frames' features must be computed (the
+    /// normal correction, also no axis, is made from the prediction).
     pub fn needs_features(&self) -> bool {
-        self.names.iter().any(|(n, _)| n.axis().is_none())
+        self.names.iter().any(|(n, _)| n.axis().is_none() && !n.is_correction())
     }
 
     /// The streams: layer 1 for each name, then the layer-2 refinements.

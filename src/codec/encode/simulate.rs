@@ -13,6 +13,7 @@ use crate::mesh::FrameSource;
 use crate::resample::SampleMap;
 use crate::solve::predictor::{squared_distance, Extrapolation, Predictor, PredictorCode};
 use glam::Vec3;
+use rayon::prelude::*;
 
 /// What the simulation decided.
 pub(super) struct Simulation {
@@ -101,8 +102,8 @@ impl UncodedLoop {
 
 /// Which frames have corrections, and which are random-access points.
 struct Frames<'a> {
-    corrected: &'a dyn Fn(usize) -> bool,
-    rap: &'a dyn Fn(usize) -> bool,
+    corrected: &'a (dyn Fn(usize) -> bool + Sync),
+    rap: &'a (dyn Fn(usize) -> bool + Sync),
 }
 
 /// Runs the loop without coding (no anchors, no H steps: what the motion
@@ -138,7 +139,8 @@ fn uncoded_loops(
     for fi in 0..src.frame_count() {
         let g = map.apply(&src.read_frame(fi)?);
         let rap = (frames.rap)(fi);
-        for Run { sim, sum, out } in &mut runs {
+        // The runs are independent: one per core.
+        runs.par_iter_mut().try_for_each(|Run { sim, sum, out }| -> Result<()> {
             if rap {
                 sim.reset();
                 sum.reset();
@@ -148,7 +150,7 @@ fn uncoded_loops(
             out.longest_lag = out.longest_lag.max(code.lag);
             if !(frames.corrected)(fi) {
                 sim.commit(pred, &[]);
-                continue;
+                return Ok(());
             }
             out.energy += squared_distance(&g, &pred);
             let err: Vec<Vec3> = g.iter().zip(&pred).map(|(p, q)| *p - *q).collect();
@@ -162,7 +164,8 @@ fn uncoded_loops(
             }
             sum.record(pictures);
             sim.commit(g.clone(), &[]);
-        }
+            Ok(())
+        })?;
     }
     Ok(runs.into_iter().map(|r| r.out).collect())
 }
