@@ -212,7 +212,7 @@ pub fn parameterize_carrier(
     let target = surface::Target::new(reference, &source.faces)?;
     let input = (source, reference);
     // A copy for each caller (it only reads): `&mut { score }` below.
-    let score = |p: &Parameterization| grid_score(p, (grid, carrier), input, &target);
+    let score = |p: &Parameterization, above: f64| grid_score(p, (grid, carrier), input, &target, above);
     let positions = carrier.positions(reference);
     let (topology, reference) = (&carrier.topology, &positions[..]);
     let nv = topology.vertex_count;
@@ -315,7 +315,8 @@ fn fours(k: usize) -> Vec<[usize; 4]> {
 }
 
 /// How closely `grid` resamples the input through map `p` of its carrier:
-/// the symmetric RMS surface distance, in the mesh's units. A map whose
+/// the symmetric RMS surface distance, in the mesh's units (infinity once it
+/// is certainly above `above`). A map whose
 /// samples cannot all be located (it cannot happen for a map without folds,
 /// which is all the passes keep) is no candidate.
 fn grid_score(
@@ -323,6 +324,7 @@ fn grid_score(
     (grid, carrier): (Grid, &Carrier),
     (source, reference): (&Topology, &[Vec3]),
     target: &surface::Target,
+    above: f64,
 ) -> Result<f64> {
     let Ok(map) = SampleMap::on_carrier(grid, carrier, p) else {
         return Ok(f64::INFINITY);
@@ -334,7 +336,7 @@ fn grid_score(
         let c = map.corners[faces[f][0] as usize];
         c.iter().all(|&v| (v as usize) < reference.len()).then(|| c.map(|v| reference[v as usize]))
     };
-    surface::symmetric_rms_to(&g, &faces, &near, reference, &source.faces, target)
+    surface::symmetric_rms_to((&g, &faces), &near, (reference, &source.faces), target, above)
 }
 
 /// The finest step of the vertex offsets, relative to the reference

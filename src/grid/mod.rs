@@ -138,6 +138,13 @@ impl Grid {
         for b in -1..n {
             for a in -1..n {
                 let q = [(a, b), (a + 1, b), (a + 1, b + 1), (a, b + 1)].map(|(x, y)| self.canonical_index(x, y));
+                if (0..n - 1).contains(&a) && (0..n - 1).contains(&b) {
+                    // Inside the square: four distinct samples, and no other
+                    // cell of the lattice folds onto these (only border
+                    // cells reach across a side), so no check is needed.
+                    quads.push(q);
+                    continue;
+                }
                 let mut key = q;
                 key.sort_unstable();
                 if key[0] == key[1] || key[1] == key[2] || key[2] == key[3] {

@@ -55,33 +55,48 @@ impl Target {
 /// (RMS, max) of the distance from surface A to `target`.
 pub fn one_sided(positions: &[Vec3], faces: &[[u32; 3]], target: &Target) -> (f64, f64) {
     use rayon::prelude::*;
-    let (rms, max) = face_rms(positions, faces, target, &|_| None);
+    let (rms, max) = face_rms(positions, faces, target, &|_| None, f64::INFINITY).unwrap_or((f64::INFINITY, 0.0));
     let max = positions.par_iter().map(|p| target.distance(*p)).reduce(|| max, f64::max);
     (rms, max)
 }
 
 /// (RMS, max) of the distance from A's faces' quadrature points to
 /// `target` (each face's `near` triangle of it, if any, speeding the
-/// search). Faces are split among threads (rayon); the sums are combined
-/// in a fixed order, so the result does not depend on the thread count
-/// beyond rounding.
+/// search), or none once the RMS is certainly above `above`: the squares
+/// summed over some of the faces, over all of A's area, bound it from
+/// below. Faces are split among threads (rayon); the sums are combined in
+/// a fixed order, so the result does not depend on the thread count beyond
+/// rounding.
 fn face_rms(
     positions: &[Vec3],
     faces: &[[u32; 3]],
     target: &Target,
     near: &(dyn Fn(usize) -> Option<[Vec3; 3]> + Sync),
-) -> (f64, f64) {
+    above: f64,
+) -> Option<(f64, f64)> {
     use rayon::prelude::*;
+    use std::sync::atomic::{AtomicBool, AtomicU64, Ordering::Relaxed};
     const CHUNK: usize = 4096;
-    let parts: Vec<(f64, f64, f64)> = faces
+    let weight = |f: &[u32; 3]| {
+        let [a, b, c] = f.map(|i| positions[i as usize]);
+        0.5 * (b - a).cross(c - a).length() as f64 / 3.0
+    };
+    // The whole area (a hair more, so rounding cannot stop a map that is
+    // exactly at the bound) and the squares so far, shared by the threads.
+    let limit = above * above * 3.0 * faces.iter().map(weight).sum::<f64>() * (1.0 + 1e-9);
+    let (so_far, over) = (AtomicU64::new(0f64.to_bits()), AtomicBool::new(false));
+    let parts: Option<Vec<(f64, f64, f64)>> = faces
         .par_chunks(CHUNK)
         .enumerate()
         .map(|(c, chunk)| {
+            if over.load(Relaxed) {
+                return None;
+            }
             let (mut sum, mut area, mut max) = (0.0, 0.0, 0.0f64);
             for (k, f) in chunk.iter().enumerate() {
                 let hint = near(c * CHUNK + k);
                 let [a, b, c] = f.map(|i| positions[i as usize]);
-                let w = 0.5 * (b - a).cross(c - a).length() as f64 / 3.0;
+                let w = weight(f);
                 for (x, y, z) in [(a, b, c), (b, c, a), (c, a, b)] {
                     let p = x * (2.0 / 3.0) + y * (1.0 / 6.0) + z * (1.0 / 6.0);
                     let d = match hint {
@@ -93,33 +108,43 @@ fn face_rms(
                     max = max.max(d);
                 }
             }
-            (sum, area, max)
+            let added = |s: u64| Some((f64::from_bits(s) + sum).to_bits());
+            let before = so_far.fetch_update(Relaxed, Relaxed, added).unwrap_or_default();
+            if f64::from_bits(before) + sum > limit {
+                over.store(true, Relaxed);
+            }
+            Some((sum, area, max))
         })
         .collect();
     let (mut sum, mut area, mut max) = (0.0, 0.0, 0.0f64);
-    for (s, a, m) in parts {
+    for (s, a, m) in parts? {
         sum += s;
         area += a;
         max = max.max(m);
     }
-    ((sum / area.max(f64::MIN_POSITIVE)).sqrt(), max)
+    Some(((sum / area.max(f64::MIN_POSITIVE)).sqrt(), max))
 }
 
 /// [`symmetric_to`]'s RMS alone, for ranking many maps of one surface:
 /// the same figure, without the vertices' queries that only its maxima use
-/// (a seventh of them at N = 256 on samba). `a_on_b` may name, for each of
-/// A's faces, a triangle of B near it, which speeds its queries up
-/// ([`Target::distance_near`]) without changing the figure.
+/// (a seventh of them at N = 256 on samba), or infinity once it is
+/// certainly above `above` (a map that cannot be kept is not measured
+/// through). `a_on_b` may name, for each of A's faces, a triangle of B near
+/// it, which speeds its queries up ([`Target::distance_near`]) without
+/// changing the figure.
 pub fn symmetric_rms_to(
-    a: &[Vec3],
-    a_faces: &[[u32; 3]],
+    a: (&[Vec3], &[[u32; 3]]),
     a_on_b: &(dyn Fn(usize) -> Option<[Vec3; 3]> + Sync),
-    b: &[Vec3],
-    b_faces: &[[u32; 3]],
+    (b, b_faces): (&[Vec3], &[[u32; 3]]),
     b_target: &Target,
+    above: f64,
 ) -> Result<f64> {
-    let ta = Target::new(a, a_faces)?;
-    Ok(face_rms(a, a_faces, b_target, a_on_b).0.max(face_rms(b, b_faces, &ta, &|_| None).0))
+    let (a, a_faces) = a;
+    // A's query mesh is built on one core while the other starts A's side.
+    let (ta, a_to_b) = rayon::join(|| Target::new(a, a_faces), || face_rms(a, a_faces, b_target, a_on_b, above));
+    let Some((a_to_b, _)) = a_to_b else { return Ok(f64::INFINITY) };
+    let Some((b_to_a, _)) = face_rms(b, b_faces, &ta?, &|_| None, above) else { return Ok(f64::INFINITY) };
+    Ok(a_to_b.max(b_to_a))
 }
 
 /// Symmetric distance between surfaces A and B.

@@ -272,7 +272,7 @@ impl<'a> AreaPasses<'a> {
         let Some(score) = score.as_mut() else { return Ok(()) };
         for (passes, uv) in std::mem::take(&mut self.early) {
             let map = Parameterization { uv, area_passes: passes, ..self.p.clone() };
-            let s = score(&map)?;
+            let s = score(&map, self.kept.as_ref().map_or(f64::INFINITY, |k| k.0))?;
             // Ties go to the earlier map, as when it was scored first.
             if self.kept.as_ref().is_none_or(|k| s <= k.0) {
                 self.kept = Some((s, map.uv, passes));
@@ -303,7 +303,8 @@ impl<'a> AreaPasses<'a> {
     /// the kept one).
     fn rate(&mut self, score: &mut Option<Score>) -> Result<bool> {
         let Some(score) = score.as_mut() else { return Ok(false) };
-        let s = score(&self.p)?;
+        // Past SCORE_GIVE_UP times the kept score, only that it is past counts.
+        let s = score(&self.p, self.kept.as_ref().map_or(f64::INFINITY, |k| SCORE_GIVE_UP * k.0))?;
         self.scored_at = Some(self.p.area_passes);
         match &self.kept {
             Some(k) if s >= k.0 => Ok(s > SCORE_GIVE_UP * k.0),

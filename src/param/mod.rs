@@ -131,8 +131,10 @@ pub const SCORED_PASSES: [usize; 12] = [5, 10, 15, 20, 30, 40, 60, 80, 100, 130,
 pub const SCORE_GIVE_UP: f64 = 1.5;
 
 /// A map's score (lower is better), or an error that ends the
-/// parameterization.
-pub type Score<'a> = &'a mut dyn FnMut(&Parameterization) -> Result<f64>;
+/// parameterization. The second argument is the score above which the map
+/// is of no use (it cannot be kept); a score may then stop early and give
+/// any figure above it.
+pub type Score<'a> = &'a mut dyn FnMut(&Parameterization, f64) -> Result<f64>;
 
 /// [`parameterize`], keeping of the maps that the area-correction passes go
 /// through the one that `score` rates best (scored after the passes in
