@@ -688,3 +688,25 @@ fn a_manifest_encodes_many_skips_what_is_done_and_reports_failures() {
     let out = run();
     assert!(!out.status.success() && stderr(&out).contains("not a manifest"), "{}", stderr(&out));
 }
+
+/// Issue 20: with the defaults (`--grid auto`, `--codec auto`) a budget
+/// picks the grid first (256 from 1.2 bits per 128 x 128 sample a frame),
+/// then the codec on that grid (normal from 0.25 to 1.3 bits per grid
+/// sample a frame, predictive above), and the file is on budget.
+#[test]
+fn grid_auto_picks_the_grid_then_the_codec_for_a_budget() {
+    let dir = common::temp_dir("cli-grid-auto");
+    // The default motion is 72 frames at 30 fps: 300 kbit/s is 0.61 bits
+    // per 128² sample a frame; 3000 is 6.1, which is 1.5 per 256² sample.
+    for (kbps, grid, codec) in [(300.0, 128, "normal"), (3000.0, 256, "predictive")] {
+        let file = dir.join(format!("{kbps}.cgv"));
+        let args = ["encode", "builtin:walk", "--no-source-mesh", "--kbps", &kbps.to_string()];
+        let out = cgv(&[&args[..], &["-o", file.to_str().unwrap()]].concat());
+        assert!(out.status.success(), "{kbps}: {}", String::from_utf8_lossy(&out.stderr));
+        let info = cgv(&["info", file.to_str().unwrap(), "--json"]);
+        let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+        assert_eq!((v["header"]["grid"].as_u64(), v["codec"].as_str()), (Some(grid), Some(codec)), "{kbps}");
+        let rate = std::fs::metadata(&file).unwrap().len() as f64 * 8.0 / 1000.0 / (72.0 / 30.0);
+        assert!((rate / kbps - 1.0).abs() <= 0.05, "{kbps} kbit/s asked, {rate:.1} made");
+    }
+}

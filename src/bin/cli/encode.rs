@@ -127,7 +127,8 @@ pub struct Args {
     /// `auto`: 256 for a --kbps of 1.2 bits or more per 128 x 128 sample per
     /// frame (about 590 kbit/s at 30 fps), 128 below and with --qp; with
     /// --target-error, 256 when the target is below 1.1 times what 128
-    /// resamples the motion to (docs/RESULTS.md, "--grid auto").
+    /// resamples the motion to (docs/RESULTS.md, "--grid auto"). `--codec
+    /// auto` then picks the codec on the grid chosen.
     #[arg(long, default_value = "auto", value_parser = parse_grid)]
     grid: GridChoice,
     /// Seconds between random-access points, where a player can start
