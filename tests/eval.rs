@@ -190,7 +190,7 @@ fn ranking_rms_is_the_symmetric_rms_whatever_the_hints() {
     let far = |f: usize| Some(fb[(f + fb.len() / 2) % fb.len()].map(|v| b[v as usize]));
     let hints: [&(dyn Fn(usize) -> Option<[Vec3; 3]> + Sync); 3] = [&|_| None, &own, &far];
     for hint in hints {
-        let rms = surface::symmetric_rms_to((&a, &fb), hint, (&b, &fb), &target, f64::INFINITY).unwrap();
+        let rms = surface::symmetric_rms_to((&a, &fb), hint, (&b, &fb), &target, (f64::INFINITY, 1)).unwrap();
         assert!((rms - full.rms).abs() <= 1e-9 * full.rms, "{rms} against {}", full.rms);
     }
     assert!(full.rms > 1e-3, "the surfaces are apart: {full:?}");
@@ -203,7 +203,7 @@ fn ranking_rms_is_exact_below_its_bound_and_above_it_past() {
     let (b, fb) = common::icosphere(5);
     let a: Vec<Vec3> = b.iter().enumerate().map(|(i, p)| *p * (1.0 + 0.02 * (i as f32 * 1.3).sin())).collect();
     let target = surface::Target::new(&b, &fb).unwrap();
-    let rms = |above: f64| surface::symmetric_rms_to((&a, &fb), &|_| None, (&b, &fb), &target, above).unwrap();
+    let rms = |above: f64| surface::symmetric_rms_to((&a, &fb), &|_| None, (&b, &fb), &target, (above, 1)).unwrap();
     let full = rms(f64::INFINITY);
     assert!(fb.len() > 4 * 4096, "several blocks: {}", fb.len());
     assert_eq!(rms(full), full, "exactly at the bound");

@@ -208,3 +208,24 @@ fn a_plane_point_folds_to_the_sample_it_is_glued_to() {
         }
     }
 }
+
+/// The maps are ranked on a subsample of the grid's quads, but the floor the
+/// encoder reports (`param.score`, and what `--grid auto` decides by) is
+/// the kept map's symmetric RMS measured whole.
+#[test]
+fn the_kept_maps_score_is_its_whole_surface_distance() {
+    let m = cgv::mesh::builtin::motion(2);
+    let grid = Grid::new(64).unwrap();
+    let image = cgv::geometry_image::GeometryImage::build(
+        std::path::Path::new("walk"),
+        &m.topology,
+        &m.frames[0],
+        grid,
+        &ParamOptions::default(),
+    )
+    .unwrap();
+    let score = image.param.score.expect("a scored map");
+    let g = image.map.apply(&m.frames[0]);
+    let d = cgv::metrics::surface::symmetric(&g, &image.map.surface_faces(), &m.frames[0], &m.topology.faces).unwrap();
+    assert!((score - d.rms).abs() <= 1e-9 * d.rms, "score {score}, whole RMS {}", d.rms);
+}

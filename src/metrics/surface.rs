@@ -55,14 +55,15 @@ impl Target {
 /// (RMS, max) of the distance from surface A to `target`.
 pub fn one_sided(positions: &[Vec3], faces: &[[u32; 3]], target: &Target) -> (f64, f64) {
     use rayon::prelude::*;
-    let (rms, max) = face_rms(positions, faces, target, &|_| None, f64::INFINITY).unwrap_or((f64::INFINITY, 0.0));
+    let (rms, max) = face_rms(positions, faces, target, &|_| None, (f64::INFINITY, 1)).unwrap_or((f64::INFINITY, 0.0));
     let max = positions.par_iter().map(|p| target.distance(*p)).reduce(|| max, f64::max);
     (rms, max)
 }
 
 /// (RMS, max) of the distance from A's faces' quadrature points to
 /// `target` (each face's `near` triangle of it, if any, speeding the
-/// search), or none once the RMS is certainly above `above`: the squares
+/// search), over every `every`-th pair of faces (1: all of them), or none
+/// once the RMS is certainly above `above`: the squares
 /// summed over some of the faces, over all of A's area, bound it from
 /// below. Faces are split among threads (rayon); the sums are combined in
 /// a fixed order, so the result does not depend on the thread count beyond
@@ -72,8 +73,9 @@ fn face_rms(
     faces: &[[u32; 3]],
     target: &Target,
     near: &(dyn Fn(usize) -> Option<[Vec3; 3]> + Sync),
-    above: f64,
+    (above, every): (f64, usize),
 ) -> Option<(f64, f64)> {
+    // Only every `every`-th pair of faces (a grid mesh's quad) is measured.
     use rayon::prelude::*;
     use std::sync::atomic::{AtomicBool, AtomicU64, Ordering::Relaxed};
     const CHUNK: usize = 4096;
@@ -83,7 +85,9 @@ fn face_rms(
     };
     // The whole area (a hair more, so rounding cannot stop a map that is
     // exactly at the bound) and the squares so far, shared by the threads.
-    let limit = above * above * 3.0 * faces.iter().map(weight).sum::<f64>() * (1.0 + 1e-9);
+    let picked = |f: usize| (f / 2) % every.max(1) == 0;
+    let area: f64 = faces.iter().enumerate().filter(|(f, _)| picked(*f)).map(|(_, f)| weight(f)).sum();
+    let limit = above * above * 3.0 * area * (1.0 + 1e-9);
     let (so_far, over) = (AtomicU64::new(0f64.to_bits()), AtomicBool::new(false));
     let parts: Option<Vec<(f64, f64, f64)>> = faces
         .par_chunks(CHUNK)
@@ -94,6 +98,9 @@ fn face_rms(
             }
             let (mut sum, mut area, mut max) = (0.0, 0.0, 0.0f64);
             for (k, f) in chunk.iter().enumerate() {
+                if !picked(c * CHUNK + k) {
+                    continue;
+                }
                 let hint = near(c * CHUNK + k);
                 let [a, b, c] = f.map(|i| positions[i as usize]);
                 let w = weight(f);
@@ -131,19 +138,22 @@ fn face_rms(
 /// certainly above `above` (a map that cannot be kept is not measured
 /// through). `a_on_b` may name, for each of A's faces, a triangle of B near
 /// it, which speeds its queries up ([`Target::distance_near`]) without
-/// changing the figure.
+/// changing the figure. With `a_every` above 1, A's side is measured on
+/// every `a_every`-th pair of its faces only (an estimate: a grid mesh's
+/// faces come in pairs, one quad each); B's side is measured whole.
 pub fn symmetric_rms_to(
     a: (&[Vec3], &[[u32; 3]]),
     a_on_b: &(dyn Fn(usize) -> Option<[Vec3; 3]> + Sync),
     (b, b_faces): (&[Vec3], &[[u32; 3]]),
     b_target: &Target,
-    above: f64,
+    (above, a_every): (f64, usize),
 ) -> Result<f64> {
     let (a, a_faces) = a;
     // A's query mesh is built on one core while the other starts A's side.
-    let (ta, a_to_b) = rayon::join(|| Target::new(a, a_faces), || face_rms(a, a_faces, b_target, a_on_b, above));
+    let (ta, a_to_b) =
+        rayon::join(|| Target::new(a, a_faces), || face_rms(a, a_faces, b_target, a_on_b, (above, a_every)));
     let Some((a_to_b, _)) = a_to_b else { return Ok(f64::INFINITY) };
-    let Some((b_to_a, _)) = face_rms(b, b_faces, &ta?, &|_| None, above) else { return Ok(f64::INFINITY) };
+    let Some((b_to_a, _)) = face_rms(b, b_faces, &ta?, &|_| None, (above, 1)) else { return Ok(f64::INFINITY) };
     Ok(a_to_b.max(b_to_a))
 }
 
