@@ -211,25 +211,33 @@ pub fn parameterize_carrier(
     let source = &carrier.on_grid(source);
     let target = surface::Target::new(reference, &source.faces)?;
     let input = (source, reference);
-    // A copy for each caller (it only reads): `&mut { score }` below.
-    let score = |p: &Parameterization, above: f64| grid_score(p, (grid, carrier), input, &target, (above, SCORE_EVERY));
+    let mut p = choose_map(carrier, input, grid, opts, &target)?;
     // The kept map's own figure, measured whole: it is what the encoder
     // reports as the grid's floor and what `--grid auto` decides by.
-    let exact = |p: Result<Parameterization>| -> Result<Parameterization> {
-        let mut p = p?;
-        if p.score.is_some() {
-            p.score = Some(grid_score(&p, (grid, carrier), input, &target, (f64::INFINITY, 1))?);
-        }
-        Ok(p)
-    };
+    if p.score.is_some() {
+        p.score = Some(grid_score(&p, (grid, carrier), input, &target, (f64::INFINITY, 1))?);
+    }
+    Ok(p)
+}
+
+/// The race of cone placements and their passes, ranked on a subsample
+/// ([`SCORE_EVERY`]).
+fn choose_map(
+    carrier: &Carrier,
+    input: (&Topology, &[Vec3]),
+    grid: Grid,
+    opts: &ParamOptions,
+    target: &surface::Target,
+) -> Result<Parameterization> {
+    let reference = input.1;
+    // A copy for each caller (it only reads): `&mut { score }` below.
+    let score = |p: &Parameterization, above: f64| grid_score(p, (grid, carrier), input, target, (above, SCORE_EVERY));
     let positions = carrier.positions(reference);
     let (topology, reference) = (&carrier.topology, &positions[..]);
     let nv = topology.vertex_count;
     if opts.cones.is_some() || nv < 5 || reference.len() != nv {
         // Given cones, or a mesh that parameterize_scored rejects with the reason.
-        return exact(
-            AreaPasses::start_with(topology, reference, Some(&carrier.real), opts)?.finish(Some(&mut { score })),
-        );
+        return AreaPasses::start_with(topology, reference, Some(&carrier.real), opts)?.finish(Some(&mut { score }));
     }
     // The racers: each four of the first CONE_CANDIDATES extremities (the
     // first four are what `cut::choose_cones` picks, and start first, so
@@ -303,7 +311,7 @@ pub fn parameterize_carrier(
         }
     }
     match racers.into_iter().next() {
-        Some(leader) => exact(leader.finish(Some(&mut { score }))),
+        Some(leader) => leader.finish(Some(&mut { score })),
         // Every placement failed (there are always CONE_CANDIDATES of them,
         // so there is an error to report).
         None => Err(first_error.unwrap_or_else(|| Error::Numerical("no cone placement could be cut".into()))),
