@@ -229,3 +229,28 @@ fn the_kept_maps_score_is_its_whole_surface_distance() {
     let d = cgv::metrics::surface::symmetric(&g, &image.map.surface_faces(), &m.frames[0], &m.topology.faces).unwrap();
     assert!((score - d.rms).abs() <= 1e-9 * d.rms, "score {score}, whole RMS {}", d.rms);
 }
+
+/// A racer scores only the pass counts the race compares at; the maps of
+/// the counts it defers (and those before `score_from`) are scored when it
+/// finishes, so the winner still keeps the best of all its maps.
+#[test]
+fn deferred_pass_counts_are_scored_when_the_passes_finish() {
+    use cgv::param::area::AreaPasses;
+    let m = cgv::mesh::builtin::motion(1);
+    let opts = ParamOptions::default();
+    let passes = AreaPasses::start_with(&m.topology, &m.frames[0], None, &opts).unwrap();
+    let mut r = passes.score_from(10).defer(&[15]);
+    let seen = std::cell::RefCell::new(Vec::new());
+    // A score that falls with the passes, so that none gives up.
+    let score = |p: &cgv::param::Parameterization, _: f64| {
+        seen.borrow_mut().push(p.area_passes);
+        Ok(1.0 / (1.0 + p.area_passes as f64))
+    };
+    r.advance(20, Some(&mut { score })).unwrap();
+    assert_eq!(*seen.borrow(), [10, 20], "while racing");
+    seen.borrow_mut().clear();
+    let p = r.finish(Some(&mut { score })).unwrap();
+    let at_finish = seen.borrow().clone();
+    assert_eq!(&at_finish[at_finish.len() - 2..], [5, 15], "at the finish: {at_finish:?}");
+    assert!(p.area_passes >= 20, "the best map is kept: {}", p.area_passes);
+}

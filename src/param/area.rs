@@ -55,6 +55,8 @@ pub struct AreaPasses<'a> {
     /// Scored pass counts below this are scored only by
     /// [`finish`](Self::finish) (see [`Self::score_from`]) ...
     score_from: usize,
+    /// Scored pass counts above it left to `finish` too (see [`Self::defer`]).
+    deferred: &'static [usize],
     /// ... which scores these maps (passes, map) then.
     early: Vec<(usize, Vec<DVec2>)>,
 }
@@ -152,6 +154,7 @@ impl<'a> AreaPasses<'a> {
                 scored_at: None,
                 done: false,
                 score_from: 0,
+                deferred: &[],
                 early: Vec::new(),
             });
         }
@@ -167,6 +170,13 @@ impl<'a> AreaPasses<'a> {
     /// (the cylinder's and face-poses' are at 5 passes).
     pub fn score_from(mut self, passes: usize) -> Self {
         self.score_from = passes;
+        self
+    }
+
+    /// Leaves the maps of these pass counts, too, to [`finish`](Self::finish)
+    /// (a race that compares placements at fewer counts than it scores).
+    pub fn defer(mut self, passes: &'static [usize]) -> Self {
+        self.deferred = passes;
         self
     }
 
@@ -229,7 +239,7 @@ impl<'a> AreaPasses<'a> {
             self.p.uv = trial.uv;
             self.p.area_passes += 1;
             if SCORED_PASSES.contains(&self.p.area_passes) {
-                if self.p.area_passes < self.score_from {
+                if self.p.area_passes < self.score_from || self.deferred.contains(&self.p.area_passes) {
                     self.early.push((self.p.area_passes, self.p.uv.clone()));
                 } else if self.rate(score)? {
                     self.done = true;
