@@ -315,11 +315,34 @@ fn choose_map(
         }
     }
     match racers.into_iter().next() {
-        Some(leader) => leader.finish(Some(&mut { score })),
+        Some(leader) => finish_leader(leader, &score),
         // Every placement failed (there are always CONE_CANDIDATES of them,
         // so there is an error to report).
         None => Err(first_error.unwrap_or_else(|| Error::Numerical("no cone placement could be cut".into()))),
     }
+}
+
+/// The leader's remaining passes on one core and the scores of its
+/// deferred maps on the other (the passes are serial, and those maps'
+/// scores do not depend on them), then its kept map. The same map is kept
+/// as when they were scored after the passes: a deferred map is kept only
+/// if it beats every other, and the kept score when the passes start, a
+/// bound its final one stays under, bounds their scores.
+fn finish_leader(
+    mut leader: AreaPasses,
+    score: &(dyn Fn(&Parameterization, f64) -> Result<f64> + Sync),
+) -> Result<Parameterization> {
+    let deferred = leader.take_deferred();
+    let bound = leader.score().unwrap_or(f64::INFINITY);
+    let (ran, scored) = rayon::join(
+        || leader.advance(usize::MAX, Some(&mut |p: &Parameterization, above: f64| score(p, above))),
+        || deferred.into_par_iter().map(|p| Ok((score(&p, bound)?, p))).collect::<Result<Vec<_>>>(),
+    );
+    ran?;
+    for (s, p) in scored? {
+        leader.offer(p, s);
+    }
+    leader.finish(Some(&mut |p: &Parameterization, above: f64| score(p, above)))
 }
 
 /// Every four of `0..k`, in lexicographic order.

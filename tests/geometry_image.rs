@@ -254,3 +254,22 @@ fn deferred_pass_counts_are_scored_when_the_passes_finish() {
     assert_eq!(&at_finish[at_finish.len() - 2..], [5, 15], "at the finish: {at_finish:?}");
     assert!(p.area_passes >= 20, "the best map is kept: {}", p.area_passes);
 }
+
+/// Deferred maps can be taken out, scored elsewhere (beside the passes) and
+/// offered back; the best of all is kept.
+#[test]
+fn deferred_maps_scored_elsewhere_are_kept_when_best() {
+    use cgv::param::area::AreaPasses;
+    let m = cgv::mesh::builtin::motion(1);
+    let passes = AreaPasses::start_with(&m.topology, &m.frames[0], None, &ParamOptions::default()).unwrap();
+    let mut r = passes.score_from(10).defer(&[15]);
+    let score = |p: &cgv::param::Parameterization, _: f64| Ok(1.0 / (1.0 + p.area_passes as f64));
+    r.advance(20, Some(&mut { score })).unwrap();
+    let deferred = r.take_deferred();
+    assert_eq!(deferred.iter().map(|p| p.area_passes).collect::<Vec<_>>(), [5, 15]);
+    // The 5-pass map, said to score below every other: it is the one kept.
+    let five = deferred.into_iter().next().unwrap();
+    r.offer(five, 0.0);
+    let p = r.finish(Some(&mut { score })).unwrap();
+    assert_eq!((p.area_passes, p.score), (5, Some(0.0)));
+}

@@ -277,6 +277,22 @@ impl<'a> AreaPasses<'a> {
         Ok(p)
     }
 
+    /// The maps left for [`finish`](Self::finish) to score (see
+    /// [`Self::score_from`], [`Self::defer`]), taken out: a caller may score
+    /// them itself, beside the passes, and [`offer`](Self::offer) them back.
+    pub fn take_deferred(&mut self) -> Vec<Parameterization> {
+        let maps = std::mem::take(&mut self.early);
+        maps.into_iter().map(|(passes, uv)| Parameterization { uv, area_passes: passes, ..self.p.clone() }).collect()
+    }
+
+    /// A map of these passes scored `s` elsewhere: kept if it beats the
+    /// kept one (ties to fewer passes, as when scored in pass order).
+    pub fn offer(&mut self, p: Parameterization, s: f64) {
+        if self.kept.as_ref().is_none_or(|k| s < k.0 || (s == k.0 && p.area_passes < k.2)) {
+            self.kept = Some((s, p.uv, p.area_passes));
+        }
+    }
+
     /// Scores the maps left for [`finish`](Self::finish), keeping the best.
     fn rate_early(&mut self, score: &mut Option<Score>) -> Result<()> {
         let Some(score) = score.as_mut() else { return Ok(()) };
