@@ -52,11 +52,11 @@ pub struct AreaPasses<'a> {
     scored_at: Option<usize>,
     /// No more passes will run.
     done: bool,
-    /// Scored pass counts below this are scored only by
-    /// [`finish`](Self::finish) (see [`Self::score_from`]) ...
-    score_from: usize,
-    /// Scored pass counts above it left to `finish` too (see [`Self::defer`]).
+    /// These scored pass counts, and those below `score_from`, are scored
+    /// only by [`finish`](Self::finish) (see [`Self::defer`],
+    /// [`Self::score_from`]) ...
     deferred: &'static [usize],
+    score_from: usize,
     /// ... which scores these maps (passes, map) then.
     early: Vec<(usize, Vec<DVec2>)>,
 }
