@@ -270,10 +270,11 @@ fn choose_map(
         }
     }
     // The race: all run in step to each scored pass count from RACE_FROM
-    // on, but those of RACE_DEFERRED. One drops out when its best score is past RACE_MARGIN times the
-    // leader's, or did not fall since the last count (it has stopped, or
-    // its passes are not helping it: leading it back would cost what
-    // racing saves). At RACE_DECIDE the leader alone goes on.
+    // on, but those of RACE_DEFERRED. One drops out when its best score is
+    // past RACE_MARGIN times the leader's, or did not fall since the last
+    // count (it has stopped, or its passes are not helping it: leading it
+    // back would cost what racing saves). At RACE_DECIDE the leader alone
+    // goes on.
     for &stop in
         SCORED_PASSES.iter().filter(|&&s| (RACE_FROM..=RACE_DECIDE).contains(&s) && !RACE_DEFERRED.contains(&s))
     {

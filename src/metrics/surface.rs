@@ -75,7 +75,6 @@ fn face_rms(
     near: &(dyn Fn(usize) -> Option<[Vec3; 3]> + Sync),
     (above, every): (f64, usize),
 ) -> Option<(f64, f64)> {
-    // Only every `every`-th pair of faces (a grid mesh's quad) is measured.
     use rayon::prelude::*;
     use std::sync::atomic::{AtomicBool, AtomicU64, Ordering::Relaxed};
     const CHUNK: usize = 4096;
@@ -83,11 +82,17 @@ fn face_rms(
         let [a, b, c] = f.map(|i| positions[i as usize]);
         0.5 * (b - a).cross(c - a).length() as f64 / 3.0
     };
-    // The whole area (a hair more, so rounding cannot stop a map that is
-    // exactly at the bound) and the squares so far, shared by the threads.
+    // Only every `every`-th pair of faces (a grid mesh's quad) is measured.
     let picked = |f: usize| (f / 2) % every.max(1) == 0;
-    let area: f64 = faces.iter().enumerate().filter(|(f, _)| picked(*f)).map(|(_, f)| weight(f)).sum();
-    let limit = above * above * 3.0 * area * (1.0 + 1e-9);
+    // The squares the measured area may sum to (a hair more, so rounding
+    // cannot stop a map that is exactly at the bound; no pass over the
+    // faces without a bound), and the squares so far, shared by the threads.
+    let limit = if above.is_finite() {
+        let area: f64 = faces.iter().enumerate().filter(|(f, _)| picked(*f)).map(|(_, f)| weight(f)).sum();
+        above * above * 3.0 * area * (1.0 + 1e-9)
+    } else {
+        f64::INFINITY
+    };
     let (so_far, over) = (AtomicU64::new(0f64.to_bits()), AtomicBool::new(false));
     let parts: Option<Vec<(f64, f64, f64)>> = faces
         .par_chunks(CHUNK)
