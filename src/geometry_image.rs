@@ -281,15 +281,7 @@ fn choose_map(
         if racers.len() < 2 {
             break;
         }
-        // The placements advance side by side, each on a core (they share
-        // nothing but the scoring target, read only; the order is kept).
-        let advanced: Vec<(Result<()>, AreaPasses, Option<f64>)> = racers
-            .into_par_iter()
-            .map(|mut r| {
-                let before = r.score();
-                (r.advance(stop, Some(&mut { score })), r, before)
-            })
-            .collect();
+        let advanced = advance_all(racers, stop, &score);
         let mut running = Vec::with_capacity(advanced.len());
         for (result, r, before) in advanced {
             match result {
@@ -322,6 +314,44 @@ fn choose_map(
         None => Err(first_error.unwrap_or_else(|| Error::Numerical("no cone placement could be cut".into()))),
     }
 }
+
+/// Runs every racer's passes to `stop` (each racer's error, the racer,
+/// its best score before), [`SEGMENT`] passes at a time, those furthest
+/// behind first, one on each core: three racers on two cores then finish
+/// together instead of the third alone after the other two. They share
+/// nothing but the scoring target, read only, and each racer's passes run
+/// in their order, so the maps do not depend on the schedule.
+fn advance_all<'a>(
+    racers: Vec<AreaPasses<'a>>,
+    stop: usize,
+    score: &(dyn Fn(&Parameterization, f64) -> Result<f64> + Sync),
+) -> Vec<(Result<()>, AreaPasses<'a>, Option<f64>)> {
+    let mut all: Vec<(Result<()>, AreaPasses, Option<f64>)> = racers
+        .into_iter()
+        .map(|r| {
+            let before = r.score();
+            (Ok(()), r, before)
+        })
+        .collect();
+    let lanes = rayon::current_num_threads().max(1);
+    loop {
+        let mut behind: Vec<&mut (Result<()>, AreaPasses<'a>, Option<f64>)> =
+            all.iter_mut().filter(|(e, r, _)| e.is_ok() && !r.stopped() && r.passes() < stop).collect();
+        if behind.is_empty() {
+            return all;
+        }
+        // A stable sort: ties go to the earlier start.
+        behind.sort_by_key(|(_, r, _)| r.passes());
+        behind.truncate(lanes);
+        behind.into_par_iter().for_each(|(e, r, _)| {
+            let until = (r.passes() + SEGMENT).min(stop);
+            *e = r.advance(until, Some(&mut |p: &Parameterization, above: f64| score(p, above)));
+        });
+    }
+}
+
+/// Passes a racer runs at a time in [`advance_all`].
+const SEGMENT: usize = 10;
 
 /// The leader's remaining passes on one core and the scores of its
 /// deferred maps on the other (the passes are serial, and those maps'
@@ -379,10 +409,14 @@ fn grid_score(
     };
     let g = map.apply(reference);
     let faces = map.surface_faces();
-    // A grid face's first sample lies on an input face: near the grid face.
+    // Each sample of a grid face lies on an input face: near the face's
+    // quadrature point by that sample.
     let near = |f: usize| {
-        let c = map.corners[faces[f][0] as usize];
-        c.iter().all(|&v| (v as usize) < reference.len()).then(|| c.map(|v| reference[v as usize]))
+        let on = |s: u32| {
+            let c = map.corners[s as usize];
+            c.iter().all(|&v| (v as usize) < reference.len()).then(|| c.map(|v| reference[v as usize]))
+        };
+        Some([on(faces[f][0])?, on(faces[f][1])?, on(faces[f][2])?])
     };
     surface::symmetric_rms_to((&g, &faces), &near, (reference, &source.faces), target, (above, every))
 }
@@ -407,16 +441,15 @@ pub const SUBDIVISIONS: usize = 2;
 /// pcow 0.097 % against 0.119 %; samba: the first four are best, 0.046 %).
 pub const CONE_CANDIDATES: usize = 5;
 
-/// The maps are ranked on every this-many-th quad of the grid mesh (its
-/// side of the score; the input's side is measured whole), and the kept
-/// map is measured whole once. On the 14 runs of docs/RESULTS.md ("Speed":
-/// seven sequences at N = 128 and 256) every second quad kept the same map
-/// on 13 and a 1 % worse one on the 14th (wolf at N = 128: 20 passes
-/// instead of 30), and took samba's N = 256 parameterization from 5.0 to
-/// 4.6 s (the kept map's whole measurement, 0.25 s, included); every fourth
-/// quad (and every second input face) kept a map 18 % worse on pcow at
+/// The maps are ranked on every this-many-th quad of the grid mesh and
+/// pair of the input's faces, and the kept map is measured whole once. On
+/// the 14 runs of docs/RESULTS.md ("Speed": seven sequences at N = 128 and
+/// 256) every third kept the same map as measuring every face on 12 and
+/// maps at most 1.7 % worse on the other two (wolf at N = 128: 20 passes
+/// instead of 30; horse-gallop at N = 128: 112 instead of 100); every
+/// fourth quad and second input face kept a map 18 % worse on pcow at
 /// N = 128.
-pub const SCORE_EVERY: usize = 2;
+pub const SCORE_EVERY: usize = 3;
 
 /// Pass count from which the cone placements are compared. Before it the
 /// ranking is noise: at 10 passes horse-gallop's eventual worst placement

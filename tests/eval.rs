@@ -186,9 +186,12 @@ fn ranking_rms_is_the_symmetric_rms_whatever_the_hints() {
     let a: Vec<Vec3> = b.iter().enumerate().map(|(i, p)| *p * (1.0 + 0.02 * (i as f32 * 1.3).sin())).collect();
     let full = surface::symmetric(&a, &fb, &b, &fb).unwrap();
     let target = surface::Target::new(&b, &fb).unwrap();
-    let own = |f: usize| Some(fb[f].map(|v| b[v as usize]));
-    let far = |f: usize| Some(fb[(f + fb.len() / 2) % fb.len()].map(|v| b[v as usize]));
-    let hints: [&(dyn Fn(usize) -> Option<[Vec3; 3]> + Sync); 3] = [&|_| None, &own, &far];
+    let face = |f: usize| fb[f % fb.len()].map(|v| b[v as usize]);
+    let own = |f: usize| Some([face(f); 3]);
+    let far = |f: usize| Some([face(f + fb.len() / 2); 3]);
+    // Each corner's point its own hint, one of them poor.
+    let mixed = |f: usize| Some([face(f), face(f + 1), face(f + fb.len() / 3)]);
+    let hints: [&(dyn Fn(usize) -> Option<[[Vec3; 3]; 3]> + Sync); 4] = [&|_| None, &own, &far, &mixed];
     for hint in hints {
         let rms = surface::symmetric_rms_to((&a, &fb), hint, (&b, &fb), &target, (f64::INFINITY, 1)).unwrap();
         assert!((rms - full.rms).abs() <= 1e-9 * full.rms, "{rms} against {}", full.rms);

@@ -273,3 +273,25 @@ fn deferred_maps_scored_elsewhere_are_kept_when_best() {
     let p = r.finish(Some(&mut { score })).unwrap();
     assert_eq!((p.area_passes, p.score), (5, Some(0.0)));
 }
+
+/// The race runs each placement's passes a few at a time, interleaved with
+/// the others' (`advance_all`): passes run in segments must give the map
+/// and the scores that running them at once gives.
+#[test]
+fn passes_run_in_segments_give_the_same_map_as_at_once() {
+    use cgv::param::area::AreaPasses;
+    let m = cgv::mesh::builtin::motion(1);
+    let start = || AreaPasses::start_with(&m.topology, &m.frames[0], None, &ParamOptions::default()).unwrap();
+    let score = |p: &cgv::param::Parameterization, _: f64| Ok(p.uv.iter().map(|q| q.x.abs()).sum::<f64>());
+    let mut whole = start();
+    whole.advance(45, Some(&mut { score })).unwrap();
+    let mut pieces = start();
+    for until in [7, 10, 20, 33, 45] {
+        pieces.advance(until, Some(&mut { score })).unwrap();
+        assert_eq!(pieces.passes(), until.min(whole.passes()), "stops where asked");
+    }
+    assert_eq!((pieces.passes(), pieces.stopped()), (whole.passes(), whole.stopped()));
+    assert_eq!(pieces.score(), whole.score());
+    let (a, b) = (whole.finish(None).unwrap(), pieces.finish(None).unwrap());
+    assert_eq!((a.area_passes, &a.uv), (b.area_passes, &b.uv));
+}

@@ -1,6 +1,8 @@
 //! Error measures between surfaces and between sequences.
 
 #[cfg(not(target_arch = "wasm32"))]
+mod lbvh;
+#[cfg(not(target_arch = "wasm32"))]
 pub mod surface;
 
 use glam::Vec3;

@@ -7,6 +7,7 @@
 //! area; its maximum is taken over those points and A's vertices. The
 //! symmetric figures are the larger of the two one-sided ones (as Metro does).
 
+use super::lbvh::Lbvh;
 use crate::error::{Error, Result};
 use glam::Vec3;
 use parry3d::query::PointQuery;
@@ -52,6 +53,33 @@ impl Target {
     }
 }
 
+/// What [`face_rms`] measures against: a mesh's distance from a point.
+trait Nearest: Sync {
+    fn distance(&self, p: Vec3) -> f64;
+
+    /// The same, given a triangle of the mesh near `p` (a hint that may
+    /// speed the search).
+    fn distance_near(&self, p: Vec3, _near: [Vec3; 3]) -> f64 {
+        self.distance(p)
+    }
+}
+
+impl Nearest for Target {
+    fn distance(&self, p: Vec3) -> f64 {
+        Target::distance(self, p)
+    }
+
+    fn distance_near(&self, p: Vec3, near: [Vec3; 3]) -> f64 {
+        Target::distance_near(self, p, near)
+    }
+}
+
+impl Nearest for Lbvh {
+    fn distance(&self, p: Vec3) -> f64 {
+        Lbvh::distance(self, p)
+    }
+}
+
 /// (RMS, max) of the distance from surface A to `target`.
 pub fn one_sided(positions: &[Vec3], faces: &[[u32; 3]], target: &Target) -> (f64, f64) {
     use rayon::prelude::*;
@@ -61,8 +89,8 @@ pub fn one_sided(positions: &[Vec3], faces: &[[u32; 3]], target: &Target) -> (f6
 }
 
 /// (RMS, max) of the distance from A's faces' quadrature points to
-/// `target` (each face's `near` triangle of it, if any, speeding the
-/// search), over every `every`-th pair of faces (1: all of them), or none
+/// `target` (each face's `near` triangles of it, one for the point by each
+/// corner, if any, speeding the search), over every `every`-th pair of faces (1: all of them), or none
 /// once the RMS is certainly above `above`: the squares
 /// summed over some of the faces, over all of A's area, bound it from
 /// below. Faces are split among threads (rayon); the sums are combined in
@@ -71,8 +99,8 @@ pub fn one_sided(positions: &[Vec3], faces: &[[u32; 3]], target: &Target) -> (f6
 fn face_rms(
     positions: &[Vec3],
     faces: &[[u32; 3]],
-    target: &Target,
-    near: &(dyn Fn(usize) -> Option<[Vec3; 3]> + Sync),
+    target: &dyn Nearest,
+    near: &(dyn Fn(usize) -> Option<[[Vec3; 3]; 3]> + Sync),
     (above, every): (f64, usize),
 ) -> Option<(f64, f64)> {
     use rayon::prelude::*;
@@ -109,10 +137,10 @@ fn face_rms(
                 let hint = near(c * CHUNK + k);
                 let [a, b, c] = f.map(|i| positions[i as usize]);
                 let w = weight(f);
-                for (x, y, z) in [(a, b, c), (b, c, a), (c, a, b)] {
+                for (k, (x, y, z)) in [(a, b, c), (b, c, a), (c, a, b)].into_iter().enumerate() {
                     let p = x * (2.0 / 3.0) + y * (1.0 / 6.0) + z * (1.0 / 6.0);
                     let d = match hint {
-                        Some(t) => target.distance_near(p, t),
+                        Some(t) => target.distance_near(p, t[k]),
                         None => target.distance(p),
                     };
                     sum += w * d * d;
@@ -141,24 +169,25 @@ fn face_rms(
 /// the same figure, without the vertices' queries that only its maxima use
 /// (a seventh of them at N = 256 on samba), or infinity once it is
 /// certainly above `above` (a map that cannot be kept is not measured
-/// through). `a_on_b` may name, for each of A's faces, a triangle of B near
-/// it, which speeds its queries up ([`Target::distance_near`]) without
-/// changing the figure. With `a_every` above 1, A's side is measured on
-/// every `a_every`-th pair of its faces only (an estimate: a grid mesh's
-/// faces come in pairs, one quad each); B's side is measured whole.
+/// through). A is a new surface each time, so its query tree is one that
+/// builds fast ([`Lbvh`]). `a_on_b` may name, for each of A's faces, a
+/// triangle of B near each of its corners, which speeds its queries up
+/// ([`Target::distance_near`]) without changing the figure. With `every`
+/// above 1, each side is measured on every `every`-th pair of its faces
+/// only (an estimate: a grid mesh's faces come in pairs, one quad each).
 pub fn symmetric_rms_to(
     a: (&[Vec3], &[[u32; 3]]),
-    a_on_b: &(dyn Fn(usize) -> Option<[Vec3; 3]> + Sync),
+    a_on_b: &(dyn Fn(usize) -> Option<[[Vec3; 3]; 3]> + Sync),
     (b, b_faces): (&[Vec3], &[[u32; 3]]),
     b_target: &Target,
-    (above, a_every): (f64, usize),
+    (above, every): (f64, usize),
 ) -> Result<f64> {
     let (a, a_faces) = a;
-    // A's query mesh is built on one core while the other starts A's side.
-    let (ta, a_to_b) =
-        rayon::join(|| Target::new(a, a_faces), || face_rms(a, a_faces, b_target, a_on_b, (above, a_every)));
-    let Some((a_to_b, _)) = a_to_b else { return Ok(f64::INFINITY) };
-    let Some((b_to_a, _)) = face_rms(b, b_faces, &ta?, &|_| None, (above, 1)) else { return Ok(f64::INFINITY) };
+    // A's side first: a map that cannot be kept is often known from it
+    // alone, and then needs no query tree.
+    let Some((a_to_b, _)) = face_rms(a, a_faces, b_target, a_on_b, (above, every)) else { return Ok(f64::INFINITY) };
+    let ta = Lbvh::new(a, a_faces)?;
+    let Some((b_to_a, _)) = face_rms(b, b_faces, &ta, &|_| None, (above, every)) else { return Ok(f64::INFINITY) };
     Ok(a_to_b.max(b_to_a))
 }
 

@@ -44,8 +44,10 @@ pub struct AreaPasses<'a> {
     p: Parameterization,
     /// The conformal map (no passes), the fallback.
     conformal_uv: Vec<DVec2>,
-    /// Mean |ln area ratio| of `p`: a pass must lower it.
+    /// Mean |ln area ratio| of `p`: a pass must lower it ...
     area_log_mean: f64,
+    /// ... and `p`'s area ratios, which the next pass starts from.
+    ratios: Vec<f64>,
     /// The best-scored map so far: (score, map, passes).
     kept: Option<(f64, Vec<DVec2>, usize)>,
     /// Passes after which the last score was taken.
@@ -150,6 +152,7 @@ impl<'a> AreaPasses<'a> {
                 w0: weights,
                 p,
                 area_log_mean,
+                ratios,
                 kept: None,
                 scored_at: None,
                 done: false,
@@ -185,6 +188,16 @@ impl<'a> AreaPasses<'a> {
         self.w0[h] * self.c[crate::mesh::adjacency::target(self.faces, h as u32) as usize]
     }
 
+    /// Passes run so far.
+    pub fn passes(&self) -> usize {
+        self.p.area_passes
+    }
+
+    /// Whether the passes have stopped (no call runs more of them).
+    pub fn stopped(&self) -> bool {
+        self.done
+    }
+
     /// The best score so far (None before the first, or without a score).
     pub fn score(&self) -> Option<f64> {
         self.kept.as_ref().map(|k| k.0)
@@ -206,8 +219,7 @@ impl<'a> AreaPasses<'a> {
                 return self.stop(score);
             }
             // Local area stretch at each vertex: area-weighted RMS over its faces.
-            let ratios = distortion::area_ratios(&self.area3, |f| self.p.face_uv(faces, f));
-            let fs = distortion::face_stretch(&ratios);
+            let fs = distortion::face_stretch(&self.ratios);
             let mut num = vec![0.0; nv];
             let mut den = vec![0.0; nv];
             for (f, face) in faces.iter().enumerate().filter(|(f, _)| self.area3[*f] > 0.0) {
@@ -227,16 +239,17 @@ impl<'a> AreaPasses<'a> {
             // Keep the weights in a sane range: only their ratios matter.
             let mean = (0..self.w0.len()).map(|h| self.weight(h)).sum::<f64>() / self.w0.len() as f64;
             self.c.iter_mut().for_each(|x| *x /= mean);
-            let uv = self.system.solve_scaled(&self.w0, &self.c)?;
-            let trial = Parameterization { uv, ..self.p.clone() };
-            let ratios = distortion::area_ratios(&self.area3, |f| trial.face_uv(faces, f));
-            let d = distortion::area_summary(&self.area3, &ratios, |f| trial.face_uv(faces, f));
+            // The trial map in place of the last one (which comes back if
+            // the trial is refused).
+            let last = std::mem::replace(&mut self.p.uv, self.system.solve_scaled(&self.w0, &self.c)?);
+            let ratios = distortion::area_ratios(&self.area3, |f| self.p.face_uv(faces, f));
+            let d = distortion::area_summary(&self.area3, &ratios, |f| self.p.face_uv(faces, f));
             if d.flipped_faces > 0 || d.area_log_mean.partial_cmp(&self.area_log_mean) != Some(std::cmp::Ordering::Less)
             {
+                self.p.uv = last;
                 return self.stop(score);
             }
-            self.area_log_mean = d.area_log_mean;
-            self.p.uv = trial.uv;
+            (self.area_log_mean, self.ratios) = (d.area_log_mean, ratios);
             self.p.area_passes += 1;
             if SCORED_PASSES.contains(&self.p.area_passes) {
                 if self.p.area_passes < self.score_from || self.deferred.contains(&self.p.area_passes) {
