@@ -315,8 +315,7 @@ fn choose_map(
     }
 }
 
-/// Runs every racer's passes to `stop` (each racer's error, the racer,
-/// its best score before), [`SEGMENT`] passes at a time, those furthest
+/// Runs every racer's passes to `stop`, [`SEGMENT`] passes at a time, those furthest
 /// behind first, one on each core: three racers on two cores then finish
 /// together instead of the third alone after the other two. They share
 /// nothing but the scoring target, read only, and each racer's passes run
@@ -325,8 +324,8 @@ fn advance_all<'a>(
     racers: Vec<AreaPasses<'a>>,
     stop: usize,
     score: &(dyn Fn(&Parameterization, f64) -> Result<f64> + Sync),
-) -> Vec<(Result<()>, AreaPasses<'a>, Option<f64>)> {
-    let mut all: Vec<(Result<()>, AreaPasses, Option<f64>)> = racers
+) -> Vec<Raced<'a>> {
+    let mut all: Vec<Raced> = racers
         .into_iter()
         .map(|r| {
             let before = r.score();
@@ -335,7 +334,7 @@ fn advance_all<'a>(
         .collect();
     let lanes = rayon::current_num_threads().max(1);
     loop {
-        let mut behind: Vec<&mut (Result<()>, AreaPasses<'a>, Option<f64>)> =
+        let mut behind: Vec<&mut Raced<'a>> =
             all.iter_mut().filter(|(e, r, _)| e.is_ok() && !r.stopped() && r.passes() < stop).collect();
         if behind.is_empty() {
             return all;
@@ -345,10 +344,14 @@ fn advance_all<'a>(
         behind.truncate(lanes);
         behind.into_par_iter().for_each(|(e, r, _)| {
             let until = (r.passes() + SEGMENT).min(stop);
-            *e = r.advance(until, Some(&mut |p: &Parameterization, above: f64| score(p, above)));
+            *e = r.advance(until, Some(&mut { score }));
         });
     }
 }
+
+/// A racer after [`advance_all`]: its passes' error, the racer, and its
+/// best score before them.
+type Raced<'a> = (Result<()>, AreaPasses<'a>, Option<f64>);
 
 /// Passes a racer runs at a time in [`advance_all`].
 const SEGMENT: usize = 10;
@@ -366,14 +369,14 @@ fn finish_leader(
     let deferred = leader.take_deferred();
     let bound = leader.score().unwrap_or(f64::INFINITY);
     let (ran, scored) = rayon::join(
-        || leader.advance(usize::MAX, Some(&mut |p: &Parameterization, above: f64| score(p, above))),
+        || leader.advance(usize::MAX, Some(&mut { score })),
         || deferred.into_par_iter().map(|p| Ok((score(&p, bound)?, p))).collect::<Result<Vec<_>>>(),
     );
     ran?;
     for (s, p) in scored? {
         leader.offer(p, s);
     }
-    leader.finish(Some(&mut |p: &Parameterization, above: f64| score(p, above)))
+    leader.finish(Some(&mut { score }))
 }
 
 /// Every four of `0..k`, in lexicographic order.

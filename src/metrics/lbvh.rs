@@ -5,8 +5,8 @@
 //! tree of boxes over runs of that order.
 //!
 //! Why not parry's tree, which the metrics use elsewhere: scoring a map
-//! builds one for its grid mesh (131k faces at N = 256) to answer 60k
-//! queries, and parry's SAH build was 13 % of samba's parameterization;
+//! builds one for its grid mesh (131k faces at N = 256) to answer some
+//! 20k queries, and parry's SAH build was 13 % of samba's parameterization;
 //! this one is a sort and a pass. Its queries find the same nearest
 //! distance (each triangle is projected by parry's own point-triangle
 //! projection), only the tree is coarser.
@@ -114,10 +114,10 @@ impl Lbvh {
 
     /// Distance from `p` to the nearest triangle (infinity for no triangles).
     pub fn distance(&self, p: Vec3) -> f64 {
-        let mut best = f32::INFINITY;
         if self.nodes.is_empty() {
             return f64::INFINITY;
         }
+        let mut best = f32::INFINITY;
         // A hair of slack, so that rounding in a box's distance cannot
         // prune a triangle as near as the best.
         let beyond = |d2: f32, best: f32| d2 > best * best * (1.0 + 1e-5);

@@ -90,10 +90,10 @@ pub fn one_sided(positions: &[Vec3], faces: &[[u32; 3]], target: &Target) -> (f6
 
 /// (RMS, max) of the distance from A's faces' quadrature points to
 /// `target` (each face's `near` triangles of it, one for the point by each
-/// corner, if any, speeding the search), over every `every`-th pair of faces (1: all of them), or none
-/// once the RMS is certainly above `above`: the squares
-/// summed over some of the faces, over all of A's area, bound it from
-/// below. Faces are split among threads (rayon); the sums are combined in
+/// corner, if any, speeding the search), over every `every`-th pair of
+/// faces (1: all of them), or none once the RMS is certainly above
+/// `above`: the squares summed over some of the faces, over all of A's
+/// area, bound it from below. Faces are split among threads (rayon); the sums are combined in
 /// a fixed order, so the result does not depend on the thread count beyond
 /// rounding.
 fn face_rms(
@@ -176,13 +176,12 @@ fn face_rms(
 /// above 1, each side is measured on every `every`-th pair of its faces
 /// only (an estimate: a grid mesh's faces come in pairs, one quad each).
 pub fn symmetric_rms_to(
-    a: (&[Vec3], &[[u32; 3]]),
+    (a, a_faces): (&[Vec3], &[[u32; 3]]),
     a_on_b: &(dyn Fn(usize) -> Option<[[Vec3; 3]; 3]> + Sync),
     (b, b_faces): (&[Vec3], &[[u32; 3]]),
     b_target: &Target,
     (above, every): (f64, usize),
 ) -> Result<f64> {
-    let (a, a_faces) = a;
     // A's side first: a map that cannot be kept is often known from it
     // alone, and then needs no query tree.
     let Some((a_to_b, _)) = face_rms(a, a_faces, b_target, a_on_b, (above, every)) else { return Ok(f64::INFINITY) };
