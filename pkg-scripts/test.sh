@@ -36,7 +36,7 @@ wheels="$CARGO_TARGET_DIR-python/wheels"
 rm -rf "$wheels"
 CARGO_TARGET_DIR="$CARGO_TARGET_DIR-python" "$CGV_VENV/bin/maturin" build --release --quiet -m python/Cargo.toml -o "$wheels"
 "$CGV_VENV/bin/pip" install -q --disable-pip-version-check --force-reinstall --no-deps "$wheels"/cgv-*.whl
-CGV_BIN="$CARGO_TARGET_DIR/release/cgv" "$CGV_VENV/bin/python" -m pytest -q -p no:cacheprovider python/tests 2>&1 | tee -a "$log"
+CGV_REQUIRE_RAY=1 CGV_BIN="$CARGO_TARGET_DIR/release/cgv" "$CGV_VENV/bin/python" -m pytest -q -p no:cacheprovider python/tests 2>&1 | tee -a "$log"
 
 step "fuzz targets, ${FUZZ_SECONDS:-30} s each (pkg-scripts/fuzz.sh)"
 FUZZ_SECONDS="${FUZZ_SECONDS:-30}" FUZZ_SANITIZER=none bash pkg-scripts/fuzz.sh

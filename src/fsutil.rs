@@ -29,9 +29,13 @@ impl AtomicFile {
     pub fn create(path: &Path) -> Result<Self> {
         let name = path.file_name().ok_or_else(|| Error::Argument(format!("{} is not a file path", path.display())))?;
         check_output_folder(path)?;
+        // One name per file being written, so that an encode's budget passes
+        // (two files for one path at a time) and threads do not share one.
+        static NEXT: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+        let k = NEXT.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let mut tmp_name = std::ffi::OsString::from(".");
         tmp_name.push(name);
-        tmp_name.push(format!(".{}.partial", std::process::id()));
+        tmp_name.push(format!(".{}-{k}.partial", std::process::id()));
         let tmp = path.with_file_name(tmp_name);
         // Errors name the file asked for, not the temporary one.
         let file = std::fs::File::create(&tmp).map_err(|e| Error::io(path, e))?;
@@ -64,6 +68,37 @@ impl Drop for AtomicFile {
         if self.file.take().is_some() {
             let _ = std::fs::remove_file(&self.tmp);
         }
+    }
+}
+
+/// Where a file's bytes go as they are made: a file written atomically,
+/// memory, or nowhere but a count, so that a writer holds only what it has
+/// not written yet.
+pub trait Sink {
+    fn put(&mut self, bytes: &[u8]) -> Result<()>;
+}
+
+impl Sink for Vec<u8> {
+    fn put(&mut self, bytes: &[u8]) -> Result<()> {
+        self.extend_from_slice(bytes);
+        Ok(())
+    }
+}
+
+impl Sink for AtomicFile {
+    fn put(&mut self, bytes: &[u8]) -> Result<()> {
+        self.write_all(bytes)
+    }
+}
+
+/// A sink that keeps only the number of bytes put in it.
+#[derive(Debug, Default)]
+pub struct Count(pub usize);
+
+impl Sink for Count {
+    fn put(&mut self, bytes: &[u8]) -> Result<()> {
+        self.0 += bytes.len();
+        Ok(())
     }
 }
 

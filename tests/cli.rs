@@ -709,4 +709,13 @@ fn grid_auto_picks_the_grid_then_the_codec_for_a_budget() {
         let rate = std::fs::metadata(&file).unwrap().len() as f64 * 8.0 / 1000.0 / (72.0 / 30.0);
         assert!((rate / kbps - 1.0).abs() <= 0.05, "{kbps} kbit/s asked, {rate:.1} made");
     }
+    // Each pass streamed into a file of its own: only the kept ones are
+    // left, and a refused budget leaves nothing, partial or whole.
+    let refused = dir.join("refused.cgv");
+    let out = cgv(&["encode", "builtin:walk", "--no-source-mesh", "--kbps", "2", "-o", refused.to_str().unwrap()]);
+    assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("ask for more"));
+    let mut names: Vec<String> =
+        std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    names.sort();
+    assert_eq!(names, ["300.cgv", "3000.cgv"]);
 }

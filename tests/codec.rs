@@ -506,6 +506,58 @@ fn a_bitrate_is_kept_by_the_whole_file_or_refused() {
     // Nor the frame chunks alone in 3 kbit/s.
     let e = budget(CodecKind::Cgv, 3.0, false).unwrap_err().to_string();
     assert!(e.contains("what is not video alone") && !e.contains("source mesh"), "{e}");
+    // Room for the frame chunks but not for QP 51's video: refused with the
+    // smallest file the codec makes, not kept as the closest.
+    let mut coarsest = EncodeOptions { codec: CodecKind::Gv, ..base.clone() };
+    coarsest.video.qp = 51;
+    let (bytes, report) = cgv::codec::encode_prepared(&src, &coarsest, &image, &mut |_, _, _| {}).unwrap();
+    let video: usize = report.stream_bytes.iter().map(|s| s.1).sum();
+    let between = (bytes.len() - video / 2) as f64 * 8.0 / 1000.0 / 2.4;
+    let e = budget(CodecKind::Gv, between as f32, false).unwrap_err().to_string();
+    assert!(e.contains("smallest file") && e.contains("QP 51"), "{between:.1} kbit/s: {e}");
+    // A budget kept says how close it came.
+    let mut o = EncodeOptions { codec: CodecKind::Gv, ..base.clone() };
+    o.video.kbps = Some(60.0);
+    let (bytes, report) = cgv::codec::encode_on_budget(&src, &o, &image, &mut |_, _, _| {}).unwrap();
+    let miss = report.budget_miss.unwrap();
+    assert!((miss - (bytes.len() as f64 * 8.0 / 1000.0 / 2.4 / 60.0 - 1.0)).abs() < 1e-9, "{miss}");
+}
+
+/// Issue 20, frames in and chunks out: an encode puts each frame's chunk
+/// into its sink as it is coded (never the file at once), and the bytes are
+/// those of the in-memory encode.
+#[test]
+fn an_encode_streams_its_chunks_into_the_sink() {
+    struct Chunks(Vec<u8>, Vec<usize>);
+    impl cgv::fsutil::Sink for Chunks {
+        fn put(&mut self, bytes: &[u8]) -> cgv::Result<()> {
+            self.0.extend_from_slice(bytes);
+            self.1.push(bytes.len());
+            Ok(())
+        }
+    }
+    let src = cgv::mesh::builtin::motion(72);
+    let mut o = EncodeOptions { grid: 32, random_access: 1.0, source_mesh: false, ..Default::default() };
+    o.video.kbps = Some(80.0);
+    let (whole, report) = cgv::codec::encode(&src, &o, &mut |_, _, _| {}).unwrap();
+    let mut opened = 0;
+    let (sink, again) = cgv::codec::encode_into(
+        &src,
+        &o,
+        &mut || {
+            opened += 1;
+            Ok(Chunks(Vec::new(), Vec::new()))
+        },
+        &mut |_, _, _| {},
+    )
+    .unwrap();
+    assert!(sink.0 == whole && again.bytes == whole.len() && report.passes == again.passes);
+    assert_eq!(opened, again.passes, "a sink per pass");
+    // The header, the source mesh, one chunk a frame, the index, the end.
+    assert!(sink.1.len() >= 72 + 3, "{} puts", sink.1.len());
+    let largest = sink.1.iter().max().copied().unwrap_or(0);
+    eprintln!("{} passes, {} puts, the largest {largest} of {} bytes", again.passes, sink.1.len(), whole.len());
+    assert!(largest <= whole.len() / 4, "a put of {largest} of {} bytes", whole.len());
 }
 
 #[test]

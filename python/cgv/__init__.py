@@ -14,6 +14,7 @@ reports. numpy in, numpy out::
 
 Long motions, one frame at a time (memory stays that of a frame)::
 
+    cgv.encode_file("data/samba", output="samba.cgv", kbps=600)  # streamed into the file; its size
     reader = cgv.MotionReader("data/samba")          # len(reader), reader.faces, reader[i]
     for frame in cgv.Decoder(data):                   # (V, 3) arrays, in order; .seek(f)
         ...

@@ -73,10 +73,11 @@ def encode_job(job):
     options = dict(job.get("options", {}))
     if "frames" in options:
         options["frames"] = tuple(options["frames"])
-    data = cgv.encode_file(job["input"], **options)
-    _write_atomic(job["output"], data)
+    pathlib.Path(job["output"]).parent.mkdir(parents=True, exist_ok=True)
+    # Streamed into the output as it is coded, written atomically.
+    size = cgv.encode_file(job["input"], output=job["output"], **options)
     _write_atomic(job["output"] + ".job", _job_text(job).encode())
-    return job["output"], len(data)
+    return job["output"], size
 
 
 def load(manifest):

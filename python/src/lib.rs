@@ -12,6 +12,7 @@
 
 use cgv::codec::CodecChoice;
 use cgv::codec::{EncodeOptions, FileDecoder};
+use cgv::fsutil::AtomicFile;
 use cgv::mesh::source::check_frame;
 use cgv::mesh::{Frame, FrameSource, OpenOptions, Topology};
 use glam::Vec3;
@@ -199,37 +200,81 @@ fn options_on(
     Ok((o, codec, target, asked_grid.is_none()))
 }
 
-fn run_encode(py: Python<'_>, src: &dyn FrameSource, o: &Options) -> PyResult<Vec<u8>> {
-    py.detach(|| match o.target {
-        None => cgv::codec::encode(src, &o.opts, &mut |_, _, _| {}).map(|(bytes, _)| bytes),
-        Some(percent) => {
+/// Where an encode's file goes: back to Python as bytes, or streamed into
+/// a file (frames in, chunks out), written atomically.
+#[derive(Clone, Copy)]
+enum Out<'a> {
+    Bytes,
+    File(&'a Path),
+}
+
+/// What an encode made: the file's bytes, or the size of the file written.
+enum Made {
+    Bytes(Vec<u8>),
+    Written(usize),
+}
+
+fn run_encode(py: Python<'_>, src: &dyn FrameSource, o: &Options, out: Out<'_>) -> PyResult<Made> {
+    let (made, miss) = py
+        .detach(|| -> cgv::Result<(Made, Option<f64>)> {
+            let Some(percent) = o.target else {
+                let (made, report) = match out {
+                    Out::Bytes => cgv::codec::encode(src, &o.opts, &mut |_, _, _| {}).map(|(b, r)| (Made::Bytes(b), r))?,
+                    Out::File(path) => {
+                        let (file, report) =
+                            cgv::codec::encode_into(src, &o.opts, &mut || AtomicFile::create(path), &mut |_, _, _| {})?;
+                        file.commit()?;
+                        (Made::Written(report.bytes), report)
+                    }
+                };
+                return Ok((made, report.budget_miss.filter(|m| m.abs() > cgv::codec::BUDGET_TOLERANCE)));
+            };
             // The floor's rule chooses 128 (opts) or 256 (on_256) only.
             let regrid = |n: usize| {
                 debug_assert_eq!(n, 256, "auto_grid_for_error gave a grid Python did not prepare");
                 Ok(o.on_256.clone().unwrap_or_else(|| o.opts.clone()))
             };
             let auto = o.on_256.is_some().then_some(&regrid as &dyn Fn(usize) -> cgv::Result<EncodeOptions>);
-            cgv::eval::target::prepare_for_error(src, o.opts.clone(), percent / 100.0, auto).and_then(
-                |(opts, image)| {
-                    let target = percent / 100.0;
-                    cgv::eval::target::encode_to_error(src, &opts, o.codec, &image, target, &mut |_, _, _| {})
-                        .map(|(bytes, _, _)| bytes)
-                },
-            )
-        }
-    })
-    .map_err(|e| invalid(format!("encoding {}: {e}", src.label().display())))
+            let (opts, image) = cgv::eval::target::prepare_for_error(src, o.opts.clone(), percent / 100.0, auto)?;
+            let (bytes, _, _) =
+                cgv::eval::target::encode_to_error(src, &opts, o.codec, &image, percent / 100.0, &mut |_, _, _| {})?;
+            match out {
+                Out::Bytes => Ok((Made::Bytes(bytes), None)),
+                Out::File(path) => cgv::fsutil::write_atomic(path, &bytes).map(|()| (Made::Written(bytes.len()), None)),
+            }
+        })
+        .map_err(|e| invalid(format!("encoding {}: {e}", src.label().display())))?;
+    if let Some(m) = miss {
+        // As `cgv encode` warns: a reachable budget the rate control missed.
+        let msg = format!(
+            "the file is {:+.1} % from the budget: the rate control could not land it within 5 %, \
+             and the closest pass is kept",
+            100.0 * m
+        );
+        PyErr::warn(py, &py.get_type::<pyo3::exceptions::PyUserWarning>(), &std::ffi::CString::new(msg)?, 1)?;
+    }
+    Ok(made)
+}
+
+/// The bytes an encode made into `Out::Bytes`.
+fn bytes_of(made: Made) -> Vec<u8> {
+    match made {
+        Made::Bytes(b) => b,
+        Made::Written(_) => Vec::new(),
+    }
 }
 
 /// encode(frames, faces, *, fps=30.0, **options) -> bytes
 ///
 /// Encodes a motion into the bytes of a .cgv file. `frames`: positions of
 /// shape (F, V, 3); `faces`: vertex indices of shape (M, 3), the same for
-/// every frame. Options, as `cgv encode`'s flags: codec ("cgv" or "gv"),
+/// every frame. Options, as `cgv encode`'s flags: codec ("auto", also
+/// called "cgv", the default; "normal", "predictive", "conformal", "gv"),
 /// grid (N, or "auto", the default: 256 for a high enough kbps or a
 /// target error below N = 128's resampling floor, else 128), qp (default 20) or kbps (a budget the whole file
-/// keeps within 5 %, or an error), gop, keyframes, layers (1 or 2), max_lag,
-/// correction_layout ("auto", "world", "normal"), corrections ("auto",
+/// keeps within 5 %, or an error; a UserWarning where the rate control
+/// could not land a reachable budget and the closest file is kept), gop,
+/// keyframes, layers (1 or 2), max_lag, corrections ("auto",
 /// "scaled", "motion"), correction_shrink, source_mesh (default True: the
 /// file carries the input's own faces so that decode gives them back),
 /// random_access (seconds between random-access points, default 2; 0 for
@@ -251,7 +296,7 @@ fn encode<'py>(
     let vertex_count = frames.shape()[1];
     let topology = Topology { vertex_count, faces: faces_from(&faces, vertex_count)? };
     let src = ArrayFrames { label: PathBuf::from("<numpy arrays>"), fps, topology, coords };
-    let bytes = run_encode(py, &src, &opts)?;
+    let bytes = bytes_of(run_encode(py, &src, &opts, Out::Bytes)?);
     Ok(PyBytes::new(py, &bytes))
 }
 
@@ -269,27 +314,35 @@ fn open(
     py.detach(|| cgv::mesh::open_sequence(&path.to_string_lossy(), &opts)).map_err(raise)
 }
 
-/// encode_file(path, *, fps=30.0, frames=None, fill_holes=False, animation=None, **options) -> bytes
+/// encode_file(path, *, output=None, fps=30.0, frames=None, fill_holes=False, animation=None, **options) -> bytes | int
 ///
 /// Encodes a motion read from `path` (a folder of OBJ files, one OBJ, a
 /// glTF animation, or "builtin:walk") exactly as `cgv encode PATH` does
 /// with the same options: the same bytes. `frames`: (start, end), end
-/// excluded. Options as for `encode`.
+/// excluded. Options as for `encode`. With `output` (a path) the file is
+/// written there as `cgv encode -o` writes it, each frame's chunk as it is
+/// coded (memory does not grow with the motion), atomically, and its size
+/// in bytes is returned instead of the bytes.
 #[pyfunction]
-#[pyo3(signature = (path, *, fps = 30.0, frames = None, fill_holes = false, animation = None, **options))]
+#[pyo3(signature = (path, *, output = None, fps = 30.0, frames = None, fill_holes = false, animation = None, **options))]
+#[allow(clippy::too_many_arguments)] // the keywords Python sees
 fn encode_file<'py>(
     py: Python<'py>,
     path: PathBuf,
+    output: Option<PathBuf>,
     fps: f32,
     frames: Option<(usize, usize)>,
     fill_holes: bool,
     animation: Option<String>,
     options: Option<&Bound<'py, PyDict>>,
-) -> PyResult<Bound<'py, PyBytes>> {
+) -> PyResult<Bound<'py, PyAny>> {
     let src = open(py, &path, fps, frames, fill_holes, animation)?;
     let opts = encode_options(options, src.fps())?;
-    let bytes = run_encode(py, src.as_ref(), &opts)?;
-    Ok(PyBytes::new(py, &bytes))
+    let out = output.as_deref().map_or(Out::Bytes, Out::File);
+    Ok(match run_encode(py, src.as_ref(), &opts, out)? {
+        Made::Bytes(bytes) => PyBytes::new(py, &bytes).into_any(),
+        Made::Written(size) => size.into_pyobject(py)?.into_any(),
+    })
 }
 
 /// (F, V, 3) float32 and (M, 3) uint32 arrays of a motion, moved into numpy.

@@ -154,6 +154,13 @@ def test_encode_file_gives_the_cli_bytes(cgv_bin, tmp_path):
     subprocess.run([cgv_bin, "encode", "builtin:walk", "--frames", "0..5", "--grid", "16", "--qp", "30", "-o", str(out)],
                    check=True, capture_output=True)
     assert ours == out.read_bytes()
+    # With output=, streamed into the file instead (atomically): the same bytes, its size returned.
+    streamed = tmp_path / "streamed.cgv"
+    assert cgv.encode_file("builtin:walk", output=str(streamed), frames=(0, 5), grid=16, qp=30) == len(ours)
+    assert streamed.read_bytes() == ours
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["streamed.cgv", "walk.cgv"]
+    with pytest.raises(cgv.Error, match="does not exist"):
+        cgv.encode_file("builtin:walk", output=str(tmp_path / "no" / "x.cgv"), frames=(0, 5), grid=16)
 
 
 def test_grid_auto_is_the_clis_rule(walk):

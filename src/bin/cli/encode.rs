@@ -2,9 +2,10 @@
 
 use super::InputArgs;
 use anyhow::{bail, Context, Result};
-use cgv::codec::{encode, h264::VideoSettings, CodecChoice, EncodeOptions};
+use cgv::codec::{h264::VideoSettings, CodecChoice, EncodeOptions};
 use cgv::eval::target::prepare_for_error;
 use cgv::format::CorrectionMode;
+use cgv::fsutil::AtomicFile;
 use cgv::param::ParamOptions;
 use cgv::solve::SolverKind;
 use std::path::PathBuf;
@@ -64,13 +65,15 @@ pub struct Args {
     /// constant QP: the whole file (source mesh and frame data included)
     /// lands within 5 % of it; the coding is repeated until it does (a few
     /// passes, each far shorter than the parameterization). A budget the
-    /// codec cannot reach is refused with the range it can.
+    /// codec cannot reach is refused with the range it can; where it can
+    /// but the rate control does not land it within 5 % in five passes,
+    /// the closest file is kept with a warning saying how far off it is.
     #[arg(long)]
     kbps: Option<f32>,
     /// The other way to ask for a size: the smallest file whose surface RMS
     /// is at most this percentage of the bounding-box diagonal (0.05 for
     /// 0.05 %), measured as `cgv eval` does on 12 frames spread over the
-    /// motion; the QP is searched (about seven encodes). A target below
+    /// motion; the QP is searched (7 to 12 encodes). A target below
     /// what the grid reaches at QP 0 is refused with the error it reaches.
     #[arg(long, value_name = "PERCENT", conflicts_with_all = ["kbps", "qp"])]
     target_error: Option<f64>,
@@ -284,8 +287,11 @@ fn encode_one(args: &Args) -> Result<()> {
         }
         pb.set_position(done as u64);
     };
-    let (bytes, report, target) = match args.target_error {
-        None => encode(src.as_ref(), &opts, &mut progress).map(|(b, r)| (b, r, None)),
+    // Without a target error, each pass streams into a file of its own
+    // (frames in, chunks out) and the one kept is renamed into place.
+    let (file, report, target) = match args.target_error {
+        None => cgv::codec::encode_into(src.as_ref(), &opts, &mut || AtomicFile::create(output), &mut progress)
+            .map(|(f, r)| (Kept::File(f), r, None)),
         Some(percent) => {
             // With --grid auto, N = 128's resampling floor decides the grid.
             let fps = src.fps();
@@ -296,14 +302,24 @@ fn encode_one(args: &Args) -> Result<()> {
                 opts = o;
                 let target = percent / 100.0;
                 cgv::eval::target::encode_to_error(src.as_ref(), &opts, args.codec, &image, target, &mut progress)
-                    .map(|(b, r, t)| (b, r, Some(t)))
+                    .map(|(b, r, t)| (Kept::Bytes(b), r, Some(t)))
             })
         }
     }
     .with_context(|| format!("encoding {}", src.label().display()))?;
     pb.finish_and_clear();
-    cgv::fsutil::write_atomic(output, &bytes)?;
+    match file {
+        Kept::File(f) => f.commit()?,
+        Kept::Bytes(b) => cgv::fsutil::write_atomic(output, &b)?,
+    }
     print_report(args, src.as_ref(), &opts, &report, target.as_ref())
+}
+
+/// The file an encode made: written as it was coded, or (a target
+/// error's search decodes each file it makes) in memory.
+enum Kept {
+    File(AtomicFile),
+    Bytes(Vec<u8>),
 }
 
 /// What `cgv encode` prints of what it made.
@@ -317,6 +333,17 @@ fn print_report(
     let output = &args.output;
     let seconds = report.frames as f64 / src.fps() as f64;
     let kbps = report.bytes as f64 * 8.0 / 1000.0 / seconds;
+    if let Some(miss) = report.budget_miss.filter(|m| m.abs() > cgv::codec::BUDGET_TOLERANCE) {
+        eprintln!(
+            "warning: {} is {:+.1} % from the budget of {} kbit/s: the rate control could not land it within {} % \
+             in {} passes, and the closest pass is kept",
+            output.display(),
+            100.0 * miss,
+            args.kbps.unwrap_or_default(),
+            100.0 * cgv::codec::BUDGET_TOLERANCE,
+            report.passes
+        );
+    }
     if args.json {
         println!(
             "{}",
@@ -362,6 +389,9 @@ fn print_report(
                 t.frames_measured,
                 t.qp
             );
+        }
+        if let Some(miss) = report.budget_miss {
+            println!("  budget: {:+.2} % from {} kbit/s", 100.0 * miss, args.kbps.unwrap_or_default());
         }
         let passes = match (report.passes, target) {
             (1, _) => String::new(),

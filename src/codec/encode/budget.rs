@@ -12,8 +12,9 @@
 //! at all is refused, with the smallest file it makes (QP 51 everywhere)
 //! or the largest (QP 0).
 
-use super::{encode_prepared, EncodeOptions, EncodeReport};
+use super::{encode_prepared_into, EncodeOptions, EncodeReport};
 use crate::error::{Error, Result};
+use crate::fsutil::{Count, Sink};
 use crate::geometry_image::GeometryImage;
 use crate::mesh::FrameSource;
 
@@ -23,39 +24,56 @@ pub const BUDGET_TOLERANCE: f64 = 0.05;
 /// Most encodes one budget takes before the bounds are checked.
 pub const MAX_PASSES: usize = 5;
 
-/// [`encode_prepared`] within [`BUDGET_TOLERANCE`] of `opts.video.kbps` ×
-/// the duration (plain [`encode_prepared`] without a bitrate).
+/// [`super::encode_prepared`] within [`BUDGET_TOLERANCE`] of
+/// `opts.video.kbps` × the duration (one plain pass without a bitrate).
 pub fn encode_on_budget(
     src: &dyn FrameSource,
     opts: &EncodeOptions,
     image: &GeometryImage,
     progress: &mut dyn FnMut(&str, usize, usize),
 ) -> Result<(Vec<u8>, EncodeReport)> {
-    let Some(kbps) = opts.video.kbps else { return encode_prepared(src, opts, image, progress) };
+    encode_on_budget_into(src, opts, image, &mut || Ok(Vec::new()), progress)
+}
+
+/// [`encode_on_budget`] with each pass written into a sink of its own
+/// from `open`; the closest pass's sink is returned, the others dropped.
+pub fn encode_on_budget_into<S: Sink>(
+    src: &dyn FrameSource,
+    opts: &EncodeOptions,
+    image: &GeometryImage,
+    open: &mut dyn FnMut() -> Result<S>,
+    progress: &mut dyn FnMut(&str, usize, usize),
+) -> Result<(S, EncodeReport)> {
+    let Some(kbps) = opts.video.kbps else {
+        let mut sink = open()?;
+        let report = encode_prepared_into(src, opts, image, &mut sink, progress)?;
+        return Ok((sink, report));
+    };
     let seconds = src.frame_count() as f64 / f64::from(src.fps());
     let target = f64::from(kbps) * 1000.0 / 8.0 * seconds;
     let miss = |size: usize| (size as f64 / target - 1.0).abs();
     let mut o = opts.clone();
-    let mut best: Option<(Vec<u8>, EncodeReport)> = None;
+    let mut best: Option<(S, EncodeReport)> = None;
     let (mut coding, mut total, mut passes) = (0.0, 0.0, 0);
     for pass in 0..MAX_PASSES {
-        let (bytes, report) = encode_prepared(src, &o, image, &mut |stage, done, total| {
+        let mut sink = open()?;
+        let report = encode_prepared_into(src, &o, image, &mut sink, &mut |stage, done, total| {
             progress(&format!("{stage} (pass {} for {kbps} kbit/s)", pass + 1), done, total)
         })?;
         coding += report.seconds_coding;
         total += report.seconds_total - if pass > 0 { report.seconds_parameterize } else { 0.0 };
         passes = pass + 1;
-        let (size, video) = (bytes.len(), report.stream_bytes.iter().map(|s| s.1).sum::<usize>());
+        let (size, video) = (report.bytes, report.stream_bytes.iter().map(|s| s.1).sum::<usize>());
         let fixed = size - video;
-        if best.as_ref().is_none_or(|b| miss(size) < miss(b.0.len())) {
-            best = Some((bytes, report));
+        let mesh = report.source_mesh_bytes;
+        let scaled = o.video.kbps.unwrap_or(kbps) as f64 * (target - fixed as f64) / video.max(1) as f64;
+        if best.as_ref().is_none_or(|b| miss(size) < miss(b.1.bytes)) {
+            best = Some((sink, report));
         }
         if miss(size) <= BUDGET_TOLERANCE / 2.0 {
             break;
         }
-        let room = target - fixed as f64;
-        if room <= 0.0 {
-            let mesh = report_mesh(&best);
+        if target <= fixed as f64 {
             let way_out =
                 if mesh > 0 { format!(", {mesh} of them the source mesh (--no-source-mesh)") } else { String::new() };
             return Err(Error::Argument(format!(
@@ -63,35 +81,37 @@ pub fn encode_on_budget(
                  takes {fixed}{way_out}: ask for more"
             )));
         }
-        let scaled = o.video.kbps.unwrap_or(kbps) as f64 * room / video.max(1) as f64;
         o.video.kbps = Some(scaled.clamp(0.01, 1e7) as f32);
     }
-    let (bytes, mut report) = best.ok_or_else(|| Error::Argument("no encode was made".into()))?;
+    let (sink, mut report) = best.ok_or_else(|| Error::Argument("no encode was made".into()))?;
     (report.passes, report.seconds_coding, report.seconds_total) = (passes, coding, total);
-    if miss(bytes.len()) <= BUDGET_TOLERANCE {
-        return Ok((bytes, report));
+    report.budget_miss = Some(report.bytes as f64 / target - 1.0);
+    if miss(report.bytes) <= BUDGET_TOLERANCE {
+        return Ok((sink, report));
     }
-    refuse_or_keep(src, opts, image, target, (bytes, report))
+    refuse_or_keep(src, opts, image, target, (sink, report), open)
 }
 
 /// When the passes missed: the budget is refused if it is outside what
 /// the codec can make at all (QP 51 or QP 0 on every stream), else the
-/// closest file is kept (the rate control's own limit).
-fn refuse_or_keep(
+/// closest file is kept (the rate control's own limit), its
+/// `budget_miss` saying by how much.
+fn refuse_or_keep<S: Sink>(
     src: &dyn FrameSource,
     opts: &EncodeOptions,
     image: &GeometryImage,
     target: f64,
-    closest: (Vec<u8>, EncodeReport),
-) -> Result<(Vec<u8>, EncodeReport)> {
+    closest: (S, EncodeReport),
+    open: &mut dyn FnMut() -> Result<S>,
+) -> Result<(S, EncodeReport)> {
     let seconds = src.frame_count() as f64 / f64::from(src.fps());
     let kbps = |bytes: usize| bytes as f64 * 8.0 / 1000.0 / seconds;
     let at_qp = |qp: u8| -> Result<usize> {
         let mut o = opts.clone();
         (o.video.qp, o.video.kbps, o.video.qp_max) = (qp, None, None);
-        Ok(encode_prepared(src, &o, image, &mut |_, _, _| {})?.0.len())
+        Ok(encode_prepared_into(src, &o, image, &mut Count::default(), &mut |_, _, _| {})?.bytes)
     };
-    let size = closest.0.len() as f64;
+    let size = closest.1.bytes as f64;
     if size > target {
         let smallest = at_qp(51)?;
         if smallest as f64 > target * (1.0 + BUDGET_TOLERANCE) {
@@ -108,7 +128,8 @@ fn refuse_or_keep(
             // samba): a second layer can spend more, where the layout has one.
             if opts.layers == 1 && !(opts.normal_correction && opts.closed_loop()) {
                 let two = EncodeOptions { layers: 2, ..opts.clone() };
-                return encode_on_budget(src, &two, image, &mut |_, _, _| {});
+                drop(closest);
+                return encode_on_budget_into(src, &two, image, open, &mut |_, _, _| {});
             }
             return Err(Error::Argument(format!(
                 "the largest file this codec makes of this motion (QP 0{}) is {:.1} kbit/s, below the budget of {:.1}",
@@ -119,8 +140,4 @@ fn refuse_or_keep(
         }
     }
     Ok(closest)
-}
-
-fn report_mesh(best: &Option<(Vec<u8>, EncodeReport)>) -> usize {
-    best.as_ref().map_or(0, |b| b.1.source_mesh_bytes)
 }

@@ -13,14 +13,16 @@ use crate::codec::reconstruct::{frame_values, Predictive, Values};
 use crate::error::{Error, Result};
 use crate::format::stream::{CORRECTION, POSITION};
 use crate::format::{self, Coverage, FrameInfo, Header, StreamInfo, StreamName};
+use crate::fsutil::Sink;
 use crate::geometry_image::GeometryImage;
 use crate::grid::Stencils;
 use crate::mesh::FrameSource;
 use glam::Vec3;
 
-/// The coded file and what it is made of.
+/// What the coded file is made of (its bytes went to the sink).
 pub(super) struct Coded {
-    pub bytes: Vec<u8>,
+    /// The file's size.
+    pub bytes: usize,
     /// Bytes of H.264 per stream (`name`, or `name/2` for a second layer).
     pub stream_bytes: Vec<(String, usize)>,
     /// Frame chunk bytes besides the access units.
@@ -28,6 +30,19 @@ pub(super) struct Coded {
     /// The source mesh chunk's bytes.
     pub source_mesh_bytes: usize,
     pub seconds_coding: f64,
+}
+
+/// A sink and the length of what went into it: the index names offsets.
+struct Written<'a> {
+    sink: &'a mut dyn Sink,
+    len: usize,
+}
+
+impl Written<'_> {
+    fn put(&mut self, bytes: &[u8]) -> Result<()> {
+        self.len += bytes.len();
+        self.sink.put(bytes)
+    }
 }
 
 struct Stream {
@@ -72,16 +87,18 @@ fn open_streams(header: &Header, opts: &EncodeOptions, plan: &Plan) -> Result<Ve
 pub(super) fn code(
     src: &dyn FrameSource,
     opts: &EncodeOptions,
-    plan: &Plan,
-    header: &Header,
+    (plan, header): (&Plan, &Header),
     (image, source_chunk): (&GeometryImage, Option<&[u8]>),
     st: &Stencils,
+    sink: &mut dyn Sink,
     progress: &mut dyn FnMut(&str, usize, usize),
 ) -> Result<Coded> {
     let map = &image.map;
-    let mut out = format::write_header(header).map_err(|e| Error::Container { path: src.label().into(), source: e })?;
+    // Each chunk goes out as it is made.
+    let mut out = Written { sink, len: 0 };
+    out.put(&format::write_header(header).map_err(|e| Error::Container { path: src.label().into(), source: e })?)?;
     let source_mesh_bytes = source_chunk.map_or(0, <[u8]>::len);
-    out.extend_from_slice(source_chunk.unwrap_or_default());
+    out.put(source_chunk.unwrap_or_default())?;
     let mut streams = open_streams(header, opts, plan)?;
     let mut predictive = Predictive::new(header, st.clone());
     let (mut seconds_coding, mut side_bytes) = (0.0, 0);
@@ -105,7 +122,7 @@ pub(super) fn code(
         if plan.is_rap(fi) {
             // A random-access point: every stream restarts with an IDR
             // picture, and the closed loop from the seed, as the decoder will.
-            index.push(out.len() as u64);
+            index.push(out.len as u64);
             predictive.reset();
             loose.reset();
             for s in &mut streams {
@@ -156,18 +173,18 @@ pub(super) fn code(
             streams[k].bytes += au.as_ref().map_or(0, Vec::len);
         }
         side_bytes += chunk.len() - units.iter().map(|u| u.len()).sum::<usize>();
-        out.extend_from_slice(&chunk);
+        out.put(&chunk)?;
         progress("encoding", fi + 1, plan.frames);
     }
     if header.random_access.is_some() {
-        out.extend_from_slice(&format::write_index(&index));
+        out.put(&format::write_index(&index))?;
     }
-    out.extend_from_slice(&format::write_chunk(format::TAG_END, 0, plan.frames as u32, &[]));
+    out.put(&format::write_chunk(format::TAG_END, 0, plan.frames as u32, &[]))?;
     let stream_bytes = streams
         .iter()
         .map(|s| (format!("{}{}", s.info.name, if s.info.layer == 2 { "/2" } else { "" }), s.bytes))
         .collect();
-    Ok(Coded { bytes: out, stream_bytes, side_bytes, source_mesh_bytes, seconds_coding })
+    Ok(Coded { bytes: out.len, stream_bytes, side_bytes, source_mesh_bytes, seconds_coding })
 }
 
 /// The typical error of the decoded grid along the true surface's normal

@@ -17,13 +17,14 @@ mod code;
 mod plan;
 mod simulate;
 
-pub use budget::{encode_on_budget, BUDGET_TOLERANCE};
+pub use budget::{encode_on_budget, encode_on_budget_into, BUDGET_TOLERANCE};
 pub use choice::CodecChoice;
 pub use simulate::MOTION_MARGIN;
 
 use super::h264::VideoSettings;
 use crate::error::{Error, Result};
 use crate::format::{self, CodecKind, CorrectionMode};
+use crate::fsutil::Sink;
 use crate::geometry_image::GeometryImage;
 use crate::grid::{Grid, Stencils};
 use crate::mesh::{Bounds, FrameSource};
@@ -209,6 +210,11 @@ pub struct EncodeReport {
     /// Times the frames were coded: 1, or with a bitrate the passes
     /// [`encode_on_budget`] took (the times above add them all up).
     pub passes: usize,
+    /// With a bitrate: how far the file is from the budget (its size over
+    /// the bitrate times the duration, minus 1). Past
+    /// [`BUDGET_TOLERANCE`] only where the rate control could not land a
+    /// budget the codec can reach; the closest pass is kept then.
+    pub budget_miss: Option<f64>,
 }
 
 /// Encodes a motion into `.cgv` bytes; with a bitrate, the file within
@@ -219,8 +225,21 @@ pub fn encode(
     opts: &EncodeOptions,
     progress: &mut dyn FnMut(&str, usize, usize),
 ) -> Result<(Vec<u8>, EncodeReport)> {
+    encode_into(src, opts, &mut || Ok(Vec::new()), progress)
+}
+
+/// [`encode`] into sinks that `open` makes, one per coding pass (a file
+/// being written, say): each frame's chunk goes out as it is coded, so
+/// memory does not grow with the motion. The sink of the pass kept is
+/// returned; the others are dropped.
+pub fn encode_into<S: Sink>(
+    src: &dyn FrameSource,
+    opts: &EncodeOptions,
+    open: &mut dyn FnMut() -> Result<S>,
+    progress: &mut dyn FnMut(&str, usize, usize),
+) -> Result<(S, EncodeReport)> {
     let image = prepare(src, opts)?;
-    encode_on_budget(src, opts, &image, progress)
+    encode_on_budget_into(src, opts, &image, open, progress)
 }
 
 /// Checks the options and the motion, parameterizes the reference frame,
@@ -245,13 +264,27 @@ pub fn prepare(src: &dyn FrameSource, opts: &EncodeOptions) -> Result<GeometryIm
     GeometryImage::build(src.label(), src.topology(), &reference, Grid::new(opts.grid)?, &param)
 }
 
-/// [`encode`] with the geometry image already made (see [`prepare`]).
+/// [`encode`] with the geometry image already made (see [`prepare`]),
+/// one pass at the options' QP or rate control.
 pub fn encode_prepared(
     src: &dyn FrameSource,
     opts: &EncodeOptions,
     image: &GeometryImage,
     progress: &mut dyn FnMut(&str, usize, usize),
 ) -> Result<(Vec<u8>, EncodeReport)> {
+    let mut bytes = Vec::new();
+    let report = encode_prepared_into(src, opts, image, &mut bytes, progress)?;
+    Ok((bytes, report))
+}
+
+/// [`encode_prepared`] into `sink`, chunk by chunk.
+pub fn encode_prepared_into(
+    src: &dyn FrameSource,
+    opts: &EncodeOptions,
+    image: &GeometryImage,
+    sink: &mut dyn Sink,
+    progress: &mut dyn FnMut(&str, usize, usize),
+) -> Result<EncodeReport> {
     let t_start = std::time::Instant::now();
     opts.validate()?;
     let plan = plan::Plan::new(opts, src.frame_count(), src.fps())?;
@@ -273,11 +306,11 @@ pub fn encode_prepared(
     let mut header = plan.header(src, opts, &analysis, &simulation, diagonal, source_info);
     header.appearance = src.appearance().filter(|_| opts.source_mesh).map(|a| a.look.info());
     let code::Coded { bytes, stream_bytes, side_bytes, source_mesh_bytes, seconds_coding } =
-        code::code(src, opts, &plan, &header, (image, source_chunk.as_deref()), &st, progress)?;
+        code::code(src, opts, (&plan, &header), (image, source_chunk.as_deref()), &st, sink, progress)?;
     let seconds_parameterize = image.seconds();
     let report = EncodeReport {
         codec: header.representation(),
-        bytes: bytes.len(),
+        bytes,
         frames: plan.frames,
         stream_bytes,
         side_bytes,
@@ -287,8 +320,9 @@ pub fn encode_prepared(
         seconds_coding,
         seconds_total: seconds_parameterize + t_start.elapsed().as_secs_f64(),
         passes: 1,
+        budget_miss: None,
     };
-    Ok((bytes, report))
+    Ok(report)
 }
 
 /// The `SMSH` chunk of the input's mesh (and `APPR` after it) with the
