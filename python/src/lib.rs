@@ -219,7 +219,9 @@ fn run_encode(py: Python<'_>, src: &dyn FrameSource, o: &Options, out: Out<'_>) 
         .detach(|| -> cgv::Result<(Made, Option<f64>)> {
             let Some(percent) = o.target else {
                 let (made, report) = match out {
-                    Out::Bytes => cgv::codec::encode(src, &o.opts, &mut |_, _, _| {}).map(|(b, r)| (Made::Bytes(b), r))?,
+                    Out::Bytes => {
+                        cgv::codec::encode(src, &o.opts, &mut |_, _, _| {}).map(|(b, r)| (Made::Bytes(b), r))?
+                    }
                     Out::File(path) => {
                         let (file, report) =
                             cgv::codec::encode_into(src, &o.opts, &mut || AtomicFile::create(path), &mut |_, _, _| {})?;
