@@ -71,6 +71,8 @@ def _write_atomic(path, data):
 def encode_job(job):
     """One motion: encodes it, writes the output and its sidecar, returns (output, bytes)."""
     options = dict(job.get("options", {}))
+    if "output" in options:
+        raise ValueError(f"{job['input']}: the job's output is its own field, not an option")
     if "frames" in options:
         options["frames"] = tuple(options["frames"])
     pathlib.Path(job["output"]).parent.mkdir(parents=True, exist_ok=True)

@@ -249,9 +249,10 @@ fn run_encode(py: Python<'_>, src: &dyn FrameSource, o: &Options, out: Out<'_>) 
     if let Some(m) = miss {
         // As `cgv encode` warns: a reachable budget the rate control missed.
         let msg = format!(
-            "the file is {:+.1} % from the budget: the rate control could not land it within 5 %, \
+            "the file is {:+.1} % from the budget: the rate control could not land it within {} %, \
              and the closest pass is kept",
-            100.0 * m
+            100.0 * m,
+            100.0 * cgv::codec::BUDGET_TOLERANCE
         );
         PyErr::warn(py, &py.get_type::<pyo3::exceptions::PyUserWarning>(), &std::ffi::CString::new(msg)?, 1)?;
     }

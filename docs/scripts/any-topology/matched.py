@@ -17,7 +17,7 @@ def points(name):
 
 def at(curve, rms, column):
     for (e0, *b0), (e1, *b1) in zip(curve, curve[1:]):
-        if e0 <= rms <= e1:
+        if e0 <= rms <= e1 and e0 < e1:
             t = math.log(rms / e0) / math.log(e1 / e0)
             return math.exp(math.log(b0[column]) + t * (math.log(b1[column]) - math.log(b0[column])))
     return None

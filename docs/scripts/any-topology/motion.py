@@ -4,6 +4,7 @@ first frame's bounding-box diagonal, over the first 24 frames of each OBJ folder
 Usage: python3 motion.py FOLDER... (numpy)."""
 
 import os
+import re
 import sys
 
 import numpy as np
@@ -15,7 +16,9 @@ def load(path):
 
 
 for folder in sys.argv[1:]:
-    names = sorted(n for n in os.listdir(folder) if n.endswith(".obj"))
+    # Natural order, as cgv reads a folder (2.obj before 10.obj).
+    key = lambda n: [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", n)]
+    names = sorted((n for n in os.listdir(folder) if n.endswith(".obj")), key=key)
     frames = [load(os.path.join(folder, n)) for n in names[:24]]
     diagonal = np.linalg.norm(frames[0].max(0) - frames[0].min(0))
     rms = lambda d: np.sqrt((d**2).sum(1).mean()) / diagonal

@@ -140,31 +140,14 @@ pub(super) fn code(
         let anchors: Vec<Vec3> = header.anchors.iter().map(|&a| g[a as usize]).collect();
         let anchor_xyz = anchors.iter().map(|p| p.to_array()).collect();
         let mut info = FrameInfo { anchors: anchor_xyz, seed_origin: origin, ..Default::default() };
-        let mut decoded = if plan.closed_loop {
+        let decoded = if plan.closed_loop {
             Some(close_loop(&mut coder, &mut streams, &post, &mut predictive, &mut info, (opts, plan), &anchors, &g)?)
         } else {
             None
         };
         if header.loose_vertices().is_some() {
-            if decoded.is_none() {
-                // GV: the coordinates as decoded (only files with loose
-                // vertices need them here).
-                let vals = frame_values(header, &coder.decoded, 0.0)?;
-                decoded = Values::new(header, &vals).xyz(POSITION);
-            }
             let truth: Vec<Vec3> = loose_ids.iter().map(|&v| input[v as usize]).collect();
-            let diagonal = f64::from(header.source.diagonal);
-            // The paper's solver runs only in the decoder: its grid error
-            // is unknown here, and a thousandth of the diagonal stands in.
-            let normal = decoded.as_deref().map_or(1e-3 * diagonal, |x| normal_error(st, x, &g, &map.on_input));
-            let grid = match (header.loose_follow_grid(), decoded.as_deref()) {
-                (true, Some(x)) => x,
-                (true, None) => {
-                    return Err(Error::Video("loose vertices follow a grid the encoder did not decode".into()))
-                }
-                (false, _) => &[],
-            };
-            info.loose = Some(loose.code(&truth, loose_step(normal, diagonal), grid).to_bytes());
+            info.loose = Some(code_loose(&mut loose, (header, st, map), &coder, decoded, &truth, &g)?);
         }
         seconds_coding += t.elapsed().as_secs_f64();
         let units: Vec<&[u8]> = coder.units.iter().flatten().map(Vec::as_slice).collect();
@@ -185,6 +168,34 @@ pub(super) fn code(
         .map(|s| (format!("{}{}", s.info.name, if s.info.layer == 2 { "/2" } else { "" }), s.bytes))
         .collect();
     Ok(Coded { bytes: out.len, stream_bytes, side_bytes, source_mesh_bytes, seconds_coding })
+}
+
+/// A frame's loose vertices coded against their prediction on the decoded
+/// grid (`decoded`, the closed loop's; GV's is decoded here).
+fn code_loose(
+    loose: &mut LooseVertices,
+    (header, st, map): (&Header, &Stencils, &crate::resample::SampleMap),
+    coder: &FrameCoder,
+    mut decoded: Option<Vec<Vec3>>,
+    truth: &[Vec3],
+    g: &[Vec3],
+) -> Result<Vec<u8>> {
+    if decoded.is_none() {
+        // GV: the coordinates as decoded (only files with loose vertices
+        // need them here).
+        let vals = frame_values(header, &coder.decoded, 0.0)?;
+        decoded = Values::new(header, &vals).xyz(POSITION);
+    }
+    let diagonal = f64::from(header.source.diagonal);
+    // The paper's solver runs only in the decoder: its grid error is
+    // unknown here, and a thousandth of the diagonal stands in.
+    let normal = decoded.as_deref().map_or(1e-3 * diagonal, |x| normal_error(st, x, g, &map.on_input));
+    let grid = match (header.loose_follow_grid(), decoded.as_deref()) {
+        (true, Some(x)) => x,
+        (true, None) => return Err(Error::Video("loose vertices follow a grid the encoder did not decode".into())),
+        (false, _) => &[],
+    };
+    Ok(loose.code(truth, loose_step(normal, diagonal), grid).to_bytes())
 }
 
 /// The typical error of the decoded grid along the true surface's normal

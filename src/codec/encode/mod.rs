@@ -218,7 +218,9 @@ pub struct EncodeReport {
 }
 
 /// Encodes a motion into `.cgv` bytes; with a bitrate, the file within
-/// [`BUDGET_TOLERANCE`] of it ([`encode_on_budget`]). `progress(stage,
+/// [`BUDGET_TOLERANCE`] of it or refused ([`encode_on_budget`]; where the
+/// rate control misses a budget the codec can reach, the closest pass,
+/// `budget_miss` saying how far off). `progress(stage,
 /// done, total)` is called as frames are processed.
 pub fn encode(
     src: &dyn FrameSource,
