@@ -523,6 +523,23 @@ fn a_bitrate_is_kept_by_the_whole_file_or_refused() {
     assert!((miss - (bytes.len() as f64 * 8.0 / 1000.0 / 2.4 / 60.0 - 1.0)).abs() < 1e-9, "{miss}");
 }
 
+/// Three frames (0.1 s) leave the rate control too little to spread its
+/// bits over: five passes end 42 % over 700 kbit/s. A constant QP, bisected
+/// on the files' sizes, lands within the tolerance instead.
+#[test]
+fn a_budget_the_rate_control_misses_falls_back_to_a_constant_qp() {
+    let src = cgv::mesh::builtin::motion(3);
+    let mut o = EncodeOptions { grid: 128, source_mesh: false, ..Default::default() };
+    o.video.kbps = Some(700.0);
+    o.corrections = cgv::codec::auto_corrections(&o.video, 128, 30.0);
+    let (bytes, report) = cgv::codec::encode(&src, &o, &mut |_, _, _| {}).unwrap();
+    let miss = report.budget_miss.unwrap();
+    eprintln!("{} bytes, {:+.2} %, {} codings", bytes.len(), 100.0 * miss, report.passes);
+    assert!(report.passes > cgv::codec::MAX_PASSES, "the passes alone landed it: {}", report.passes);
+    assert!(miss.abs() <= cgv::codec::BUDGET_TOLERANCE, "{miss}");
+    assert!((bytes.len() as f64 * 8.0 / 1000.0 / 0.1 / 700.0 - 1.0 - miss).abs() < 1e-9);
+}
+
 /// Issue 20, frames in and chunks out: an encode puts each frame's chunk
 /// into its sink as it is coded (never the file at once), and the bytes are
 /// those of the in-memory encode.

@@ -249,8 +249,8 @@ fn run_encode(py: Python<'_>, src: &dyn FrameSource, o: &Options, out: Out<'_>) 
     if let Some(m) = miss {
         // As `cgv encode` warns: a reachable budget the rate control missed.
         let msg = format!(
-            "the file is {:+.1} % from the budget: the rate control could not land it within {} %, \
-             and the closest pass is kept",
+            "the file is {:+.1} % from the budget: neither the rate control nor a constant QP lands it \
+             within {} %; the nearest file is kept",
             100.0 * m,
             100.0 * cgv::codec::BUDGET_TOLERANCE
         );
@@ -275,8 +275,9 @@ fn bytes_of(made: Made) -> Vec<u8> {
 /// called "cgv", the default; "normal", "predictive", "conformal", "gv"),
 /// grid (N, or "auto", the default: 256 for a high enough kbps or a
 /// target error below N = 128's resampling floor, else 128), qp (default 20) or kbps (a budget the whole file
-/// keeps within 5 %, or an error; a UserWarning where the rate control
-/// could not land a reachable budget and the closest file is kept), gop,
+/// keeps within 5 %, or an error; a UserWarning where neither the rate
+/// control nor a constant QP lands a reachable budget and the nearest
+/// file is kept), gop,
 /// keyframes, layers (1 or 2), max_lag, corrections ("auto",
 /// "scaled", "motion"), correction_shrink, source_mesh (default True: the
 /// file carries the input's own faces so that decode gives them back),

@@ -66,8 +66,9 @@ pub struct Args {
     /// lands within 5 % of it; the coding is repeated until it does (a few
     /// passes, each far shorter than the parameterization). A budget the
     /// codec cannot reach is refused with the range it can; where it can
-    /// but the rate control does not land it within 5 % in five passes,
-    /// the closest file is kept with a warning saying how far off it is.
+    /// but the rate control does not land it within 5 % in five passes, a
+    /// constant QP is searched, and if neither lands it the nearest file
+    /// is kept with a warning saying how far off it is.
     #[arg(long)]
     kbps: Option<f32>,
     /// The other way to ask for a size: the smallest file whose surface RMS
@@ -335,8 +336,8 @@ fn print_report(
     let kbps = report.bytes as f64 * 8.0 / 1000.0 / seconds;
     if let Some(miss) = report.budget_miss.filter(|m| m.abs() > cgv::codec::BUDGET_TOLERANCE) {
         eprintln!(
-            "warning: {} is {:+.1} % from the budget of {} kbit/s: the rate control could not land it within {} % \
-             in {} passes, and the closest pass is kept",
+            "warning: {} is {:+.1} % from the budget of {} kbit/s: neither the rate control nor a constant QP \
+             lands it within {} % ({} codings of the frames); the nearest file is kept",
             output.display(),
             100.0 * miss,
             args.kbps.unwrap_or_default(),

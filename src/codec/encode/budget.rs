@@ -10,7 +10,10 @@
 //! budget leaves it (the file minus what the rate control does not
 //! govern), and the closest file is kept. A budget the codec cannot meet
 //! at all is refused, with the smallest file it makes (QP 51 everywhere)
-//! or the largest (QP 0).
+//! or the largest (QP 0). One it can meet that the passes still missed
+//! (a clip of a few frames leaves the rate control little to spread its
+//! bits over) gets a constant QP instead, bisected on the files' sizes,
+//! where that lands nearer.
 
 use super::{encode_prepared_into, EncodeOptions, EncodeReport};
 use crate::error::{Error, Result};
@@ -94,7 +97,7 @@ pub fn encode_on_budget_into<S: Sink>(
 
 /// When the passes missed: the budget is refused if it is outside what
 /// the codec can make at all (QP 51 or QP 0 on every stream), else the
-/// closest file is kept (the rate control's own limit), its
+/// nearer of the closest pass and the best constant QP is kept, its
 /// `budget_miss` saying by how much.
 fn refuse_or_keep<S: Sink>(
     src: &dyn FrameSource,
@@ -139,5 +142,62 @@ fn refuse_or_keep<S: Sink>(
             )));
         }
     }
-    Ok(closest)
+    nearer_by_qp(src, opts, image, target, closest, open)
+}
+
+/// A budget the codec can reach that the rate control missed (a few
+/// frames leave it little to spread over): the constant QP whose file is
+/// nearest the budget, bisected on sizes alone (a file shrinks as the QP
+/// rises), replaces the closest pass where it is nearer.
+fn nearer_by_qp<S: Sink>(
+    src: &dyn FrameSource,
+    opts: &EncodeOptions,
+    image: &GeometryImage,
+    target: f64,
+    closest: (S, EncodeReport),
+    open: &mut dyn FnMut() -> Result<S>,
+) -> Result<(S, EncodeReport)> {
+    let t = std::time::Instant::now();
+    let at = |qp: u8| {
+        let mut o = opts.clone();
+        (o.video.qp, o.video.kbps, o.video.qp_max) = (qp, None, None);
+        o
+    };
+    let (mut sizes, mut coding) = (Vec::new(), 0.0);
+    let mut size_at = |qp: u8| -> Result<usize> {
+        if let Some(&(_, size)) = sizes.iter().find(|s: &&(u8, usize)| s.0 == qp) {
+            return Ok(size);
+        }
+        let r = encode_prepared_into(src, &at(qp), image, &mut Count::default(), &mut |_, _, _| {})?;
+        coding += r.seconds_coding;
+        sizes.push((qp, r.bytes));
+        Ok(r.bytes)
+    };
+    let (mut lo, mut hi) = (0u8, 51u8);
+    while hi - lo > 1 {
+        let mid = (lo + hi) / 2;
+        if size_at(mid)? as f64 >= target {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let (size_lo, size_hi) = (size_at(lo)?, size_at(hi)?);
+    let miss = |size: usize| (size as f64 / target - 1.0).abs();
+    let (qp, size) = if miss(size_lo) <= miss(size_hi) { (lo, size_lo) } else { (hi, size_hi) };
+    let searched = sizes.len();
+    if miss(size) >= miss(closest.1.bytes) {
+        return Ok(closest);
+    }
+    let (earlier, earlier_coding, earlier_total) =
+        (closest.1.passes, closest.1.seconds_coding, closest.1.seconds_total);
+    drop(closest);
+    let mut sink = open()?;
+    let mut report = encode_prepared_into(src, &at(qp), image, &mut sink, &mut |_, _, _| {})?;
+    // Every coding of the frames: the rate-control passes, the search, this one.
+    report.passes = earlier + searched + 1;
+    report.seconds_coding += earlier_coding + coding;
+    report.seconds_total = earlier_total + t.elapsed().as_secs_f64();
+    report.budget_miss = Some(report.bytes as f64 / target - 1.0);
+    Ok((sink, report))
 }

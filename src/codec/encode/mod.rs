@@ -17,7 +17,7 @@ mod code;
 mod plan;
 mod simulate;
 
-pub use budget::{encode_on_budget, encode_on_budget_into, BUDGET_TOLERANCE};
+pub use budget::{encode_on_budget, encode_on_budget_into, BUDGET_TOLERANCE, MAX_PASSES};
 pub use choice::CodecChoice;
 pub use simulate::MOTION_MARGIN;
 
