@@ -110,9 +110,7 @@ fn refuse_or_keep<S: Sink>(
     let seconds = src.frame_count() as f64 / f64::from(src.fps());
     let kbps = |bytes: usize| bytes as f64 * 8.0 / 1000.0 / seconds;
     let at_qp = |qp: u8| -> Result<usize> {
-        let mut o = opts.clone();
-        (o.video.qp, o.video.kbps, o.video.qp_max) = (qp, None, None);
-        Ok(encode_prepared_into(src, &o, image, &mut Count::default(), &mut |_, _, _| {})?.bytes)
+        Ok(encode_prepared_into(src, &at_constant_qp(opts, qp), image, &mut Count::default(), &mut |_, _, _| {})?.bytes)
     };
     let size = closest.1.bytes as f64;
     if size > target {
@@ -158,11 +156,7 @@ fn nearer_by_qp<S: Sink>(
     open: &mut dyn FnMut() -> Result<S>,
 ) -> Result<(S, EncodeReport)> {
     let t = std::time::Instant::now();
-    let at = |qp: u8| {
-        let mut o = opts.clone();
-        (o.video.qp, o.video.kbps, o.video.qp_max) = (qp, None, None);
-        o
-    };
+    let at = |qp: u8| at_constant_qp(opts, qp);
     let (mut sizes, mut coding) = (Vec::new(), 0.0);
     let mut size_at = |qp: u8| -> Result<usize> {
         if let Some(&(_, size)) = sizes.iter().find(|s: &&(u8, usize)| s.0 == qp) {
@@ -200,4 +194,11 @@ fn nearer_by_qp<S: Sink>(
     report.seconds_total = earlier_total + t.elapsed().as_secs_f64();
     report.budget_miss = Some(report.bytes as f64 / target - 1.0);
     Ok((sink, report))
+}
+
+/// `opts` with every stream at a constant `qp`, no rate control.
+fn at_constant_qp(opts: &EncodeOptions, qp: u8) -> EncodeOptions {
+    let mut o = opts.clone();
+    (o.video.qp, o.video.kbps, o.video.qp_max) = (qp, None, None);
+    o
 }
