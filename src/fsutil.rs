@@ -37,6 +37,7 @@ impl AtomicFile {
         tmp_name.push(name);
         tmp_name.push(format!(".{}-{k}.partial", std::process::id()));
         let tmp = path.with_file_name(tmp_name);
+        remove_orphans(path, name);
         // Errors name the file asked for, not the temporary one.
         let file = std::fs::File::create(&tmp).map_err(|e| Error::io(path, e))?;
         Ok(Self { path: path.to_path_buf(), tmp, file: Some(std::io::BufWriter::new(file)) })
@@ -67,6 +68,34 @@ impl Drop for AtomicFile {
     fn drop(&mut self) {
         if self.file.take().is_some() {
             let _ = std::fs::remove_file(&self.tmp);
+        }
+    }
+}
+
+/// Removes temporary files of `path` (`.NAME.PID-K.partial`) that a killed
+/// process left: a signal skips [`AtomicFile`]'s `Drop`, and a long encode
+/// keeps its temporaries open for minutes. Only where a process's liveness
+/// can be read (Linux's /proc); a file still being written by a live
+/// process on this machine is never touched (one on another machine
+/// writing the same path into a shared folder would be; two writers of one
+/// path race at the rename anyway). Best effort: errors are ignored.
+fn remove_orphans(path: &Path, name: &std::ffi::OsStr) {
+    let proc = Path::new("/proc/self");
+    let (Some(folder), Some(name)) = (path.parent(), name.to_str()) else { return };
+    let folder = if folder.as_os_str().is_empty() { Path::new(".") } else { folder };
+    let Ok(entries) = std::fs::read_dir(folder) else { return };
+    if !proc.exists() {
+        return;
+    }
+    let prefix = format!(".{name}.");
+    for entry in entries.flatten() {
+        let file = entry.file_name();
+        let Some(rest) = file.to_str().and_then(|f| f.strip_prefix(&prefix)?.strip_suffix(".partial")) else {
+            continue;
+        };
+        let pid = rest.split('-').next().and_then(|p| p.parse::<u32>().ok());
+        if pid.is_some_and(|pid| !Path::new("/proc").join(pid.to_string()).exists()) {
+            let _ = std::fs::remove_file(entry.path());
         }
     }
 }

@@ -115,6 +115,17 @@ fn glb_and_obj_output_round_trip() {
     assert!(r.is_err());
     let left: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
     assert_eq!(left.len(), 2, "leftovers: {left:?}");
+    // A temporary a killed process left (no such process) goes when the file
+    // is next written; one of a live process (this one) stays.
+    if std::path::Path::new("/proc/self").exists() {
+        let orphan = dir.join(".bad.glb.4294967295-0.partial");
+        let live = dir.join(format!(".bad.glb.{}-999999.partial", std::process::id()));
+        std::fs::write(&orphan, b"half").unwrap();
+        std::fs::write(&live, b"being written").unwrap();
+        cgv::fsutil::write_atomic(&bad, b"whole").unwrap();
+        assert!(!orphan.exists() && live.exists() && std::fs::read(&bad).unwrap() == b"whole");
+        std::fs::remove_file(&live).unwrap();
+    }
 }
 
 #[test]
