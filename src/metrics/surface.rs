@@ -4,7 +4,9 @@
 //! Each one-sided distance from A to B integrates d(x, B)² over A's surface
 //! with the three-point rule at barycentrics (2/3, 1/6, 1/6) (exact for
 //! quadratics, which a chord's distance to a curved surface is), weighted by
-//! area; its maximum is taken over those points and A's vertices. The
+//! area; its maximum is taken over those points and the vertices of A's
+//! faces (a vertex no face uses is no part of the surface: a grid sample
+//! on a face the carrier added, a loose vertex). The
 //! symmetric figures are the larger of the two one-sided ones (as Metro does).
 
 use super::lbvh::Lbvh;
@@ -84,7 +86,17 @@ impl Nearest for Lbvh {
 pub fn one_sided(positions: &[Vec3], faces: &[[u32; 3]], target: &Target) -> (f64, f64) {
     use rayon::prelude::*;
     let (rms, max) = face_rms(positions, faces, target, &|_| None, (f64::INFINITY, 1)).unwrap_or((f64::INFINITY, 0.0));
-    let max = positions.par_iter().map(|p| target.distance(*p)).reduce(|| max, f64::max);
+    let mut used = vec![false; positions.len()];
+    for &v in faces.iter().flatten() {
+        if let Some(u) = used.get_mut(v as usize) {
+            *u = true;
+        }
+    }
+    let max = (positions, &used[..])
+        .into_par_iter()
+        .filter(|(_, &u)| u)
+        .map(|(p, _)| target.distance(*p))
+        .reduce(|| max, f64::max);
     (rms, max)
 }
 
@@ -216,4 +228,30 @@ pub fn symmetric_to(
         max_a_to_b,
         max_b_to_a,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn square(z: f32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+        let p = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)].map(|(x, y)| Vec3::new(x, y, z));
+        (p.to_vec(), vec![[0, 1, 2], [0, 2, 3]])
+    }
+
+    #[test]
+    fn the_maximum_is_over_the_surface_not_over_unused_vertices() {
+        let (a, fa) = square(0.0);
+        let (mut b, fb) = square(0.1);
+        let d = symmetric(&a, &fa, &b, &fb).unwrap();
+        assert!((d.max - 0.1).abs() < 1e-6 && (d.rms - 0.1).abs() < 1e-6, "{d:?}");
+        // A vertex no face uses (a sample on a filler face, a loose vertex)
+        // far away is not part of B's surface.
+        b.push(Vec3::new(0.5, 0.5, 10.0));
+        let e = symmetric(&a, &fa, &b, &fb).unwrap();
+        assert!((e.max - d.max).abs() < 1e-9, "{e:?}");
+        // The same vertex in a face is.
+        let fc = [fb.clone(), vec![[0, 1, 4]]].concat();
+        assert!(symmetric(&a, &fa, &b, &fc).unwrap().max > 5.0);
+    }
 }

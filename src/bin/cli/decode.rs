@@ -19,7 +19,11 @@ pub struct Args {
     /// Which mesh to write: `source` (the input's own vertices and faces,
     /// rebuilt on each decoded frame; files from format version 6 carry
     /// it), `grid` (the N x N grid mesh the file codes), or `auto` (source
-    /// when the file carries it, else grid).
+    /// when the file carries it, else grid). Of an input that is not one
+    /// closed genus-0 surface the grid mesh is the whole carrier: the
+    /// faces that close holes and join parts included (the file does not
+    /// say which samples lie on them), so only `source` has the input's
+    /// own holes and parts.
     #[arg(long, value_enum, default_value = "auto")]
     mesh: MeshChoice,
     /// Decode only these frames: A..B (B excluded), A.., ..B or A..=B. The
