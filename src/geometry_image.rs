@@ -44,6 +44,12 @@ pub struct GeometryImage {
     pub carrier: Carrier,
     pub param: Parameterization,
     pub map: SampleMap,
+    /// Each input vertex's place on the grid, quantized as a file stores
+    /// it: its place in the parameterization, or a nearby one that
+    /// [`fit_places`](Self::fit_places) found to follow the motion better.
+    pub places: Vec<[u32; 2]>,
+    /// How many places `fit_places` moved.
+    pub places_moved: usize,
     /// Each input vertex's offset from the grid mesh of the reference
     /// frame (format version 7), quantized as a file carries it.
     pub offsets: Option<Offsets>,
@@ -81,18 +87,58 @@ impl GeometryImage {
         let seconds_parameterize = t.elapsed().as_secs_f64();
         let t = std::time::Instant::now();
         let map = SampleMap::on_carrier(grid, &carrier, &param)?;
-        let points = SourcePoints::on_carrier(grid, &carrier, &param);
-        let finest = crate::mesh::Bounds::of(reference).diagonal() * OFFSET_STEP;
-        let mut offsets = points.offsets_to(&map.apply(reference), reference);
-        // Loose vertices are coded as themselves: no offset from the grid.
-        for &v in &carrier.loose {
-            offsets[v as usize] = [0.0; 3];
-        }
-        let offsets = Offsets::quantize(&offsets, finest);
+        let places = crate::resample::carrier_places(&carrier, &param);
+        let offsets = offsets_of(grid, &places, &carrier.loose, reference, &map.apply(reference));
         let loose: Vec<Vec3> = carrier.loose.iter().map(|&v| reference[v as usize]).collect();
         let loose_anchors = nearest_samples(&loose, &map.apply(reference));
         let seconds_locate = t.elapsed().as_secs_f64();
-        Ok(GeometryImage { carrier, param, map, offsets, loose_anchors, seconds_parameterize, seconds_locate })
+        Ok(GeometryImage {
+            carrier,
+            param,
+            map,
+            places,
+            places_moved: 0,
+            offsets,
+            loose_anchors,
+            seconds_parameterize,
+            seconds_locate,
+        })
+    }
+
+    /// Moves input vertices' places where a nearby one rebuilds them
+    /// closer over the motion ([`crate::place_fit`]), judged on up to
+    /// [`FIT_FRAMES`] frames of `src` spread over it (alternately choosing
+    /// and checking), and measures the offsets again. `reference` is the
+    /// frame the image was built on. A motion of fewer than three frames
+    /// keeps every place.
+    pub fn fit_places(&mut self, src: &dyn crate::mesh::FrameSource, reference: usize) -> Result<()> {
+        use crate::place_fit::{fit_places, FitFrame};
+        let t = std::time::Instant::now();
+        let n = src.frame_count();
+        let mut picked: Vec<usize> = (0..FIT_FRAMES).map(|k| k * n / FIT_FRAMES).filter(|&i| i != reference).collect();
+        picked.dedup();
+        if picked.len() < 2 {
+            return Ok(());
+        }
+        let inputs = picked.iter().map(|&i| src.read_frame(i)).collect::<Result<Vec<_>>>()?;
+        let grids: Vec<Vec<Vec3>> = inputs.iter().map(|f| self.map.apply(f)).collect();
+        let every_other = |first: usize| -> Vec<FitFrame> {
+            inputs.iter().zip(&grids).skip(first).step_by(2).map(|(i, g)| FitFrame { grid: g, input: i }).collect()
+        };
+        let (choosing, checking) = (every_other(0), every_other(1));
+        let reference_frame = src.read_frame(reference)?;
+        let reference_grid = self.map.apply(&reference_frame);
+        let mut fixed: Vec<bool> = self.carrier.carrier_of.iter().map(|&c| c == crate::mesh::adjacency::NONE).collect();
+        for &v in &self.carrier.loose {
+            fixed[v as usize] = true;
+        }
+        let grid = self.map.grid;
+        let places = fit_places(grid, &self.places, &fixed, (&reference_frame, &reference_grid), &choosing, &checking);
+        self.places_moved = places.iter().zip(&self.places).filter(|(a, b)| a != b).count();
+        self.places = places;
+        self.offsets = offsets_of(grid, &self.places, &self.carrier.loose, &reference_frame, &reference_grid);
+        self.seconds_locate += t.elapsed().as_secs_f64();
+        Ok(())
     }
 
     /// The input's mesh as a version-7 file carries it: `topology`'s faces,
@@ -100,7 +146,7 @@ impl GeometryImage {
     pub fn source_mesh(&self, topology: &Topology) -> SourceMesh {
         SourceMesh {
             faces: topology.faces.clone(),
-            places: crate::resample::carrier_places(&self.carrier, &self.param),
+            places: self.places.clone(),
             offsets: self.offsets.clone(),
             loose_of: self.loose_of(topology.vertex_count),
             loose_anchors: self.loose_anchors.clone(),
@@ -156,7 +202,7 @@ impl GeometryImage {
     /// Where each input vertex lies on the grid mesh, and its offset: the
     /// decoder's rule.
     pub fn source_points(&self) -> SourcePoints {
-        SourcePoints::on_carrier(self.map.grid, &self.carrier, &self.param).with_offsets(self.offsets.as_ref())
+        SourcePoints::from_places(self.map.grid, &self.places).with_offsets(self.offsets.as_ref())
     }
 
     /// Both times together.
@@ -430,6 +476,30 @@ fn grid_score(
 /// N = 256: 1.6e-4), where 1e-5 spent 8 KB more of samba's source mesh on
 /// digits below any codec's error.
 pub const OFFSET_STEP: f32 = 4e-5;
+
+/// Most frames [`GeometryImage::fit_places`] reads (the reference frame
+/// among them is skipped): enough to see a motion's range, few enough to
+/// cost a small part of an encode.
+pub const FIT_FRAMES: usize = 16;
+
+/// Each input vertex's offset from its place on the reference frame's grid
+/// `reference_grid` (format version 7), quantized as a file carries it;
+/// loose vertices, coded as themselves, have none.
+fn offsets_of(
+    grid: Grid,
+    places: &[[u32; 2]],
+    loose: &[u32],
+    reference: &[Vec3],
+    reference_grid: &[Vec3],
+) -> Option<Offsets> {
+    let mut offsets = SourcePoints::from_places(grid, places).offsets_to(reference_grid, reference);
+    for &v in loose {
+        if let Some(o) = offsets.get_mut(v as usize) {
+            *o = [0.0; 3];
+        }
+    }
+    Offsets::quantize(&offsets, crate::mesh::Bounds::of(reference).diagonal() * OFFSET_STEP)
+}
 
 /// How many times [`GeometryImage::build`] subdivides a carrier whose
 /// parameterization failed (a mesh of a few dozen vertices can have no

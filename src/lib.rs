@@ -24,6 +24,9 @@ pub mod image;
 pub mod mesh;
 pub mod metrics;
 pub mod param;
+// An encoder's step, like `geometry_image` (rayon): not in the wasm decoder.
+#[cfg(not(target_arch = "wasm32"))]
+pub mod place_fit;
 #[cfg(feature = "render")]
 pub mod render;
 pub mod resample;

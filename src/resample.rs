@@ -159,6 +159,16 @@ pub fn places(param: &Parameterization) -> Vec<[u32; 2]> {
 /// deflate to nearly nothing (samba's source mesh: 183 -> 157 KB).
 const PLACE_ZERO_BITS: u32 = 16;
 
+/// The stored place coordinate `q` moved by `by` steps of the quantizer
+/// (a multiple of the coarse step, so the low bits stay zero), or `None`
+/// past the square's edge (a place there would need folding).
+pub fn shifted_place(q: u32, by: i64) -> Option<u32> {
+    let top = i64::from(u32::MAX >> PLACE_ZERO_BITS) << PLACE_ZERO_BITS;
+    let by = by >> PLACE_ZERO_BITS << PLACE_ZERO_BITS;
+    let moved = i64::from(q) + by;
+    (0..=top).contains(&moved).then_some(moved as u32)
+}
+
 fn quantized_place(uv: DVec2) -> [u32; 2] {
     // Any copy of a vertex on the extended lattice is the same place; the
     // one inside the square is what fits the quantizer's range.
@@ -193,6 +203,39 @@ pub struct SourcePoints {
     pub offsets: Vec<Vec3>,
 }
 
+/// The grid triangle (its samples) and barycentric weights of the stored
+/// place `q`: the quad it falls in, split along its (0, 2) diagonal.
+pub fn locate(grid: Grid, q: [u32; 2]) -> ([u32; 3], [f32; 3]) {
+    let n = grid.n as f64;
+    let (u, v) = (place(q[0]), place(q[1]));
+    // Lattice coordinates: sample (a, b) sits at a = (u + 1) N / 2 - 1/2.
+    let (x, y) = ((u + 1.0) * n / 2.0 - 0.5, (v + 1.0) * n / 2.0 - 0.5);
+    let (a, b) = (x.floor() as i64, y.floor() as i64);
+    let (s, t) = (x - a as f64, y - b as f64);
+    let q = [(a, b), (a + 1, b), (a + 1, b + 1), (a, b + 1)].map(|(i, j)| grid.canonical_index(i, j));
+    let (corners, w) =
+        if s >= t { ([q[0], q[1], q[2]], [1.0 - s, s - t, t]) } else { ([q[0], q[2], q[3]], [1.0 - t, s, t - s]) };
+    (corners, w.map(|w| w as f32))
+}
+
+/// Where the place (`corners`, `bary`) with `offset` (in its triangle's
+/// frame) rebuilds a vertex on the grid frame `grid_positions`: the
+/// decoder's rule, one vertex.
+pub fn rebuild(grid_positions: &[Vec3], corners: [u32; 3], bary: [f32; 3], offset: Vec3) -> Vec3 {
+    let p = corners.map(|i| grid_positions[i as usize]);
+    let f = triangle_frame(p);
+    p[0] * bary[0] + p[1] * bary[1] + p[2] * bary[2] + f[0] * offset.x + f[1] * offset.y + f[2] * offset.z
+}
+
+/// The offset (in the triangle's frame) that takes the place (`corners`,
+/// `bary`) on `grid_positions` to `vertex`.
+pub fn offset_to(grid_positions: &[Vec3], corners: [u32; 3], bary: [f32; 3], vertex: Vec3) -> Vec3 {
+    let p = corners.map(|i| grid_positions[i as usize]);
+    let f = triangle_frame(p);
+    let d = vertex - (p[0] * bary[0] + p[1] * bary[1] + p[2] * bary[2]);
+    Vec3::new(d.dot(f[0]), d.dot(f[1]), d.dot(f[2]))
+}
+
 /// The frame of a grid triangle: the unit direction of its first edge,
 /// the unit normal crossed with it, and the unit normal (the identity for
 /// a triangle without area).
@@ -220,25 +263,8 @@ impl SourcePoints {
 
     /// The vertices at quantized `places` (format version 6's source mesh).
     pub fn from_places(grid: Grid, places: &[[u32; 2]]) -> SourcePoints {
-        let n = grid.n as f64;
-        let mut points =
-            SourcePoints { corners: Vec::with_capacity(places.len()), bary: Vec::new(), offsets: Vec::new() };
-        for q in places {
-            let (u, v) = (place(q[0]), place(q[1]));
-            // Lattice coordinates: sample (a, b) sits at a = (u + 1) N / 2 - 1/2.
-            let (x, y) = ((u + 1.0) * n / 2.0 - 0.5, (v + 1.0) * n / 2.0 - 0.5);
-            let (a, b) = (x.floor() as i64, y.floor() as i64);
-            let (s, t) = (x - a as f64, y - b as f64);
-            let q = [(a, b), (a + 1, b), (a + 1, b + 1), (a, b + 1)].map(|(i, j)| grid.canonical_index(i, j));
-            let (corners, w) = if s >= t {
-                ([q[0], q[1], q[2]], [1.0 - s, s - t, t])
-            } else {
-                ([q[0], q[2], q[3]], [1.0 - t, s, t - s])
-            };
-            points.corners.push(corners);
-            points.bary.push(w.map(|w| w as f32));
-        }
-        points
+        let (corners, bary) = places.iter().map(|q| locate(grid, *q)).unzip();
+        SourcePoints { corners, bary, offsets: Vec::new() }
     }
 
     /// The same points with version 7's offsets (`offsets.get(v)`).
@@ -250,22 +276,12 @@ impl SourcePoints {
         self
     }
 
-    /// Vertex `v`'s point on the grid mesh and its triangle's frame.
-    fn point(&self, grid_positions: &[Vec3], v: usize) -> (Vec3, [Vec3; 3]) {
-        let (c, w) = (self.corners[v], self.bary[v]);
-        let p = c.map(|i| grid_positions[i as usize]);
-        (p[0] * w[0] + p[1] * w[1] + p[2] * w[2], triangle_frame(p))
-    }
-
     /// The input's vertices rebuilt from one grid frame.
     pub fn apply(&self, grid_positions: &[Vec3]) -> Vec<Vec3> {
         (0..self.corners.len())
             .map(|v| {
-                let (p, f) = self.point(grid_positions, v);
-                match self.offsets.get(v) {
-                    Some(o) => p + f[0] * o.x + f[1] * o.y + f[2] * o.z,
-                    None => p,
-                }
+                let offset = self.offsets.get(v).copied().unwrap_or(Vec3::ZERO);
+                rebuild(grid_positions, self.corners[v], self.bary[v], offset)
             })
             .collect()
     }
@@ -274,10 +290,9 @@ impl SourcePoints {
     /// grid frame `grid_positions` to `vertices`.
     pub fn offsets_to(&self, grid_positions: &[Vec3], vertices: &[Vec3]) -> Vec<[f32; 3]> {
         (0..self.corners.len())
-            .map(|v| {
-                let (p, f) = self.point(grid_positions, v);
-                let d = vertices.get(v).map_or(Vec3::ZERO, |x| *x - p);
-                [d.dot(f[0]), d.dot(f[1]), d.dot(f[2])]
+            .map(|v| match vertices.get(v) {
+                Some(&x) => offset_to(grid_positions, self.corners[v], self.bary[v], x).to_array(),
+                None => [0.0; 3],
             })
             .collect()
     }

@@ -168,12 +168,13 @@ fn options_on(
             "corrections" => corrections = Some(value.extract()?),
             "correction_shrink" => o.correction_shrink = value.extract()?,
             "source_mesh" => o.source_mesh = value.extract()?,
+            "fit_places" => o.fit_places = value.extract()?,
             "random_access" => o.random_access = value.extract()?,
             "target_error" => target = Some(value.extract::<f64>()?),
             _ => {
                 return Err(PyTypeError::new_err(format!(
                     "encode() got an unexpected keyword {key:?} (known: codec, grid, qp, kbps, gop, keyframes, layers, \
-                     max_lag, corrections, correction_shrink, source_mesh, random_access, \
+                     max_lag, corrections, correction_shrink, source_mesh, fit_places, random_access, \
                      target_error)"
                 )))
             }
@@ -281,6 +282,7 @@ fn bytes_of(made: Made) -> Vec<u8> {
 /// keyframes, layers (1 or 2), max_lag, corrections ("auto",
 /// "scaled", "motion"), correction_shrink, source_mesh (default True: the
 /// file carries the input's own faces so that decode gives them back),
+/// fit_places (default False: as `cgv encode --fit-places`),
 /// random_access (seconds between random-access points, default 2; 0 for
 /// frame 0 only), target_error (instead of qp or kbps: the smallest file whose surface RMS
 /// is at most this percentage of the diagonal, as `cgv encode

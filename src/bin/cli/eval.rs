@@ -73,6 +73,10 @@ pub struct Args {
     /// predictive and normal: never filter a frame's correction, as in `cgv encode` (for measurement).
     #[arg(long)]
     no_correction_filter: bool,
+    /// Move input vertices' places where a nearby one follows the motion
+    /// better, as `cgv encode --fit-places` does.
+    #[arg(long)]
+    fit_places: bool,
     /// normal: halve the x, y, z pictures' grid this many times (0..=3; as
     /// far as the grid allows, down to 16 a side), as in `cgv encode`.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(0..=3))]
@@ -140,6 +144,7 @@ pub fn run(args: Args) -> Result<()> {
         correction_filter: !args.no_correction_filter,
         correction_shrink: args.correction_shrink,
         random_access: args.random_access,
+        fit_places: args.fit_places,
         ..Default::default()
     };
     base.video.gop = args.gop;

@@ -105,6 +105,12 @@ pub struct EncodeOptions {
     /// Carry the input's own mesh (format version 6), so that a decoder
     /// gives back the user's vertices and faces, not only the grid mesh.
     pub source_mesh: bool,
+    /// With the source mesh, move input vertices' places where a nearby one
+    /// follows the motion better ([`GeometryImage::fit_places`]): their
+    /// floor falls by a quarter to a half, which pays at the highest rates
+    /// only; at lower ones the longer offsets carry more coding noise
+    /// (docs/RESULTS.md, "The input's own mesh").
+    pub fit_places: bool,
     /// Seconds between random-access points (format version 10), where a
     /// player can start decoding: each restarts every stream and the
     /// closed loop, at the cost of a seed and intra pictures; 0 for frame 0
@@ -135,6 +141,7 @@ impl Default for EncodeOptions {
             param: ParamOptions::default(),
             reference: 0,
             source_mesh: true,
+            fit_places: false,
             random_access: DEFAULT_RANDOM_ACCESS,
         }
     }
@@ -245,7 +252,8 @@ pub fn encode_into<S: Sink>(
 }
 
 /// Checks the options and the motion, parameterizes the reference frame,
-/// and locates the grid's samples on it.
+/// locates the grid's samples on it and, with `fit_places`, chooses each
+/// input vertex's place ([`GeometryImage::fit_places`]).
 pub fn prepare(src: &dyn FrameSource, opts: &EncodeOptions) -> Result<GeometryImage> {
     opts.validate()?;
     let frames = src.frame_count();
@@ -263,7 +271,11 @@ pub fn prepare(src: &dyn FrameSource, opts: &EncodeOptions) -> Result<GeometryIm
         // every part goes on the grid.
         param.loose_max_vertices = 0;
     }
-    GeometryImage::build(src.label(), src.topology(), &reference, Grid::new(opts.grid)?, &param)
+    let mut image = GeometryImage::build(src.label(), src.topology(), &reference, Grid::new(opts.grid)?, &param)?;
+    if opts.source_mesh && opts.fit_places {
+        image.fit_places(src, opts.reference)?;
+    }
+    Ok(image)
 }
 
 /// [`encode`] with the geometry image already made (see [`prepare`]),
