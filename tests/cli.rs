@@ -42,6 +42,33 @@ fn remesh_writes_glb_png_and_reports_error() {
     assert_eq!(&png[1..4], b"PNG");
 }
 
+/// `--fit-places` moves some of the input's places and brings its vertices
+/// closer to the uncompressed grid; without it none move. `cgv encode`
+/// takes it too, and the file decodes to the input's own mesh.
+#[test]
+fn fit_places_moves_places_and_lowers_the_floor() {
+    let dir = common::temp_dir("cli-fit-places");
+    let glb = dir.join("walk.glb");
+    let remesh = |extra: &[&str]| -> serde_json::Value {
+        let args =
+            [&["remesh", "builtin:walk", "-o", glb.to_str().unwrap(), "--grid", "32", "--json"][..], extra].concat();
+        let out = cgv(&args);
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        serde_json::from_slice(&out.stdout).unwrap()
+    };
+    let (own, fit) = (remesh(&[]), remesh(&["--fit-places"]));
+    assert_eq!(own["places_moved"], 0);
+    assert!(fit["places_moved"].as_u64().unwrap() > 0, "{}", fit["places_moved"]);
+    let rms = |v: &serde_json::Value| v["error"]["vertex_rms_mean"].as_f64().unwrap();
+    assert!(rms(&fit) < rms(&own), "{} against {}", rms(&fit), rms(&own));
+    let file = dir.join("walk.cgv");
+    let out = encode_walk_gv16(&["--fit-places"], &file);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let decoded = dir.join("walk-decoded.glb");
+    let out = cgv(&["decode", file.to_str().unwrap(), "-o", decoded.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+}
+
 #[test]
 fn bad_input_fails_clearly_and_leaves_nothing() {
     let dir = common::temp_dir("cli-bad");
