@@ -60,6 +60,9 @@ pub fn fit_places(
             let mut best = (errors(own, choosing).0, own);
             for dx in STEPS {
                 for dy in STEPS {
+                    if dx == 0.0 && dy == 0.0 {
+                        continue;
+                    }
                     let by = |d: f64| (d * cell as f64) as i64;
                     let (Some(x), Some(y)) = (shifted_place(own[0], by(dx)), shifted_place(own[1], by(dy))) else {
                         continue;

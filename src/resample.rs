@@ -250,13 +250,9 @@ pub fn triangle_frame(p: [Vec3; 3]) -> [Vec3; 3] {
 }
 
 impl SourcePoints {
-    /// The place of every input vertex on `grid`, as a file carries it
-    /// (quantized: see [`carrier_places`]).
-    pub fn on_carrier(grid: Grid, carrier: &Carrier, param: &Parameterization) -> SourcePoints {
-        SourcePoints::from_places(grid, &carrier_places(carrier, param))
-    }
-
-    /// [`SourcePoints::on_carrier`] of a closed genus-0 input.
+    /// The points of a closed genus-0 input, its own carrier, at its
+    /// places in `param` (an input on a carrier: [`carrier_places`] and
+    /// [`SourcePoints::from_places`]).
     pub fn build(grid: Grid, param: &Parameterization) -> SourcePoints {
         SourcePoints::from_places(grid, &places(param))
     }
