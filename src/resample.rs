@@ -32,6 +32,9 @@ pub struct SampleMap {
     /// Whether each sample lies on one of the input's faces (not on a face
     /// the carrier added).
     pub on_input: Vec<bool>,
+    /// Whether each face of [`Grid::topology`] lies on the input's faces
+    /// ([`faces_on_input`]); empty where all do.
+    pub face_on_input: Vec<bool>,
 }
 
 impl SampleMap {
@@ -42,6 +45,9 @@ impl SampleMap {
             *c = carrier.topology.faces[f as usize].map(|v| carrier.ext[v as usize]);
         }
         map.on_input = map.face.iter().map(|&f| carrier.real[f as usize]).collect();
+        if carrier.real.iter().any(|&r| !r) {
+            map.face_on_input = faces_on_input(grid, &carrier.topology.faces, &carrier.real, param, &map.on_input);
+        }
         map.means = carrier.means.clone();
         Ok(map)
     }
@@ -49,34 +55,13 @@ impl SampleMap {
     /// Locates every grid sample in the parameterization of `faces` (a
     /// closed genus-0 input, its own carrier).
     pub fn build(grid: Grid, faces: &[[u32; 3]], param: &Parameterization) -> Result<SampleMap> {
-        let n = grid.n as f64;
         let mut best: Vec<(f64, u32, [f64; 3])> = vec![(f64::NEG_INFINITY, u32::MAX, [0.0; 3]); grid.len()];
-        let to_index = |x: f64| (x + 1.0) * n / 2.0 - 0.5;
-        for (f, _) in faces.iter().enumerate() {
-            let q = param.face_uv(faces, f);
-            let det = (q[1] - q[0]).perp_dot(q[2] - q[0]);
-            if det <= 0.0 {
-                continue;
-            }
-            let lo = q[0].min(q[1]).min(q[2]);
-            let hi = q[0].max(q[1]).max(q[2]);
-            let (a0, a1) = (to_index(lo.x).ceil() as i64, to_index(hi.x).floor() as i64);
-            let (b0, b1) = (to_index(lo.y).ceil() as i64, to_index(hi.y).floor() as i64);
-            for b in b0..=b1 {
-                for a in a0..=a1 {
-                    let p = grid.uv(a, b);
-                    let bary = |x: DVec2, y: DVec2| (y - x).perp_dot(p - x) / det;
-                    let w = [bary(q[1], q[2]), bary(q[2], q[0]), bary(q[0], q[1])];
-                    let depth = w[0].min(w[1]).min(w[2]);
-                    if depth < -INSIDE_EPS {
-                        continue;
-                    }
-                    let idx = grid.canonical_index(a, b) as usize;
-                    if depth > best[idx].0 {
-                        best[idx] = (depth, f as u32, w);
-                    }
+        for f in 0..faces.len() {
+            raster(grid, param.face_uv(faces, f), |idx, w, depth| {
+                if depth > best[idx].0 {
+                    best[idx] = (depth, f as u32, w);
                 }
-            }
+            });
         }
         if let Some(missing) = best.iter().position(|b| b.1 == u32::MAX) {
             let count = best.iter().filter(|b| b.1 == u32::MAX).count();
@@ -91,6 +76,7 @@ impl SampleMap {
             bary: Vec::new(),
             means: Vec::new(),
             on_input: vec![true; best.len()],
+            face_on_input: Vec::new(),
         };
         for (_, f, w) in best {
             let w = w.map(|x| x.max(0.0));
@@ -110,7 +96,13 @@ impl SampleMap {
         if self.on_input.iter().all(|&x| x) {
             return faces;
         }
-        faces.into_iter().filter(|f| f.iter().all(|&s| self.on_input[s as usize])).collect()
+        let on = |k: usize| self.face_on_input.get(k).copied().unwrap_or(true);
+        faces
+            .into_iter()
+            .enumerate()
+            .filter(|&(k, f)| on(k) && f.iter().all(|&s| self.on_input[s as usize]))
+            .map(|(_, f)| f)
+            .collect()
     }
 
     /// Resamples one frame of the input sequence onto the grid.
@@ -137,6 +129,73 @@ impl SampleMap {
                 .map(|(c, w)| frame[c[0] as usize] * w[0] + frame[c[1] as usize] * w[1] + frame[c[2] as usize] * w[2]),
         );
     }
+}
+
+/// Calls `visit(sample, barycentric weights, depth)` for each sample of
+/// `grid` in or on the triangle `q` of the plane (depth: the least weight,
+/// at least `-INSIDE_EPS`), its point on the extended lattice folded into
+/// the square. A triangle reversed or without area has no samples.
+fn raster(grid: Grid, q: [DVec2; 3], mut visit: impl FnMut(usize, [f64; 3], f64)) {
+    let n = grid.n as f64;
+    let to_index = |x: f64| (x + 1.0) * n / 2.0 - 0.5;
+    let det = (q[1] - q[0]).perp_dot(q[2] - q[0]);
+    if det <= 0.0 {
+        return;
+    }
+    let lo = q[0].min(q[1]).min(q[2]);
+    let hi = q[0].max(q[1]).max(q[2]);
+    let (a0, a1) = (to_index(lo.x).ceil() as i64, to_index(hi.x).floor() as i64);
+    let (b0, b1) = (to_index(lo.y).ceil() as i64, to_index(hi.y).floor() as i64);
+    for b in b0..=b1 {
+        for a in a0..=a1 {
+            let p = grid.uv(a, b);
+            let bary = |x: DVec2, y: DVec2| (y - x).perp_dot(p - x) / det;
+            let w = [bary(q[1], q[2]), bary(q[2], q[0]), bary(q[0], q[1])];
+            let depth = w[0].min(w[1]).min(w[2]);
+            if depth >= -INSIDE_EPS {
+                visit(grid.canonical_index(a, b) as usize, w, depth);
+            }
+        }
+    }
+}
+
+/// Fine samples a grid spacing in [`faces_on_input`]; odd, so that each
+/// grid sample is a fine one (sample a is fine sample `FINE a + FINE / 2`).
+const FINE: i64 = 3;
+
+/// Which faces of [`Grid::topology`] lie on the input: their three samples
+/// do, and so does every sample of a grid [`FINE`] times finer in them. A
+/// carrier face narrower than a grid spacing (a bridge, a tube, a small
+/// hole's fan) can pass between the samples; the grid face across it
+/// stands in the gap, not on the input, and the surface metrics must not
+/// take it for the input's surface.
+fn faces_on_input(
+    grid: Grid,
+    faces: &[[u32; 3]],
+    real: &[bool],
+    param: &Parameterization,
+    on_input: &[bool],
+) -> Vec<bool> {
+    let fine = Grid { n: grid.n * FINE as usize };
+    let mut off = vec![false; fine.len()];
+    for f in (0..faces.len()).filter(|&f| !real[f]) {
+        // Strictly inside: a fine sample on a rim is on the input too.
+        raster(fine, param.face_uv(faces, f), |idx, _, depth| off[idx] |= depth > INSIDE_EPS);
+    }
+    let mut keep = Vec::with_capacity(2 * grid.len());
+    for ((a, b), q) in grid.cells() {
+        let clear = |lower: bool| {
+            let (a, b) = (FINE * a + FINE / 2, FINE * b + FINE / 2);
+            let pairs = (0..=FINE).flat_map(|i| (0..=FINE).map(move |j| (i, j)));
+            // The split along the (0, 2) diagonal: below it (j <= i), the
+            // face (0, 1, 2); above it, (0, 2, 3).
+            let mut inside = pairs.filter(|&(i, j)| if lower { j <= i } else { j >= i });
+            inside.all(|(i, j)| !off[fine.canonical_index(a + i, b + j) as usize])
+        };
+        let on = |c: [usize; 3]| c.iter().all(|&k| on_input[q[k] as usize]);
+        keep.extend([on([0, 1, 2]) && clear(true), on([0, 2, 3]) && clear(false)]);
+    }
+    keep
 }
 
 /// Each input vertex's place in the parameterization of its carrier (its

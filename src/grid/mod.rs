@@ -132,6 +132,12 @@ impl Grid {
     /// The grid's quads, counter-clockwise in the square, each once; quads
     /// that collapse at a cone are left out.
     pub fn quads(&self) -> Vec<[u32; 4]> {
+        self.cells().into_iter().map(|(_, q)| q).collect()
+    }
+
+    /// [`quads`](Self::quads), each with the extended-lattice point of its
+    /// first corner (the cell's place in the plane).
+    pub fn cells(&self) -> Vec<((i64, i64), [u32; 4])> {
         let n = self.n as i64;
         let mut seen = std::collections::HashSet::new();
         let mut quads = Vec::with_capacity(self.len());
@@ -142,7 +148,7 @@ impl Grid {
                     // Inside the square: four distinct samples, and no other
                     // cell of the lattice folds onto these (only border
                     // cells reach across a side), so no check is needed.
-                    quads.push(q);
+                    quads.push(((a, b), q));
                     continue;
                 }
                 let mut key = q;
@@ -151,7 +157,7 @@ impl Grid {
                     continue;
                 }
                 if seen.insert(key) {
-                    quads.push(q);
+                    quads.push(((a, b), q));
                 }
             }
         }

@@ -10,15 +10,18 @@
 //!    faces are flipped where that makes a part consistently oriented;
 //! 2. non-manifold vertices and edges are split into manifold fans (each
 //!    fan gets its own copy of the vertex);
-//! 3. each boundary loop is closed by a fan around a new vertex at the
+//! 3. parts with holes are joined rim to rim by strips (bridges, see
+//!    [`super::bridge`]): a neck as wide as the holes, where a part cut
+//!    from another meets it again;
+//! 4. each boundary loop left is closed by a fan around a new vertex at the
 //!    mean of its rim (so holes cost samples, not refusals);
-//! 4. each part of genus g > 0 is cut open along the 2g loops of a
+//! 5. each part of genus g > 0 is cut open along the 2g loops of a
 //!    tree-cotree cut graph (Eppstein 2003, "Dynamic generators of
 //!    topologically embedded graphs"; the cut of Gu, Gortler & Hoppe 2002,
-//!    "Geometry images") and the one loop the cut leaves is closed as in 3;
-//! 5. the closed parts are joined into one by tubes: one face is taken out
-//!    of each of two parts (a closing face where there is one) and the two
-//!    triangles are joined by six faces (a connected sum, which keeps
+//!    "Geometry images") and the one loop the cut leaves is closed as in 4;
+//! 6. the parts still apart are joined into one by tubes: one face is taken
+//!    out of each of two parts (a closing face where there is one) and the
+//!    two triangles are joined by six faces (a connected sum, which keeps
 //!    genus 0).
 //!
 //! Before all that, parts of at most [`LOOSE_MAX_VERTICES`] vertices
@@ -77,8 +80,10 @@ pub struct CarrierReport {
     pub closed_loops: usize,
     /// Handles cut (the sum of the parts' genera).
     pub handles: usize,
-    /// Connected parts joined by tubes.
+    /// Connected parts joined into one (by bridges or tubes).
     pub parts: usize,
+    /// Joins made by bridging two parts' holes rim to rim.
+    pub bridges: usize,
     /// Tiny parts left out of the carrier, coded as their own vertices.
     pub loose_parts: usize,
     /// Their vertices.
@@ -134,6 +139,7 @@ impl Carrier {
         // Zipping can join fans again where a soup of faces meets itself.
         c.split(&HashSet::new());
         c.drop_unused();
+        c.bridge_parts(reference);
         c.close_loops();
         c.cut_handles();
         c.join_parts(reference);
@@ -339,6 +345,70 @@ impl Carrier {
         self.ext = ext;
     }
 
+    /// Joins parts that have holes rim to rim by strips ([`super::bridge`]):
+    /// pairs of rims on different parts, closest centres first, each rim
+    /// bridged at most once and never two rims of parts already joined (that
+    /// would make a handle), as Kruskal's spanning tree takes edges. Parts
+    /// left apart are joined by [`Carrier::join_parts`]'s tubes.
+    fn bridge_parts(&mut self, reference: &[Vec3]) {
+        let faces = &self.topology.faces;
+        let parts = face_parts(faces, self.topology.vertex_count);
+        self.report.parts = parts.len();
+        if parts.len() < 2 {
+            return;
+        }
+        let mut part_of = vec![0; faces.len()];
+        for (k, part) in parts.iter().enumerate() {
+            part.iter().for_each(|&f| part_of[f as usize] = k as u32);
+        }
+        let adj = Adjacency::build(faces);
+        let pos = self.positions(reference);
+        let closed_simple = |lp: &Vec<u32>| {
+            let mut v: Vec<u32> = lp.iter().map(|&h| origin(faces, h)).collect();
+            let closes = lp.last().is_some_and(|&h| target(faces, h) == v[0]);
+            v.sort_unstable();
+            v.dedup();
+            closes && v.len() == lp.len() && v.len() >= 3
+        };
+        let mut rims: Vec<Rim> = boundary_loops(faces, &adj)
+            .into_iter()
+            .filter(closed_simple)
+            .map(|lp| {
+                let vertices: Vec<u32> = lp.iter().map(|&h| origin(faces, h)).collect();
+                let centre = vertices.iter().map(|&v| pos[v as usize]).sum::<Vec3>() / vertices.len() as f32;
+                Rim { part: part_of[(lp[0] / 3) as usize], vertices, centre }
+            })
+            .collect();
+        // The longest rims only, so that the pairs stay few on a mesh with
+        // holes everywhere.
+        rims.sort_by_key(|r| std::cmp::Reverse(r.vertices.len()));
+        rims.truncate(MAX_BRIDGED_RIMS);
+        let mut pairs: Vec<(f32, usize, usize)> = Vec::new();
+        for i in 0..rims.len() {
+            for j in (i + 1..rims.len()).filter(|&j| rims[j].part != rims[i].part) {
+                pairs.push((rims[i].centre.distance_squared(rims[j].centre), i, j));
+            }
+        }
+        pairs.sort_by(|x, y| x.0.total_cmp(&y.0));
+        let mut joined = Dsu::new(parts.len());
+        let mut used = vec![false; rims.len()];
+        for (_, i, j) in pairs {
+            if used[i] || used[j] || joined.find(rims[i].part) == joined.find(rims[j].part) {
+                continue;
+            }
+            // The larger part's rim leads the strip, as when growing the
+            // largest part (the strip's greedy walk is not symmetric).
+            let size = |r: &Rim| parts[r.part as usize].len();
+            let (a, b) = if size(&rims[i]) >= size(&rims[j]) { (i, j) } else { (j, i) };
+            let strip = super::bridge::strip(&rims[a].vertices, &rims[b].vertices, &pos);
+            self.real.extend(strip.iter().map(|_| false));
+            self.topology.faces.extend(strip);
+            joined.union(rims[i].part, rims[j].part);
+            (used[i], used[j]) = (true, true);
+            self.report.bridges += 1;
+        }
+    }
+
     /// Closes every boundary loop with a fan around a new vertex at the
     /// mean of its rim.
     fn close_loops(&mut self) {
@@ -380,7 +450,6 @@ impl Carrier {
     /// first, each other part to the nearest face of those joined so far.
     fn join_parts(&mut self, reference: &[Vec3]) {
         let mut parts = face_parts(&self.topology.faces, self.topology.vertex_count);
-        self.report.parts = parts.len();
         if parts.len() < 2 {
             return;
         }
@@ -424,6 +493,17 @@ impl Carrier {
         }
     }
 }
+
+/// A boundary loop of the carrier before closing: its part, its vertices
+/// as the surface runs them, and their mean on the reference frame.
+struct Rim {
+    part: u32,
+    vertices: Vec<u32>,
+    centre: Vec3,
+}
+
+/// See [`Carrier::bridge_parts`].
+const MAX_BRIDGED_RIMS: usize = 1024;
 
 /// A close pair of faces, one from each list: the closest pair of up to
 /// [`PAIR_SAMPLES`] faces of each, then each end moved to the face of its

@@ -2,6 +2,7 @@
 //! every frame, one array of positions per frame.
 
 pub mod adjacency;
+mod bridge;
 pub mod builtin;
 pub mod carrier;
 pub mod gltf_in;

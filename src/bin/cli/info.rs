@@ -130,12 +130,13 @@ fn verdict(usable: bool, topo: &cgv::mesh::TopologyReport, closing: Option<&Carr
         _ if !usable => "not usable as is".into(),
         _ if topo.is_sphere() => "closed genus-0 manifold, all frames consistent: ready for a geometry image".into(),
         Some(c) => format!(
-            "usable: the encoder closes it up for the grid ({} loops closed, {} handles cut, {} part(s) joined, \
-             {} vertex copies, {} faces flipped, {} repeated faces left out; {} tiny part(s) of {} vertices \
+            "usable: the encoder closes it up for the grid ({} loops closed, {} handles cut, {} part(s) joined \
+             ({} of the joins by bridging two holes), {} vertex copies, {} faces flipped, {} repeated faces left out; {} tiny part(s) of {} vertices \
              coded as themselves) and gives its own mesh back",
             c.closed_loops,
             c.handles,
             c.parts,
+            c.bridges,
             c.split_vertices,
             c.flipped_faces,
             c.dropped_faces,
