@@ -25,6 +25,8 @@ step "tests (native, and the viewer in headless Chromium)"
 log="$(mktemp)"
 trap 'rm -f "$log"' EXIT
 cargo test --release 2>&1 | tee "$log"
+# The stress corpus's 100k-vertex mesh (ignored in a plain `cargo test`).
+cargo test --release --test fold_free -- --ignored 2>&1 | tee -a "$log"
 
 step "wasm tests in headless Chromium (wasm-bindgen-test)"
 export CHROMEDRIVER="${CHROMEDRIVER:-$(command -v chromedriver)}"

@@ -35,6 +35,9 @@ pub struct SampleMap {
     /// Whether each face of [`Grid::topology`] lies on the input's faces
     /// ([`faces_on_input`]); empty where all do.
     pub face_on_input: Vec<bool>,
+    /// Samples that fell in no face (where the map folds), located at a
+    /// neighbour's point instead ([`fill_from_neighbours`]).
+    pub unlocated: usize,
 }
 
 impl SampleMap {
@@ -63,11 +66,9 @@ impl SampleMap {
                 }
             });
         }
-        if let Some(missing) = best.iter().position(|b| b.1 == u32::MAX) {
-            let count = best.iter().filter(|b| b.1 == u32::MAX).count();
-            return Err(Error::Numerical(format!(
-                "{count} grid samples (first: {missing}) fall in no triangle of the parameterization"
-            )));
+        let unlocated = fill_from_neighbours(grid, &mut best);
+        if unlocated == best.len() {
+            return Err(Error::Numerical("no grid sample falls in a triangle of the parameterization".into()));
         }
         let mut map = SampleMap {
             grid,
@@ -77,6 +78,7 @@ impl SampleMap {
             means: Vec::new(),
             on_input: vec![true; best.len()],
             face_on_input: Vec::new(),
+            unlocated,
         };
         for (_, f, w) in best {
             let w = w.map(|x| x.max(0.0));
@@ -129,6 +131,29 @@ impl SampleMap {
                 .map(|(c, w)| frame[c[0] as usize] * w[0] + frame[c[1] as usize] * w[1] + frame[c[2] as usize] * w[2]),
         );
     }
+}
+
+/// Gives each sample that no face covered (`u32::MAX`: where the map
+/// folds, faces overlap and leave gaps) the point of its nearest located
+/// sample along the grid, breadth first, so that the grid mesh bridges the
+/// fold instead of the encode failing. Returns how many there were. A map
+/// without folds covers every sample, so this changes nothing there.
+fn fill_from_neighbours(grid: Grid, best: &mut [(f64, u32, [f64; 3])]) -> usize {
+    let mut queue: std::collections::VecDeque<u32> =
+        (0..best.len() as u32).filter(|&i| best[i as usize].1 != u32::MAX).collect();
+    let unlocated = best.len() - queue.len();
+    if unlocated == 0 || queue.is_empty() {
+        return unlocated;
+    }
+    while let Some(i) = queue.pop_front() {
+        for j in grid.stencil(i) {
+            if best[j as usize].1 == u32::MAX {
+                best[j as usize] = best[i as usize];
+                queue.push_back(j);
+            }
+        }
+    }
+    unlocated
 }
 
 /// Calls `visit(sample, barycentric weights, depth)` for each sample of

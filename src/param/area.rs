@@ -42,9 +42,9 @@ pub struct AreaPasses<'a> {
     c: Vec<f64>,
     /// The map after the passes so far.
     p: Parameterization,
-    /// The conformal map (no passes), the fallback.
-    conformal_uv: Vec<DVec2>,
-    /// Mean |ln area ratio| of `p`: a pass must lower it ...
+    /// Faces `p` reverses and its mean |ln area ratio|: a pass must
+    /// reverse fewer faces, or as few (none) with a lower mean ...
+    folds: usize,
     area_log_mean: f64,
     /// ... and `p`'s area ratios, which the next pass starts from.
     ratios: Vec<f64>,
@@ -139,9 +139,8 @@ impl<'a> AreaPasses<'a> {
             p.conformal = distortion::measure(&real_faces, &pos, |i| p.face_uv(faces, real_index[i]));
             let area3: Vec<f64> = faces.iter().map(|f| distortion::surface_area(&pos, f)).collect();
             let ratios = distortion::area_ratios(&area3, |f| p.face_uv(faces, f));
-            let area_log_mean = distortion::area_summary(&area3, &ratios, |f| p.face_uv(faces, f)).area_log_mean;
+            let summary = distortion::area_summary(&area3, &ratios, |f| p.face_uv(faces, f));
             return Ok(AreaPasses {
-                conformal_uv: p.uv.clone(),
                 faces,
                 pos,
                 real_faces,
@@ -151,7 +150,8 @@ impl<'a> AreaPasses<'a> {
                 c: vec![1.0; nv],
                 w0: weights,
                 p,
-                area_log_mean,
+                folds: summary.flipped_faces,
+                area_log_mean: summary.area_log_mean,
                 ratios,
                 kept: None,
                 scored_at: None,
@@ -244,15 +244,21 @@ impl<'a> AreaPasses<'a> {
             let last = std::mem::replace(&mut self.p.uv, self.system.solve_scaled(&self.w0, &self.c)?);
             let ratios = distortion::area_ratios(&self.area3, |f| self.p.face_uv(faces, f));
             let d = distortion::area_summary(&self.area3, &ratios, |f| self.p.face_uv(faces, f));
-            if d.flipped_faces > 0 || d.area_log_mean.partial_cmp(&self.area_log_mean) != Some(std::cmp::Ordering::Less)
-            {
+            let better = match d.flipped_faces.cmp(&self.folds) {
+                std::cmp::Ordering::Less => true,
+                std::cmp::Ordering::Equal => d.area_log_mean < self.area_log_mean,
+                std::cmp::Ordering::Greater => false,
+            };
+            if !better {
                 self.p.uv = last;
                 return self.stop(score);
             }
-            (self.area_log_mean, self.ratios) = (d.area_log_mean, ratios);
+            (self.folds, self.area_log_mean, self.ratios) = (d.flipped_faces, d.area_log_mean, ratios);
             self.p.area_passes += 1;
             if SCORED_PASSES.contains(&self.p.area_passes) {
-                if self.p.area_passes < self.score_from || self.deferred.contains(&self.p.area_passes) {
+                if self.folds > 0 {
+                    // Not a candidate (see `rate`).
+                } else if self.p.area_passes < self.score_from || self.deferred.contains(&self.p.area_passes) {
                     self.early.push((self.p.area_passes, self.p.uv.clone()));
                 } else if self.rate(score)? {
                     self.done = true;
@@ -274,19 +280,14 @@ impl<'a> AreaPasses<'a> {
             (p.uv, p.area_passes, p.score) = (uv, passes, Some(s));
         }
         p.distortion = self.measure(&p);
-        if p.distortion.flipped_faces > 0 && p.area_passes > 0 {
-            // The passes keep no folded map, so this is rounding on a
-            // degenerate mesh: fall back on the conformal map.
-            (p.uv, p.area_passes, p.score) = (self.conformal_uv.clone(), 0, None);
-            p.distortion = self.measure(&p);
-        }
-        if p.distortion.flipped_faces > 0 {
-            return Err(Error::Numerical(format!(
-                "the parameterization folds over ({} faces reversed) although its weights are positive: \
-                 rounding on near-degenerate triangles (please report the mesh)",
-                p.distortion.flipped_faces
-            )));
-        }
+        // Positive weights make every map a bijection in exact arithmetic,
+        // and the passes keep no folded map; what folds is a region the
+        // conformal map shrank below what f64 places resolve (the
+        // elephant's trunk: faces of 1e-29 of the square) that the passes
+        // ran out of budget before unfolding. The map that folds least is
+        // kept, and the sample map resamples through its folds from their
+        // neighbours (`crate::resample`); `distortion` says how much of
+        // the surface that is.
         Ok(p)
     }
 
@@ -324,7 +325,11 @@ impl<'a> AreaPasses<'a> {
     fn measure(&self, p: &Parameterization) -> distortion::Distortion {
         let faces = self.faces;
         let mut d = distortion::measure(&self.real_faces, &self.pos, |i| p.face_uv(faces, self.real_index[i]));
-        d.flipped_faces = (0..faces.len()).filter(|&f| distortion::signed_area(p.face_uv(faces, f)) <= 0.0).count();
+        let folded: Vec<usize> =
+            (0..faces.len()).filter(|&f| distortion::signed_area(p.face_uv(faces, f)) <= 0.0).collect();
+        d.flipped_faces = folded.len();
+        d.flipped_area =
+            folded.iter().map(|&f| self.area3[f]).sum::<f64>() / self.area3.iter().sum::<f64>().max(1e-300);
         d
     }
 
@@ -342,6 +347,11 @@ impl<'a> AreaPasses<'a> {
     /// the kept one).
     fn rate(&mut self, score: &mut Option<Score>) -> Result<bool> {
         let Some(score) = score.as_mut() else { return Ok(false) };
+        self.scored_at = Some(self.p.area_passes);
+        if self.folds > 0 {
+            // Not a candidate: the passes are still unfolding it.
+            return Ok(false);
+        }
         // Past SCORE_GIVE_UP times the kept score, only that it is past counts.
         let s = score(&self.p, self.kept.as_ref().map_or(f64::INFINITY, |k| SCORE_GIVE_UP * k.0))?;
         self.scored_at = Some(self.p.area_passes);

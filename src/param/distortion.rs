@@ -25,8 +25,11 @@ pub struct Distortion {
     /// Gortler, Hoppe 2001): the area-weighted RMS of sqrt((1/σ1² + 1/σ2²)/2);
     /// 1 for an isometry, large when parts of the surface get few samples.
     pub stretch_l2: f64,
-    /// Faces whose image is reversed or has no area.
+    /// Faces whose image is reversed or has no area ...
     pub flipped_faces: usize,
+    /// ... and their share of the surface's area (0 to 1): what the grid
+    /// resamples from the neighbouring samples instead of mapping.
+    pub flipped_area: f64,
 }
 
 fn weighted_percentile(v: &mut [(f64, f64)], q: f64) -> f64 {

@@ -2,6 +2,8 @@
 //! real sequences unpacked from ../shared/data.
 #![allow(dead_code)]
 
+pub mod stress;
+
 use base64::Engine;
 use glam::Vec3;
 use serde_json::{json, Value};

@@ -382,6 +382,7 @@ fn print_report(
             );
         }
         let p = &report.parameterization;
+        super::warn_folds(&p.distortion);
         if let Some(score) = p.score {
             let diagonal = cgv::mesh::Bounds::of(&src.read_frame(opts.reference)?).diagonal() as f64;
             println!(

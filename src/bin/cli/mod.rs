@@ -93,6 +93,20 @@ impl InputArgs {
 }
 
 /// Whether `path` names a `.glb` file.
+/// Says on stderr where the map still folds after every remedy (see
+/// `cgv::param::area`): the grid resamples those faces from their
+/// neighbours, and the user should know how much of the surface that is.
+pub fn warn_folds(d: &cgv::param::distortion::Distortion) {
+    if d.flipped_faces > 0 {
+        eprintln!(
+            "warning: the parameterization still folds over {} faces ({:.4} % of the surface area); \
+             the grid resamples them from their neighbouring samples",
+            d.flipped_faces,
+            100.0 * d.flipped_area
+        );
+    }
+}
+
 pub fn is_glb(path: &std::path::Path) -> bool {
     path.extension().is_some_and(|e| e.eq_ignore_ascii_case("glb"))
 }

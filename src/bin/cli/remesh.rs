@@ -260,6 +260,7 @@ impl Report<'_> {
             "  parameterization  {:.2} s (cones at vertices {:?}, corner {}; {} area-correction passes kept)",
             self.image.seconds_parameterize, param.cones, param.corner, param.area_passes
         );
+        super::warn_folds(d);
         println!(
             "  angle distortion  sigma1/sigma2 mean {:.3}, p95 {:.3} (conformal map: mean {:.3}, p95 {:.3})",
             d.conformal_mean, d.conformal_p95, c.conformal_mean, c.conformal_p95
