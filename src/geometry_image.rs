@@ -285,36 +285,7 @@ fn choose_map(
         // Given cones, or a mesh that parameterize_scored rejects with the reason.
         return AreaPasses::start_with(topology, reference, Some(&carrier.real), opts)?.finish(Some(&mut { score }));
     }
-    // The racers: each four of the first CONE_CANDIDATES extremities (the
-    // first four are what `cut::choose_cones` picks, and start first, so
-    // they win ties), the corner farthest from them. Some cannot be cut
-    // apart (two cones whose paths must cross); they drop out.
-    let pos: Vec<glam::DVec3> = reference.iter().map(|p| p.as_dvec3()).collect();
-    let graph = cut::Graph::new(nv, &topology.faces, &pos);
-    let e = cut::extremities(&graph, nv, CONE_CANDIDATES);
-    let mut racers = Vec::new();
-    let mut first_error = None;
-    // Each placement's conformal map on its own core (rayon keeps the order).
-    let combos = fours(e.len());
-    let started: Vec<Result<AreaPasses>> = combos
-        .into_par_iter()
-        .map(|c| {
-            let cones = c.map(|i| e[i]);
-            let corner = cut::corner_for(&graph, nv, &cones);
-            let o = ParamOptions { cones: Some((cones, corner)), ..opts.clone() };
-            Ok(AreaPasses::start_with(topology, reference, Some(&carrier.real), &o)?
-                .score_from(RACE_FROM)
-                .defer(&RACE_DEFERRED))
-        })
-        .collect();
-    for r in started {
-        match r {
-            Ok(r) => racers.push(r),
-            Err(err) => {
-                first_error.get_or_insert(err);
-            }
-        }
-    }
+    let (mut racers, mut first_error) = start_racers(carrier, reference, opts);
     // The race: all run in step to each scored pass count from RACE_FROM
     // on, but those of RACE_DEFERRED. One drops out when its best score is
     // past RACE_MARGIN times the leader's, or did not fall since the last
@@ -359,6 +330,45 @@ fn choose_map(
         // so there is an error to report).
         None => Err(first_error.unwrap_or_else(|| Error::Numerical("no cone placement could be cut".into()))),
     }
+}
+
+/// The racers: each four of the first [`CONE_CANDIDATES`] extremities of
+/// the carrier (positions `reference`; the first four are what
+/// `cut::choose_cones` picks, and start first, so they win ties), the
+/// corner farthest from them, each with its conformal map solved (on its
+/// own core; rayon keeps the order). Some cannot be cut apart (two cones
+/// whose paths must cross): they drop out, and the first such error is
+/// returned beside the others.
+fn start_racers<'a>(
+    carrier: &'a Carrier,
+    reference: &[Vec3],
+    opts: &ParamOptions,
+) -> (Vec<AreaPasses<'a>>, Option<Error>) {
+    let (topology, nv) = (&carrier.topology, carrier.topology.vertex_count);
+    let pos: Vec<glam::DVec3> = reference.iter().map(|p| p.as_dvec3()).collect();
+    let graph = cut::Graph::new(nv, &topology.faces, &pos);
+    let e = cut::extremities(&graph, nv, CONE_CANDIDATES);
+    let started: Vec<Result<AreaPasses>> = fours(e.len())
+        .into_par_iter()
+        .map(|c| {
+            let cones = c.map(|i| e[i]);
+            let corner = cut::corner_for(&graph, nv, &cones);
+            let o = ParamOptions { cones: Some((cones, corner)), ..opts.clone() };
+            Ok(AreaPasses::start_with(topology, reference, Some(&carrier.real), &o)?
+                .score_from(RACE_FROM)
+                .defer(&RACE_DEFERRED))
+        })
+        .collect();
+    let (mut racers, mut first_error) = (Vec::new(), None);
+    for r in started {
+        match r {
+            Ok(r) => racers.push(r),
+            Err(err) => {
+                first_error.get_or_insert(err);
+            }
+        }
+    }
+    (racers, first_error)
 }
 
 /// Runs every racer's passes to `stop`, [`SEGMENT`] passes at a time, those furthest

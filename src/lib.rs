@@ -16,13 +16,13 @@ pub mod error;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod eval;
 pub mod format;
-pub mod fsutil;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod geometry_image;
+pub mod geometry_png;
 pub mod grid;
-pub mod image;
 pub mod mesh;
 pub mod metrics;
+pub mod output;
 pub mod param;
 // An encoder's step, like `geometry_image` (rayon): not in the wasm decoder.
 #[cfg(not(target_arch = "wasm32"))]

@@ -777,3 +777,4 @@ fn a_mesh_info_calls_usable_encodes() {
     let dec = cgv(&["decode", out.to_str().unwrap(), "-o", dir.join("back.glb").to_str().unwrap()]);
     assert!(dec.status.success(), "{}", String::from_utf8_lossy(&dec.stderr));
 }
+

@@ -546,7 +546,7 @@ fn a_budget_the_rate_control_misses_falls_back_to_a_constant_qp() {
 #[test]
 fn an_encode_streams_its_chunks_into_the_sink() {
     struct Chunks(Vec<u8>, Vec<usize>);
-    impl cgv::fsutil::Sink for Chunks {
+    impl cgv::output::Sink for Chunks {
         fn put(&mut self, bytes: &[u8]) -> cgv::Result<()> {
             self.0.extend_from_slice(bytes);
             self.1.push(bytes.len());
@@ -599,15 +599,9 @@ fn a_target_error_gives_the_coarsest_qp_within_it_or_is_refused() {
         sum / 12.0 / diagonal
     };
     let target = 0.004;
-    let (bytes, report, t) = cgv::eval::target::encode_to_error(
-        &src,
-        &opts,
-        cgv::codec::CodecChoice::Auto,
-        &image,
-        target,
-        &mut |_, _, _| {},
-    )
-    .unwrap();
+    let (bytes, report, t) =
+        cgv::codec::encode_to_error(&src, &opts, cgv::codec::CodecChoice::Auto, &image, target, &mut |_, _, _| {})
+            .unwrap();
     let got = error(&bytes);
     eprintln!("target {target}: QP {} gives {got:.5} ({} encodes)", t.qp, t.encodes);
     assert!((got - t.surface_rms).abs() < 1e-9 && got <= target, "{got} for {target}");
@@ -622,10 +616,9 @@ fn a_target_error_gives_the_coarsest_qp_within_it_or_is_refused() {
     coarser.normal_correction = h.stream(cgv::format::StreamName::Dn).is_some();
     let (b, _) = cgv::codec::encode_prepared(&src, &coarser, &image, &mut |_, _, _| {}).unwrap();
     assert!(error(&b) > target, "QP {} is within the target too", t.qp + 1);
-    let e =
-        cgv::eval::target::encode_to_error(&src, &opts, cgv::codec::CodecChoice::Auto, &image, 1e-6, &mut |_, _, _| {})
-            .unwrap_err()
-            .to_string();
+    let e = cgv::codec::encode_to_error(&src, &opts, cgv::codec::CodecChoice::Auto, &image, 1e-6, &mut |_, _, _| {})
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("below what this grid reaches") && e.contains("at QP 0"), "{e}");
 }
 

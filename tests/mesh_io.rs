@@ -122,7 +122,7 @@ fn glb_and_obj_output_round_trip() {
         let live = dir.join(format!(".bad.glb.{}-999999.partial", std::process::id()));
         std::fs::write(&orphan, b"half").unwrap();
         std::fs::write(&live, b"being written").unwrap();
-        cgv::fsutil::write_atomic(&bad, b"whole").unwrap();
+        cgv::output::write_atomic(&bad, b"whole").unwrap();
         assert!(!orphan.exists() && live.exists() && std::fs::read(&bad).unwrap() == b"whole");
         std::fs::remove_file(&live).unwrap();
     }

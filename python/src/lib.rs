@@ -10,11 +10,11 @@
 //! `cgv.Error` (a `ValueError`), or `OSError` for a file that cannot be
 //! read, with the library's message, which names the file and the problem.
 
-use cgv::codec::CodecChoice;
-use cgv::codec::{EncodeOptions, FileDecoder};
-use cgv::fsutil::AtomicFile;
+use cgv::codec::{CodecChoice, EncodeRequest, FileDecoder, GridChoice};
+use cgv::format::CorrectionMode;
 use cgv::mesh::source::check_frame;
 use cgv::mesh::{Frame, FrameSource, OpenOptions, Topology};
+use cgv::output::AtomicFile;
 use glam::Vec3;
 use numpy::{
     AllowTypeChange, PyArray1, PyArrayLike2, PyArrayLike3, PyArrayLikeDyn, PyArrayMethods, PyUntypedArrayMethods,
@@ -114,49 +114,21 @@ fn flat<'a>(frames: &'a PyArrayLike3<'_, f32, AllowTypeChange>, owned: &'a mut V
     }
 }
 
-/// The encoder's options from Python keywords, named as `cgv encode`'s
-/// flags are (with `_` for `-`; unknown keywords are a `TypeError`): the
-/// options, the target error (percent of the diagonal) if one is asked,
-/// and with grid="auto" and a target error the options on N = 256 as well
-/// (N = 128's resampling floor chooses, as `cgv encode --grid auto` does).
-struct Options {
-    opts: EncodeOptions,
-    codec: CodecChoice,
-    target: Option<f64>,
-    on_256: Option<EncodeOptions>,
-}
-
-fn encode_options(options: Option<&Bound<'_, PyDict>>, fps: f32) -> PyResult<Options> {
-    let (opts, codec, target, auto) = options_on(options, fps, None)?;
-    let on_256 = match (auto, target) {
-        (true, Some(_)) => Some(options_on(options, fps, Some(256))?.0),
-        _ => None,
-    };
-    Ok(Options { opts, codec, target, on_256 })
-}
-
-/// The options for `options`' keywords, on `grid` when given; also the
-/// codec, the target error, and whether the grid was "auto".
-fn options_on(
-    options: Option<&Bound<'_, PyDict>>,
-    fps: f32,
-    grid: Option<usize>,
-) -> PyResult<(EncodeOptions, CodecChoice, Option<f64>, bool)> {
-    let mut o = EncodeOptions::default();
-    let mut target = None;
-    let mut asked_grid: Option<usize> = None;
-    o.video.fps = fps;
-    let mut codec = CodecChoice::default();
-    let mut corrections: Option<String> = None;
+/// The encode Python keywords ask for, named as `cgv encode`'s flags are
+/// (with `_` for `-`; unknown keywords are a `TypeError`), checked for a
+/// motion at `fps` (the library's checks: [`EncodeRequest`]).
+fn encode_request(options: Option<&Bound<'_, PyDict>>, fps: f32) -> PyResult<EncodeRequest> {
+    let mut r = EncodeRequest::default();
+    let o = &mut r.base;
     for (key, value) in options.into_iter().flat_map(|d| d.iter()) {
         let key: String = key.extract()?;
         match key.as_str() {
-            "codec" => codec = CodecChoice::parse(&value.extract::<String>()?).map_err(invalid)?,
+            "codec" => r.codec = CodecChoice::parse(&value.extract::<String>()?).map_err(invalid)?,
             "grid" => {
-                asked_grid = match value.extract::<String>() {
-                    Ok(a) if a == "auto" => None,
+                r.grid = match value.extract::<String>() {
+                    Ok(a) if a == "auto" => GridChoice::Auto,
                     Ok(a) => return Err(invalid(format!("grid {a:?}: expected a size N or \"auto\""))),
-                    Err(_) => Some(value.extract()?),
+                    Err(_) => GridChoice::Size(value.extract()?),
                 }
             }
             "qp" => o.video.qp = value.extract()?,
@@ -165,12 +137,21 @@ fn options_on(
             "keyframes" => o.key_interval = value.extract()?,
             "layers" => o.layers = value.extract()?,
             "max_lag" => o.max_lag = value.extract()?,
-            "corrections" => corrections = Some(value.extract()?),
+            "corrections" => {
+                r.corrections = match value.extract::<String>()?.as_str() {
+                    "auto" => None,
+                    "scaled" => Some(CorrectionMode::Scaled),
+                    "motion" => Some(CorrectionMode::Motion),
+                    c => {
+                        return Err(invalid(format!("corrections {c:?}: expected \"auto\", \"scaled\" or \"motion\"")))
+                    }
+                }
+            }
             "correction_shrink" => o.correction_shrink = value.extract()?,
             "source_mesh" => o.source_mesh = value.extract()?,
             "fit_places" => o.fit_places = value.extract()?,
             "random_access" => o.random_access = value.extract()?,
-            "target_error" => target = Some(value.extract::<f64>()?),
+            "target_error" => r.target_error = Some(value.extract::<f64>()?),
             _ => {
                 return Err(PyTypeError::new_err(format!(
                     "encode() got an unexpected keyword {key:?} (known: codec, grid, qp, kbps, gop, keyframes, layers, \
@@ -180,25 +161,8 @@ fn options_on(
             }
         }
     }
-    // grid="auto" (the default), as `cgv encode --grid auto`: for a bitrate
-    // from the bits a sample gets; for a target error N = 128 first.
-    o.grid = match (grid, asked_grid) {
-        (Some(n), _) | (None, Some(n)) => n,
-        (None, None) if target.is_some() => 128,
-        (None, None) => cgv::codec::auto_grid(&o.video, fps),
-    };
-    let mut o = codec.apply(o, None).map_err(raise)?;
-    match corrections.as_deref() {
-        None | Some("auto") => {}
-        Some("scaled") => o.corrections = cgv::format::CorrectionMode::Scaled,
-        Some("motion") => o.corrections = cgv::format::CorrectionMode::Motion,
-        Some(c) => return Err(invalid(format!("corrections {c:?}: expected \"auto\", \"scaled\" or \"motion\""))),
-    }
-    if target.is_some() && o.video.kbps.is_some() {
-        return Err(invalid("kbps and target_error ask for the size two ways: give one".into()));
-    }
-    o.validate().map_err(raise)?;
-    Ok((o, codec, target, asked_grid.is_none()))
+    r.options(fps).map_err(raise)?;
+    Ok(r)
 }
 
 /// Where an encode's file goes: back to Python as bytes, or streamed into
@@ -215,35 +179,26 @@ enum Made {
     Written(usize),
 }
 
-fn run_encode(py: Python<'_>, src: &dyn FrameSource, o: &Options, out: Out<'_>) -> PyResult<Made> {
+fn run_encode(py: Python<'_>, src: &dyn FrameSource, r: &EncodeRequest, out: Out<'_>) -> PyResult<Made> {
+    use cgv::codec::Made as File;
+    let missed =
+        |report: &cgv::codec::EncodeReport| report.budget_miss.filter(|m| m.abs() > cgv::codec::BUDGET_TOLERANCE);
     let (made, miss) = py
         .detach(|| -> cgv::Result<(Made, Option<f64>)> {
-            let Some(percent) = o.target else {
-                let (made, report) = match out {
-                    Out::Bytes => {
-                        cgv::codec::encode(src, &o.opts, &mut |_, _, _| {}).map(|(b, r)| (Made::Bytes(b), r))?
-                    }
-                    Out::File(path) => {
-                        let (file, report) =
-                            cgv::codec::encode_into(src, &o.opts, &mut || AtomicFile::create(path), &mut |_, _, _| {})?;
-                        file.commit()?;
-                        (Made::Written(report.bytes), report)
-                    }
-                };
-                return Ok((made, report.budget_miss.filter(|m| m.abs() > cgv::codec::BUDGET_TOLERANCE)));
-            };
-            // The floor's rule chooses 128 (opts) or 256 (on_256) only.
-            let regrid = |n: usize| {
-                debug_assert_eq!(n, 256, "auto_grid_for_error gave a grid Python did not prepare");
-                Ok(o.on_256.clone().unwrap_or_else(|| o.opts.clone()))
-            };
-            let auto = o.on_256.is_some().then_some(&regrid as &dyn Fn(usize) -> cgv::Result<EncodeOptions>);
-            let (opts, image) = cgv::eval::target::prepare_for_error(src, o.opts.clone(), percent / 100.0, auto)?;
-            let (bytes, _, _) =
-                cgv::eval::target::encode_to_error(src, &opts, o.codec, &image, percent / 100.0, &mut |_, _, _| {})?;
             match out {
-                Out::Bytes => Ok((Made::Bytes(bytes), None)),
-                Out::File(path) => cgv::fsutil::write_atomic(path, &bytes).map(|()| (Made::Written(bytes.len()), None)),
+                Out::Bytes => {
+                    let e = r.encode(src, &mut || Ok(Vec::new()), &mut |_, _, _| {})?;
+                    let (File::Streamed(bytes) | File::Bytes(bytes)) = e.file;
+                    Ok((Made::Bytes(bytes), missed(&e.report)))
+                }
+                Out::File(path) => {
+                    let e = r.encode(src, &mut || AtomicFile::create(path), &mut |_, _, _| {})?;
+                    let size = match e.file {
+                        File::Streamed(f) => f.commit().map(|()| e.report.bytes)?,
+                        File::Bytes(b) => cgv::output::write_atomic(path, &b).map(|()| b.len())?,
+                    };
+                    Ok((Made::Written(size), missed(&e.report)))
+                }
             }
         })
         .map_err(|e| invalid(format!("encoding {}: {e}", src.label().display())))?;
@@ -296,13 +251,13 @@ fn encode<'py>(
     fps: f32,
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyBytes>> {
-    let opts = encode_options(options, fps)?;
+    let request = encode_request(options, fps)?;
     let mut owned = Vec::new();
     let coords = flat(&frames, &mut owned)?;
     let vertex_count = frames.shape()[1];
     let topology = Topology { vertex_count, faces: faces_from(&faces, vertex_count)? };
     let src = ArrayFrames { label: PathBuf::from("<numpy arrays>"), fps, topology, coords };
-    let bytes = bytes_of(run_encode(py, &src, &opts, Out::Bytes)?);
+    let bytes = bytes_of(run_encode(py, &src, &request, Out::Bytes)?);
     Ok(PyBytes::new(py, &bytes))
 }
 
@@ -343,9 +298,9 @@ fn encode_file<'py>(
     options: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let src = open(py, &path, fps, frames, fill_holes, animation)?;
-    let opts = encode_options(options, src.fps())?;
+    let request = encode_request(options, src.fps())?;
     let out = output.as_deref().map_or(Out::Bytes, Out::File);
-    Ok(match run_encode(py, src.as_ref(), &opts, out)? {
+    Ok(match run_encode(py, src.as_ref(), &request, out)? {
         Made::Bytes(bytes) => PyBytes::new(py, &bytes).into_any(),
         Made::Written(size) => size.into_pyobject(py)?.into_any(),
     })

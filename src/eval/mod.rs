@@ -20,15 +20,15 @@
 //! by frame, so a long motion costs time, not memory.
 
 pub mod bdrate;
+mod codecs;
 pub mod peers;
 pub mod plot;
 pub mod report;
 pub mod source;
-pub mod target;
 
 use crate::codec::{encode_prepared, EncodeOptions, FileDecoder};
 use crate::error::{Error, Result};
-use crate::format::{self, CodecKind, CorrectionMode};
+use crate::format::{self, CorrectionMode};
 use crate::geometry_image::{surface_vertices, GeometryImage};
 use crate::grid::stencil::Stencils;
 use crate::grid::Grid;
@@ -41,161 +41,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 use source::{SourceErrors, SourceMeasure};
 
-/// A codec as `cgv eval` runs it, named for what its files store (see
-/// [`format::Representation`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum EvalCodec {
-    /// Geometry video: x, y, z.
-    Gv,
-    /// The seed paper's representation (H, λ at key frames, anchors, seed),
-    /// decoded by the paper's Eq. 1 solver.
-    Conformal,
-    /// Closed-loop prediction and x, y, z corrections, each rate point
-    /// matched with scaled corrections, and with motion corrections on
-    /// every frame and on every second one ([`EvalCodec::variants`]); of
-    /// those no larger than the target allows, the one with the lower
-    /// error is kept (what an encoder that knows its own reconstruction
-    /// can do).
-    Predictive,
-    /// The same with the normal layout: the corrections along the predicted
-    /// surface's normal at full size, x, y, z coarser (format v9).
-    Normal,
-    /// [`EvalCodec::Predictive`] with scaled corrections only (format v1).
-    PredictiveScaled,
-    /// [`EvalCodec::Predictive`] with motion corrections only (format v2).
-    PredictiveMotion,
-    /// [`EvalCodec::Normal`] with scaled corrections only.
-    NormalScaled,
-    /// [`EvalCodec::Normal`] with motion corrections only.
-    NormalMotion,
-}
-
-/// Names `--codecs` accepts besides the codecs' own: those of the first
-/// round, when the closed-loop codecs were all called `cgv`.
-const ALIASES: [(&str, EvalCodec); 4] = [
-    ("paper", EvalCodec::Conformal),
-    ("cgv", EvalCodec::Predictive),
-    ("cgv-scaled", EvalCodec::PredictiveScaled),
-    ("cgv-motion", EvalCodec::PredictiveMotion),
-];
-
-/// The variants' correction interval: [`EvalCodec::variants`] tries motion
-/// corrections on every second frame too (which made samba's lowest point
-/// at N = 128 reachable at all: with corrections on every frame the
-/// smallest file, at the loop's coarsest QP, is 10 % too large; every
-/// second frame fits at QP 37, with 1.07 % surface RMS against GV's
-/// 1.15 %).
-const EVERY_SECOND: u32 = 2;
-
-/// The best-of entries pass over a variant whose worst frame's error is more
-/// than this many times its mean (the no-drift bound of issue 6) for one
-/// without such a spike whose worst frame is no worse: pcow at N = 128,
-/// `max` point, the scaled encode had 0.181 % surface RMS with frame 122 at
-/// 0.620 % (3.4x), the motion encode 0.238 % with none past 1.3x (GV:
-/// 0.334 %, 1.1x). Without the second condition face-poses' lowest point
-/// kept a 7.4 % encode (worst frame 18 %) over a 2.2 % one (worst 7.0 %).
-pub const SPIKE: f64 = 3.0;
-
-impl EvalCodec {
-    /// What `cgv eval` runs unless told otherwise.
-    pub const ALL: [EvalCodec; 4] = [EvalCodec::Gv, EvalCodec::Conformal, EvalCodec::Predictive, EvalCodec::Normal];
-
-    /// Every codec `--codecs` names, in the order reports list them.
-    pub const NAMED: [EvalCodec; 8] = [
-        EvalCodec::Gv,
-        EvalCodec::Conformal,
-        EvalCodec::Predictive,
-        EvalCodec::Normal,
-        EvalCodec::PredictiveScaled,
-        EvalCodec::PredictiveMotion,
-        EvalCodec::NormalScaled,
-        EvalCodec::NormalMotion,
-    ];
-
-    /// The encodes a best-of entry matches at each rate point (codec,
-    /// correction interval); None for a codec encoded one way.
-    pub fn variants(self) -> Option<[(EvalCodec, u32); 3]> {
-        match self {
-            EvalCodec::Predictive => Some([
-                (EvalCodec::PredictiveScaled, 1),
-                (EvalCodec::PredictiveMotion, 1),
-                (EvalCodec::PredictiveMotion, EVERY_SECOND),
-            ]),
-            EvalCodec::Normal => Some([
-                (EvalCodec::NormalScaled, 1),
-                (EvalCodec::NormalMotion, 1),
-                (EvalCodec::NormalMotion, EVERY_SECOND),
-            ]),
-            _ => None,
-        }
-    }
-
-    /// Whether the codec lays its corrections out along the normal.
-    fn normal(self) -> bool {
-        matches!(self, EvalCodec::Normal | EvalCodec::NormalScaled | EvalCodec::NormalMotion)
-    }
-
-    fn options(self, base: &EncodeOptions) -> EncodeOptions {
-        let (codec, solver) = match self {
-            EvalCodec::Gv => (CodecKind::Gv, SolverKind::Predictive),
-            EvalCodec::Conformal => (CodecKind::Cgv, SolverKind::Paper),
-            _ => (CodecKind::Cgv, SolverKind::Predictive),
-        };
-        let corrections = match self {
-            EvalCodec::PredictiveMotion | EvalCodec::NormalMotion => CorrectionMode::Motion,
-            _ => CorrectionMode::Scaled,
-        };
-        // The grid codecs are compared as they code the motion; the source
-        // mesh, the same for all, is reported once (Report::source_mesh_bytes).
-        EncodeOptions {
-            codec,
-            solver,
-            corrections,
-            correction: self != EvalCodec::Conformal,
-            normal_correction: self.normal(),
-            source_mesh: false,
-            ..base.clone()
-        }
-    }
-
-    fn solver(self) -> SolverKind {
-        match self {
-            EvalCodec::Conformal => SolverKind::Paper,
-            _ => SolverKind::Predictive,
-        }
-    }
-
-    pub fn name(self) -> &'static str {
-        match self {
-            EvalCodec::Gv => "gv",
-            EvalCodec::Conformal => "conformal",
-            EvalCodec::Predictive => "predictive",
-            EvalCodec::Normal => "normal",
-            EvalCodec::PredictiveScaled => "predictive-scaled",
-            EvalCodec::PredictiveMotion => "predictive-motion",
-            EvalCodec::NormalScaled => "normal-scaled",
-            EvalCodec::NormalMotion => "normal-motion",
-        }
-    }
-}
-
-impl std::str::FromStr for EvalCodec {
-    type Err = String;
-    fn from_str(s: &str) -> std::result::Result<Self, String> {
-        let own = EvalCodec::NAMED.into_iter().find(|c| c.name() == s);
-        own.or_else(|| ALIASES.iter().find(|a| a.0 == s).map(|a| a.1)).ok_or_else(|| {
-            let names: Vec<&str> = EvalCodec::NAMED.iter().map(|c| c.name()).collect();
-            format!("unknown codec '{s}' (expected {})", names.join(", "))
-        })
-    }
-}
-
-impl std::fmt::Display for EvalCodec {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
+pub use codecs::{EvalCodec, SPIKE};
 
 /// Named rate points: the file size GV reaches at this QP with this many
 /// layers. GV's single 8-bit layer saturates near QP 12; "ultra" is its
@@ -650,20 +496,10 @@ impl Ctx<'_> {
                         continue 'layers; // a second layer may reach it
                     }
                 }
-                let slope = match last {
-                    Some((q2, s2)) if q2 != qp && s2 != size => {
-                        (((size as f64).ln() - (s2 as f64).ln()) / (qp as f64 - q2 as f64)).min(-0.01)
-                    }
-                    _ => LOG_SIZE_PER_QP,
-                };
-                last = Some((qp, size));
-                let guess = (qp as f64 + ((target as f64).ln() - (size as f64).ln()) / slope).round();
-                let min = lo.map_or(0, |l| l.0 as i32 + 1);
-                let max = hi.map_or(51, |h| h.0 as i32 - 1);
-                if min > max {
+                let Some(next) = secant_qp(last, (qp, size), target, (lo, hi)) else {
                     break; // adjacent QPs straddle the target
-                }
-                qp = (guess as i32).clamp(min, max) as u8;
+                };
+                (last, qp) = (Some((qp, size)), next);
             }
             // Adjacent QPs straddle the target: the rate control chooses
             // between them frame by frame.
@@ -744,21 +580,7 @@ impl Ctx<'_> {
     /// Decodes an encode and measures it against the original frames.
     fn measure(&self, codec: EvalCodec, t: Try, matched: bool, tries: usize) -> Result<CodecResult> {
         let mut dec = self.decoder(&t.bytes, codec.solver())?;
-        let h = &dec.file.header;
-        let corrections = h.correction_streams().map(|_| h.corrections);
-        let correction_interval = corrections.map(|_| {
-            match h.correction_streams().and_then(|c| h.stream(c[0])).map(|s| h.streams[s].coverage) {
-                // Frames 0 and 1, then every k-th.
-                Some(format::Coverage::Key) => h.key_frames.get(2).map_or(h.frames, |k| k - 1),
-                _ => 1,
-            }
-        });
-        let stream_bytes = h
-            .streams
-            .iter()
-            .zip(dec.file.stream_bytes())
-            .map(|(s, b)| (format!("{}{}", s.name, if s.layer == 2 { "/2" } else { "" }), b))
-            .collect();
+        let (corrections, correction_interval, stream_bytes) = file_facts(&dec.file);
         let st = Stencils::new(self.grid);
         let topology = self.src.topology();
         let faces = self.prepared.surface_faces(topology);
@@ -776,13 +598,9 @@ impl Ctx<'_> {
             let truth = &self.prepared.map.apply(&input);
             let (rms, max) = metrics::vertex_error(&x, truth);
             kg.add_frame(truth, &x);
-            let surf = if self.opts.surface_every > 0 && f % self.opts.surface_every == 0 {
-                let shown = surface_vertices(&x, dec.loose());
-                let d = surface::symmetric(&shown, &faces, &input, &topology.faces)?;
-                Some(d)
-            } else {
-                None
-            };
+            let surf = (self.opts.surface_every > 0 && f % self.opts.surface_every == 0)
+                .then(|| surface::symmetric(&surface_vertices(&x, dec.loose()), &faces, &input, &topology.faces))
+                .transpose()?;
             per_frame.push(FrameMetrics {
                 frame: f,
                 vertex_rms: rms / self.diagonal,
@@ -837,6 +655,51 @@ impl Ctx<'_> {
             frames: per_frame,
         })
     }
+}
+
+/// A QP and the size of its file.
+type QpSize = (u8, usize);
+/// The coarsest QP still too large and the finest too small, once known.
+type Bracket = (Option<QpSize>, Option<QpSize>);
+
+/// The next QP of [`Ctx::search`]'s secant steps on log(size), from the
+/// last two (QP, size) pairs, inside the bracket (`lo`: the coarsest QP
+/// still too large, `hi`: the finest too small); None when adjacent QPs
+/// straddle the target.
+fn secant_qp(last: Option<QpSize>, (qp, size): QpSize, target: usize, (lo, hi): Bracket) -> Option<u8> {
+    let slope = match last {
+        Some((q2, s2)) if q2 != qp && s2 != size => {
+            (((size as f64).ln() - (s2 as f64).ln()) / (qp as f64 - q2 as f64)).min(-0.01)
+        }
+        _ => LOG_SIZE_PER_QP,
+    };
+    let guess = (qp as f64 + ((target as f64).ln() - (size as f64).ln()) / slope).round();
+    let min = lo.map_or(0, |l| l.0 as i32 + 1);
+    let max = hi.map_or(51, |h| h.0 as i32 - 1);
+    (min <= max).then(|| (guess as i32).clamp(min, max) as u8)
+}
+
+/// What a report says of a file: its corrections and their interval (for
+/// files with corrections), and the bytes of each stream.
+type FileFacts = (Option<CorrectionMode>, Option<u32>, Vec<(String, usize)>);
+
+fn file_facts(file: &format::CgvFile) -> FileFacts {
+    let h = &file.header;
+    let corrections = h.correction_streams().map(|_| h.corrections);
+    let correction_interval = corrections.map(|_| {
+        match h.correction_streams().and_then(|c| h.stream(c[0])).map(|s| h.streams[s].coverage) {
+            // Frames 0 and 1, then every k-th.
+            Some(format::Coverage::Key) => h.key_frames.get(2).map_or(h.frames, |k| k - 1),
+            _ => 1,
+        }
+    });
+    let stream_bytes = h
+        .streams
+        .iter()
+        .zip(file.stream_bytes())
+        .map(|(s, b)| (format!("{}{}", s.name, if s.layer == 2 { "/2" } else { "" }), b))
+        .collect();
+    (corrections, correction_interval, stream_bytes)
 }
 
 /// Which of the variants (error, worst frame / mean) the `cgv` entry keeps:

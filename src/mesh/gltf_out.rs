@@ -7,7 +7,7 @@
 
 use super::{vertex_normals, Frame, Topology};
 use crate::error::{Error, Result};
-use crate::fsutil::AtomicFile;
+use crate::output::AtomicFile;
 use glam::Vec3;
 use serde_json::json;
 use std::io::{Read, Write};
@@ -175,8 +175,8 @@ fn gltf_json(l: &BinLayout, name: &str) -> serde_json::Value {
 }
 
 /// Writes the GLB container: header, JSON chunk, and the binary chunk
-/// copied from `bin_path` (`bin_len` bytes), padded to 4 bytes.
-fn write_container(path: &Path, doc: &serde_json::Value, bin_path: &Path, bin_len: usize) -> Result<()> {
+/// read from `bin` (`bin_len` bytes), padded to 4 bytes.
+pub(crate) fn write_container(path: &Path, doc: &serde_json::Value, bin: &mut dyn Read, bin_len: usize) -> Result<()> {
     let mut json_bytes = serde_json::to_vec(doc).map_err(|e| Error::Numerical(e.to_string()))?;
     while json_bytes.len() % 4 != 0 {
         json_bytes.push(b' ');
@@ -197,10 +197,9 @@ fn write_container(path: &Path, doc: &serde_json::Value, bin_path: &Path, bin_le
     out.write_all(&json_bytes)?;
     out.write_all(&(bin_padded as u32).to_le_bytes())?;
     out.write_all(b"BIN\0")?;
-    let mut f = std::fs::File::open(bin_path).map_err(|e| Error::io(bin_path, e))?;
     let mut buf = vec![0u8; 1 << 20];
     loop {
-        let n = f.read(&mut buf).map_err(|e| Error::io(bin_path, e))?;
+        let n = bin.read(&mut buf).map_err(|e| Error::io(path, e))?;
         if n == 0 {
             break;
         }
@@ -225,7 +224,7 @@ pub fn write_glb(
     if frame_count == 0 {
         return Err(Error::Argument("cannot write a sequence of zero frames".into()));
     }
-    crate::fsutil::check_output_folder(path)?;
+    crate::output::check_output_folder(path)?;
     let mut scratch_name = std::ffi::OsString::from(".");
     scratch_name.push(path.file_name().unwrap_or_default());
     scratch_name.push(format!(".{}.bin.partial", std::process::id()));
@@ -243,7 +242,8 @@ pub fn write_glb(
     }
     bin.flush().map_err(werr)?;
     drop(bin);
-    write_container(path, &doc, &scratch.0, len)
+    let mut bin = std::fs::File::open(&scratch.0).map_err(|e| Error::io(&scratch.0, e))?;
+    write_container(path, &doc, &mut bin, len)
 }
 
 /// Appends the texture coordinates and the texture image (padded to 4

@@ -4,7 +4,7 @@
 use super::source::{check_frame, FrameSource};
 use super::{Frame, Topology};
 use crate::error::{Error, MeshProblem, Result};
-use crate::fsutil::AtomicFile;
+use crate::output::AtomicFile;
 use glam::Vec3;
 use std::path::{Path, PathBuf};
 

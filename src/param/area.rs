@@ -22,6 +22,28 @@ use crate::error::{Error, Result};
 use crate::mesh::{Adjacency, Topology};
 use glam::{DVec2, DVec3, Vec3};
 
+/// What [`AreaPasses::start_with`] refuses: too few vertices, positions
+/// that do not match, an area correction out of range, a surface that is
+/// not a closed genus-0 manifold. Faces without area are allowed (a user's
+/// mesh may have slivers that collapse, and so may a carrier's closing
+/// fans); they weigh nothing in the distortion and get bounded weights.
+fn check_input(topology: &Topology, positions: &[Vec3], opts: &ParamOptions) -> Result<()> {
+    let nv = topology.vertex_count;
+    if nv < 5 || positions.len() != nv {
+        return Err(Error::Argument(format!(
+            "cannot parameterize a mesh of {nv} vertices ({} positions)",
+            positions.len()
+        )));
+    }
+    if !(opts.area_correction.is_finite() && (0.0..=2.0).contains(&opts.area_correction)) {
+        return Err(Error::Argument(format!("area correction {} is not in [0, 2]", opts.area_correction)));
+    }
+    if let Err(problem) = crate::mesh::analyze(topology, positions).require_sphere_topology() {
+        return Err(Error::Argument(format!("cannot parameterize: the surface {problem}")));
+    }
+    Ok(())
+}
+
 /// A parameterization in progress: the conformal map, then as many area
 /// passes as [`advance`](Self::advance) has run.
 pub struct AreaPasses<'a> {
@@ -87,23 +109,9 @@ impl<'a> AreaPasses<'a> {
         real: Option<&[bool]>,
         opts: &ParamOptions,
     ) -> Result<AreaPasses<'a>> {
+        check_input(topology, positions, opts)?;
         let faces = &topology.faces;
         let nv = topology.vertex_count;
-        if nv < 5 || positions.len() != nv {
-            return Err(Error::Argument(format!(
-                "cannot parameterize a mesh of {nv} vertices ({} positions)",
-                positions.len()
-            )));
-        }
-        if !(opts.area_correction.is_finite() && (0.0..=2.0).contains(&opts.area_correction)) {
-            return Err(Error::Argument(format!("area correction {} is not in [0, 2]", opts.area_correction)));
-        }
-        // Faces without area are allowed (a user's mesh may have slivers
-        // that collapse, and so may a carrier's closing fans); they weigh
-        // nothing in the distortion and get bounded weights.
-        if let Err(problem) = crate::mesh::analyze(topology, positions).require_sphere_topology() {
-            return Err(Error::Argument(format!("cannot parameterize: the surface {problem}")));
-        }
         let pos: Vec<DVec3> = positions.iter().map(|p| p.as_dvec3()).collect();
         let adj = Adjacency::build(faces);
         let graph = Graph::new(nv, faces, &pos);

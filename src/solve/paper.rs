@@ -115,29 +115,11 @@ impl PaperSolver {
         let mut g = vec![0.0; 3 * n];
         let mut e = self.energy(&x, h, s4, &mut g);
         let g0 = g.iter().map(|v| v * v).sum::<f64>().sqrt().max(1e-300);
-        let mut hist: std::collections::VecDeque<(Vec<f64>, Vec<f64>, f64)> = Default::default();
+        let mut hist: History = Default::default();
         let mut stats = SolveStats::default();
         let mut g_new = vec![0.0; 3 * n];
         for it in 0..MAX_ITERATIONS {
-            // Two-loop recursion for the search direction.
-            let mut d: Vec<f64> = g.iter().map(|v| -v).collect();
-            let mut alphas = Vec::with_capacity(hist.len());
-            for (sv, yv, rho) in hist.iter().rev() {
-                let a = rho * dot(sv, &d);
-                axpy(-a, yv, &mut d);
-                alphas.push(a);
-            }
-            if let Some((sv, yv, _)) = hist.back() {
-                let gamma = dot(sv, yv) / dot(yv, yv).max(1e-300);
-                d.iter_mut().for_each(|v| *v *= gamma);
-            } else {
-                let gn = dot(&g, &g).sqrt().max(1e-300);
-                d.iter_mut().for_each(|v| *v *= s * 1e-2 / gn);
-            }
-            for ((sv, yv, rho), a) in hist.iter().zip(alphas.iter().rev()) {
-                let b = rho * dot(yv, &d);
-                axpy(a - b, sv, &mut d);
-            }
+            let d = lbfgs_direction(&g, &hist, s);
             let slope = dot(&g, &d);
             if slope >= 0.0 {
                 hist.clear();
@@ -193,4 +175,32 @@ fn axpy(a: f64, x: &[f64], y: &mut [f64]) {
     for (yi, xi) in y.iter_mut().zip(x) {
         *yi += a * xi;
     }
+}
+
+/// L-BFGS's memory: the last steps s, gradient changes y and 1 / (s · y).
+type History = std::collections::VecDeque<(Vec<f64>, Vec<f64>, f64)>;
+
+/// The L-BFGS search direction from gradient `g` (Nocedal and Wright's
+/// two-loop recursion); without history, the steepest descent scaled to
+/// a step of about 1 % of `s`, the energy's length scale.
+fn lbfgs_direction(g: &[f64], hist: &History, s: f64) -> Vec<f64> {
+    let mut d: Vec<f64> = g.iter().map(|v| -v).collect();
+    let mut alphas = Vec::with_capacity(hist.len());
+    for (sv, yv, rho) in hist.iter().rev() {
+        let a = rho * dot(sv, &d);
+        axpy(-a, yv, &mut d);
+        alphas.push(a);
+    }
+    if let Some((sv, yv, _)) = hist.back() {
+        let gamma = dot(sv, yv) / dot(yv, yv).max(1e-300);
+        d.iter_mut().for_each(|v| *v *= gamma);
+    } else {
+        let gn = dot(g, g).sqrt().max(1e-300);
+        d.iter_mut().for_each(|v| *v *= s * 1e-2 / gn);
+    }
+    for ((sv, yv, rho), a) in hist.iter().zip(alphas.iter().rev()) {
+        let b = rho * dot(yv, &d);
+        axpy(a - b, sv, &mut d);
+    }
+    d
 }

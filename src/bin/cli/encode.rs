@@ -2,10 +2,9 @@
 
 use super::InputArgs;
 use anyhow::{bail, Context, Result};
-use cgv::codec::{h264::VideoSettings, CodecChoice, EncodeOptions};
-use cgv::eval::target::prepare_for_error;
+use cgv::codec::{h264::VideoSettings, CodecChoice, EncodeOptions, EncodeRequest, GridChoice, Made};
 use cgv::format::CorrectionMode;
-use cgv::fsutil::AtomicFile;
+use cgv::output::AtomicFile;
 use cgv::param::ParamOptions;
 use cgv::solve::SolverKind;
 use std::path::PathBuf;
@@ -140,7 +139,7 @@ pub struct Args {
     /// --target-error, 256 when the target is below 1.1 times what 128
     /// resamples the motion to (docs/RESULTS.md, "--grid auto"). `--codec
     /// auto` then picks the codec on the grid chosen.
-    #[arg(long, default_value = "auto", value_parser = parse_grid)]
+    #[arg(long, default_value = "auto", value_parser = GridChoice::parse)]
     grid: GridChoice,
     /// Seconds between random-access points, where a player can start
     /// decoding (a seek decodes at most this much before the frame it
@@ -182,31 +181,10 @@ pub struct Args {
     json: bool,
 }
 
-/// `--grid`: a size, or chosen for the rate.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum GridChoice {
-    Auto,
-    Size(usize),
-}
-
-fn parse_grid(s: &str) -> std::result::Result<GridChoice, String> {
-    match s {
-        "auto" => Ok(GridChoice::Auto),
-        n => n.parse().map(GridChoice::Size).map_err(|_| format!("'{n}' is not a grid size (N, or auto)")),
-    }
-}
-
-/// The encoder's options for `args`, for a motion at `fps` frames/s, on
-/// grid `grid` when given (else `--grid`, `auto` by the bitrate).
-fn options_on(args: &Args, fps: f32, grid: Option<usize>) -> cgv::error::Result<EncodeOptions> {
-    let video =
-        VideoSettings { qp: args.qp, kbps: args.kbps, gop: args.gop, cabac: !args.cavlc, fps, ..Default::default() };
-    let grid = match (grid, args.grid) {
-        (Some(n), _) | (None, GridChoice::Size(n)) => n,
-        (None, GridChoice::Auto) => cgv::codec::auto_grid(&video, fps),
-    };
-    let opts = EncodeOptions {
-        grid,
+/// The encode `args` ask for (parsing only: the library checks it).
+fn request(args: &Args) -> EncodeRequest {
+    let video = VideoSettings { qp: args.qp, kbps: args.kbps, gop: args.gop, cabac: !args.cavlc, ..Default::default() };
+    let base = EncodeOptions {
         video,
         key_interval: args.keyframes,
         correction_filter: !args.no_correction_filter,
@@ -229,18 +207,18 @@ fn options_on(args: &Args, fps: f32, grid: Option<usize>) -> cgv::error::Result<
         random_access: args.random_access,
         ..EncodeOptions::default()
     };
-    let mut opts = args.codec.apply(opts, args.solver)?;
-    match args.corrections {
-        Corrections::Auto => {}
-        Corrections::Scaled => opts.corrections = CorrectionMode::Scaled,
-        Corrections::Motion => opts.corrections = CorrectionMode::Motion,
+    EncodeRequest {
+        base,
+        codec: args.codec,
+        solver: args.solver,
+        grid: args.grid,
+        corrections: match args.corrections {
+            Corrections::Auto => None,
+            Corrections::Scaled => Some(CorrectionMode::Scaled),
+            Corrections::Motion => Some(CorrectionMode::Motion),
+        },
+        target_error: args.target_error,
     }
-    Ok(opts)
-}
-
-/// [`options_on`] the grid `--grid` says.
-fn options(args: &Args, fps: f32) -> cgv::error::Result<EncodeOptions> {
-    options_on(args, fps, None)
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -279,15 +257,11 @@ fn encode_one(args: &Args) -> Result<()> {
     if output.extension().is_none_or(|e| e != "cgv") {
         bail!("{}: the output should end in .cgv", output.display());
     }
-    cgv::fsutil::check_output_folder(output)?;
+    cgv::output::check_output_folder(output)?;
     // Every option is checked before the motion is read.
-    options(args, input.fps)?.validate()?;
+    let request = request(args);
+    request.options(input.fps)?;
     let src = input.open()?;
-    let mut opts = options(args, src.fps())?;
-    opts.validate()?;
-    if opts.correction_interval > 1 && opts.corrections != CorrectionMode::Motion {
-        bail!("--correction-interval applies to motion corrections, and these are scaled (add --corrections motion)");
-    }
     let pb = super::progress(src.frame_count(), "encoding", args.json);
     let mut progress = |stage: &str, done: usize, _| {
         if done == 1 {
@@ -296,39 +270,31 @@ fn encode_one(args: &Args) -> Result<()> {
         }
         pb.set_position(done as u64);
     };
-    // Without a target error, each pass streams into a file of its own
-    // (frames in, chunks out) and the one kept is renamed into place.
-    let (file, report, target) = match args.target_error {
-        None => cgv::codec::encode_into(src.as_ref(), &opts, &mut || AtomicFile::create(output), &mut progress)
-            .map(|(f, r)| (Kept::File(f), r, None)),
-        Some(percent) => {
-            // With --grid auto, N = 128's resampling floor decides the grid.
-            let fps = src.fps();
-            let regrid = |n| options_on(args, fps, Some(n));
-            let auto = (args.grid == GridChoice::Auto)
-                .then_some(&regrid as &dyn Fn(usize) -> cgv::error::Result<EncodeOptions>);
-            prepare_for_error(src.as_ref(), opts.clone(), percent / 100.0, auto).and_then(|(o, image)| {
-                opts = o;
-                let target = percent / 100.0;
-                cgv::eval::target::encode_to_error(src.as_ref(), &opts, args.codec, &image, target, &mut progress)
-                    .map(|(b, r, t)| (Kept::Bytes(b), r, Some(t)))
-            })
-        }
-    }
-    .with_context(|| format!("encoding {}", src.label().display()))?;
+    // Each pass streams into a file of its own (frames in, chunks out) and
+    // the one kept is renamed into place.
+    let made = request
+        .encode(src.as_ref(), &mut || AtomicFile::create(output), &mut progress)
+        .with_context(|| format!("encoding {}", src.label().display()))?;
     pb.finish_and_clear();
-    match file {
-        Kept::File(f) => f.commit()?,
-        Kept::Bytes(b) => cgv::fsutil::write_atomic(output, &b)?,
+    match made.file {
+        Made::Streamed(f) => f.commit()?,
+        Made::Bytes(b) => cgv::output::write_atomic(output, &b)?,
     }
-    print_report(args, src.as_ref(), &opts, &report, target.as_ref())
+    print_report(args, src.as_ref(), &made.options, &made.report, made.target.as_ref())
 }
 
-/// The file an encode made: written as it was coded, or (a target
-/// error's search decodes each file it makes) in memory.
-enum Kept {
-    File(AtomicFile),
-    Bytes(Vec<u8>),
+/// The bytes of each part of the file.
+fn print_sizes(report: &cgv::codec::EncodeReport) {
+    for (name, b) in &report.stream_bytes {
+        println!("  stream {name:<8} {b:>10} bytes");
+    }
+    println!("  frame chunks    {:>10} bytes (chunk framing, anchors, predictor, scale)", report.side_bytes);
+    if report.source_mesh_bytes > 0 {
+        println!(
+            "  source mesh     {:>10} bytes (the input's faces and vertex places, once; --no-source-mesh leaves it out)",
+            report.source_mesh_bytes
+        );
+    }
 }
 
 /// What `cgv encode` prints of what it made.
@@ -337,7 +303,7 @@ fn print_report(
     src: &dyn cgv::mesh::FrameSource,
     opts: &EncodeOptions,
     report: &cgv::codec::EncodeReport,
-    target: Option<&cgv::eval::target::TargetReport>,
+    target: Option<&cgv::codec::TargetReport>,
 ) -> Result<()> {
     let output = &args.output;
     let seconds = report.frames as f64 / src.fps() as f64;
@@ -371,16 +337,7 @@ fn print_report(
             kbps,
             src.fps()
         );
-        for (name, b) in &report.stream_bytes {
-            println!("  stream {name:<8} {b:>10} bytes");
-        }
-        println!("  frame chunks    {:>10} bytes (chunk framing, anchors, predictor, scale)", report.side_bytes);
-        if report.source_mesh_bytes > 0 {
-            println!(
-                "  source mesh     {:>10} bytes (the input's faces and vertex places, once; --no-source-mesh leaves it out)",
-                report.source_mesh_bytes
-            );
-        }
+        print_sizes(report);
         let p = &report.parameterization;
         super::warn_folds(&p.distortion);
         if let Some(score) = p.score {

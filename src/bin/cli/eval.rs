@@ -185,7 +185,7 @@ pub fn run(args: Args) -> Result<()> {
         outputs.push((frames, eval::plot::render(&report, eval::plot::Chart::PerFrame, png)?));
     }
     for (p, bytes) in &outputs {
-        cgv::fsutil::write_atomic(p, bytes)?;
+        cgv::output::write_atomic(p, bytes)?;
         eprintln!("wrote {}", p.display());
     }
     if args.json.is_none() && args.md.is_none() {

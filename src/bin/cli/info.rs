@@ -19,6 +19,31 @@ pub struct Args {
     quick: bool,
 }
 
+/// Reads every frame after the first (in parallel, with a progress bar
+/// unless `quiet`): the motion's bounds from `first` on, and the first
+/// frame's error, if one cannot be read.
+fn check_frames(src: &dyn cgv::mesh::FrameSource, first: Bounds, quiet: bool) -> (Bounds, Option<String>) {
+    let n = src.frame_count();
+    let pb = super::progress(n.saturating_sub(1), "checking", quiet);
+    let results: Vec<cgv::Result<Bounds>> = (1..n)
+        .into_par_iter()
+        .map(|i| {
+            let f = src.read_frame(i);
+            pb.inc(1);
+            f.map(|f| Bounds::of(&f))
+        })
+        .collect();
+    pb.finish_and_clear();
+    let mut motion = first;
+    for r in results {
+        match r {
+            Ok(b) => motion = motion.union(&b),
+            Err(e) => return (motion, Some(e.to_string())),
+        }
+    }
+    (motion, None)
+}
+
 pub fn run(args: Args) -> Result<()> {
     if args.input.input.ends_with(".cgv") {
         return cgv_info(&args);
@@ -28,29 +53,8 @@ pub fn run(args: Args) -> Result<()> {
     let topo = analyze(src.topology(), &first);
     let bounds = Bounds::of(&first);
     let n = src.frame_count();
-    let mut frame_error = None;
-    let mut motion_bounds = bounds;
-    if !args.quick && n > 1 {
-        let pb = super::progress(n, "checking", args.json);
-        let results: Vec<cgv::Result<Bounds>> = (1..n)
-            .into_par_iter()
-            .map(|i| {
-                let f = src.read_frame(i);
-                pb.inc(1);
-                f.map(|f| Bounds::of(&f))
-            })
-            .collect();
-        pb.finish_and_clear();
-        for r in results {
-            match r {
-                Ok(b) => motion_bounds = motion_bounds.union(&b),
-                Err(e) => {
-                    frame_error = Some(e.to_string());
-                    break;
-                }
-            }
-        }
-    }
+    let (motion_bounds, frame_error) =
+        if args.quick { (bounds, None) } else { check_frames(src.as_ref(), bounds, args.json) };
     let carrier = cgv::mesh::carrier::Carrier::build(src.label(), src.topology(), &first);
     let usable = carrier.is_ok() && frame_error.is_none();
     let closing = carrier.as_ref().ok().map(|c| c.report.clone());

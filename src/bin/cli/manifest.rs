@@ -101,7 +101,7 @@ pub fn run(path: &Path, argv: &[String]) -> Result<()> {
         }
         println!("{tag}: encoding {}", line[1]);
         let result = super::encode::run_job(&line);
-        match result.and_then(|()| cgv::fsutil::write_atomic(&sidecar(&output), command.as_bytes()).map_err(Into::into))
+        match result.and_then(|()| cgv::output::write_atomic(&sidecar(&output), command.as_bytes()).map_err(Into::into))
         {
             Ok(()) => done += 1,
             Err(e) => {

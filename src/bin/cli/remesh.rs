@@ -139,7 +139,7 @@ fn write_output(
     super::write_sequence(out, &grid.topology(), src.frame_count(), src.fps(), &name, None, &mut next)?;
     pb.finish_and_clear();
     if let Some(g) = &first_grid {
-        cgv::fsutil::write_atomic(png, &cgv::image::geometry_image_png(&grid, g)?)?;
+        cgv::output::write_atomic(png, &cgv::geometry_png::geometry_image_png(&grid, g)?)?;
     }
     Ok(resample_s)
 }

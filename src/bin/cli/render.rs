@@ -169,7 +169,7 @@ pub fn run(args: Args) -> Result<()> {
         let mut wr = enc.write_header()?;
         wr.write_image_data(&rgba)?;
     }
-    cgv::fsutil::write_atomic(&args.output, &png_bytes)?;
+    cgv::output::write_atomic(&args.output, &png_bytes)?;
     println!(
         "{} frame {} -> {} ({w}x{h}, the {surface}, {:?}, {})",
         args.input.display(),

@@ -17,9 +17,9 @@
 
 use super::{encode_prepared_into, EncodeOptions, EncodeReport};
 use crate::error::{Error, Result};
-use crate::fsutil::{Count, Sink};
 use crate::geometry_image::GeometryImage;
 use crate::mesh::FrameSource;
+use crate::output::{Count, Sink};
 
 /// How far from the budget a file may be: 5 %, the bound. The
 /// passes aim at the middle.

@@ -59,7 +59,7 @@ impl CodecChoice {
     /// paper's solver: the others' corrections need the predictive one.
     pub fn apply(self, mut opts: EncodeOptions, solver: Option<SolverKind>) -> Result<EncodeOptions> {
         opts.codec = if self == CodecChoice::Gv { CodecKind::Gv } else { CodecKind::Cgv };
-        opts.correction = self != CodecChoice::Conformal;
+        opts.code_corrections = self != CodecChoice::Conformal;
         opts.corrections = auto_corrections(&opts.video, opts.grid, opts.video.fps);
         opts.normal_correction = match self {
             CodecChoice::Auto => auto_normal_correction(&opts.video, opts.grid, opts.video.fps, opts.layers),

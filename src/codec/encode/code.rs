@@ -13,10 +13,10 @@ use crate::codec::reconstruct::{frame_values, Predictive, Values};
 use crate::error::{Error, Result};
 use crate::format::stream::{CORRECTION, POSITION};
 use crate::format::{self, Coverage, FrameInfo, Header, StreamInfo, StreamName};
-use crate::fsutil::Sink;
 use crate::geometry_image::GeometryImage;
 use crate::grid::Stencils;
 use crate::mesh::FrameSource;
+use crate::output::Sink;
 use glam::Vec3;
 
 /// What the coded file is made of (its bytes went to the sink).
@@ -84,6 +84,18 @@ fn open_streams(header: &Header, opts: &EncodeOptions, plan: &Plan) -> Result<Ve
     Ok(streams)
 }
 
+/// A random-access point: every stream restarts with an IDR picture, and
+/// the closed loop and the loose vertices from the seed, as the decoder
+/// will.
+fn restart(streams: &mut [Stream], predictive: &mut Predictive, loose: &mut LooseVertices) -> Result<()> {
+    predictive.reset();
+    loose.reset();
+    for s in streams {
+        s.enc.force_idr()?;
+    }
+    Ok(())
+}
+
 pub(super) fn code(
     src: &dyn FrameSource,
     opts: &EncodeOptions,
@@ -120,14 +132,8 @@ pub(super) fn code(
         let feats = features(plan, st, &g);
         let t = std::time::Instant::now();
         if plan.is_rap(fi) {
-            // A random-access point: every stream restarts with an IDR
-            // picture, and the closed loop from the seed, as the decoder will.
             index.push(out.len as u64);
-            predictive.reset();
-            loose.reset();
-            for s in &mut streams {
-                s.enc.force_idr()?;
-            }
+            restart(&mut streams, &mut predictive, &mut loose)?;
         }
         let mut coder = FrameCoder {
             header,

@@ -8,26 +8,35 @@
 //! 4. [`code`]: every frame quantized and coded; for the predictive decoder
 //!    the decoder's own per-frame step ([`super::reconstruct`]) runs on what
 //!    was coded (closed loop), so what it corrects is what the decoder has;
-//! 5. with a bitrate, [`budget`]: step 4 repeated until the file keeps it.
+//! 5. with a bitrate, [`budget`]: step 4 repeated until the file keeps it;
+//!    with a target error, [`target`]: the QP searched.
+//!
+//! [`request`] is an encode as a user asks for it, which the front ends
+//! fill and call.
 
 mod analyse;
 mod budget;
 mod choice;
 mod code;
+mod header;
 mod plan;
+mod request;
 mod simulate;
+mod target;
 
 pub use budget::{encode_on_budget, encode_on_budget_into, BUDGET_TOLERANCE, MAX_PASSES};
 pub use choice::CodecChoice;
+pub use request::{EncodeRequest, Encoded, GridChoice, Made};
 pub use simulate::MOTION_MARGIN;
+pub use target::{encode_to_error, prepare_for_error, TargetReport};
 
 use super::h264::VideoSettings;
 use crate::error::{Error, Result};
 use crate::format::{self, CodecKind, CorrectionMode};
-use crate::fsutil::Sink;
 use crate::geometry_image::GeometryImage;
 use crate::grid::{Grid, Stencils};
 use crate::mesh::{Bounds, FrameSource};
+use crate::output::Sink;
 use crate::param::{ParamOptions, Parameterization};
 use crate::solve::predictor::{DEFAULT_MAX_LAG, MAX_STEPS};
 use crate::solve::SolverKind;
@@ -64,7 +73,7 @@ pub struct EncodeOptions {
     pub anchors: Option<usize>,
     /// CGV for the `cgv` decoder: code the closed-loop corrections (else the
     /// decoder runs open loop on H and the anchors alone, and drifts).
-    pub correction: bool,
+    pub code_corrections: bool,
     /// CGV for the `cgv` decoder: how the corrections apply (see
     /// [`CorrectionMode`]; motion needs format version 2, and
     /// leaves out H and λ, version 3).
@@ -127,7 +136,7 @@ impl Default for EncodeOptions {
             video: VideoSettings::default(),
             key_interval: 10,
             anchors: None,
-            correction: true,
+            code_corrections: true,
             corrections: CorrectionMode::Scaled,
             max_steps: 1,
             correction_interval: 1,
@@ -183,7 +192,7 @@ impl EncodeOptions {
 
     /// Whether the encoder runs the predictive decoder in its loop.
     pub(crate) fn closed_loop(&self) -> bool {
-        self.codec == CodecKind::Cgv && self.solver == SolverKind::Predictive && self.correction
+        self.codec == CodecKind::Cgv && self.solver == SolverKind::Predictive && self.code_corrections
     }
 
     /// Whether the corrections are coded as their running sum.
@@ -317,7 +326,7 @@ pub fn encode_prepared_into(
     let simulation = simulate::simulate(src, &plan, opts, &image.map, &st)?;
     let diagonal = Bounds::of(&src.read_frame(opts.reference)?).diagonal();
     let (source_chunk, source_info) = source.map_or((None, None), |(chunk, info)| (Some(chunk), Some(info)));
-    let mut header = plan.header(src, opts, &analysis, &simulation, diagonal, source_info);
+    let mut header = header::header(&plan, src, opts, (&analysis, &simulation), diagonal, source_info);
     header.appearance = src.appearance().filter(|_| opts.source_mesh).map(|a| a.look.info());
     let code::Coded { bytes, stream_bytes, side_bytes, source_mesh_bytes, seconds_coding } =
         code::code(src, opts, (&plan, &header), (image, source_chunk.as_deref()), &st, sink, progress)?;

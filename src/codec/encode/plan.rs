@@ -1,19 +1,14 @@
 //! Step 1: what the file will hold, from the options alone: which streams
-//! at which frames, the key frames, the frames with corrections, and (once
-//! the other steps have measured the motion) the header.
+//! at which frames, the key frames, the frames with corrections. (The
+//! header, which needs the other steps' measurements too, is made in
+//! [`super::header`].)
 
-use super::analyse::Analysis;
-use super::simulate::Simulation;
 use super::EncodeOptions;
 use crate::codec::corrections::Layout;
 use crate::error::Result;
-use crate::format::quant::Quantizer;
 use crate::format::stream::{CORRECTION, POSITION, SEED};
-use crate::format::{
-    self, CodecKind, CorrectionMode, Coverage, Header, Settings, SourceInfo, SourceMeshInfo, StreamInfo, StreamName,
-};
+use crate::format::{self, CodecKind, Coverage, StreamName};
 use crate::grid::{coarse, Grid};
-use crate::mesh::FrameSource;
 use crate::solve::predictor::{Extrapolation, ALL_EXTRAPOLATIONS, MOTION_EXTRAPOLATIONS};
 
 /// The layout of one encode.
@@ -134,81 +129,6 @@ impl Plan {
     /// normal correction, also no axis, is made from the prediction).
     pub fn needs_features(&self) -> bool {
         self.names.iter().any(|(n, _)| n.axis().is_none() && !n.is_correction())
-    }
-
-    /// The streams: layer 1 for each name, then the layer-2 refinements.
-    fn streams(&self, opts: &EncodeOptions, analysis: &Analysis, simulation: &Simulation) -> Vec<StreamInfo> {
-        let mut infos: Vec<StreamInfo> = self
-            .names
-            .iter()
-            .zip(&analysis.ranges)
-            .map(|(&(name, coverage), r)| StreamInfo {
-                name,
-                layer: 1,
-                refines: None,
-                quant: match (name.is_correction(), name.axis()) {
-                    (true, c) if self.motion => simulation.motion_quant[c.unwrap_or(3)],
-                    (true, _) => Quantizer::new(-1.0, 1.0),
-                    _ => r.quantizer(),
-                },
-                coverage,
-                scaled: name.is_correction() && !self.motion,
-                shrink: if name.is_correction() && name.axis().is_some() { self.layout.shrink } else { 0 },
-            })
-            .collect();
-        if opts.layers == 2 {
-            for (k, &(name, coverage)) in self.names.iter().enumerate() {
-                if coverage != Coverage::First {
-                    let quant = infos[k].quant.residual(opts.residual_steps);
-                    let refines = Some(k as u16);
-                    infos.push(StreamInfo { name, layer: 2, refines, quant, coverage, scaled: false, shrink: 0 });
-                }
-            }
-        }
-        infos
-    }
-
-    /// The file's header.
-    pub fn header(
-        &self,
-        src: &dyn FrameSource,
-        opts: &EncodeOptions,
-        analysis: &Analysis,
-        simulation: &Simulation,
-        diagonal: f32,
-        source_mesh: Option<SourceMeshInfo>,
-    ) -> Header {
-        let topology = src.topology();
-        Header {
-            grid: self.grid.n as u32,
-            seam: format::SEAM_RULE.into(),
-            frames: self.frames as u32,
-            fps: src.fps(),
-            codec: opts.codec,
-            streams: self.streams(opts, analysis, simulation),
-            key_frames: self.key_frames.clone(),
-            anchors: analysis.anchors.clone(),
-            solver: opts.solver,
-            settings: Settings {
-                qp: opts.video.qp,
-                kbps: opts.video.kbps,
-                gop: opts.video.gop,
-                cabac: opts.video.cabac,
-                layers: opts.layers,
-                residual_steps: if opts.layers == 2 { opts.residual_steps } else { 0.0 },
-            },
-            source: SourceInfo {
-                label: src.label().display().to_string(),
-                vertices: topology.vertex_count as u32,
-                faces: topology.faces.len() as u32,
-                diagonal,
-            },
-            corrections: if self.motion { CorrectionMode::Motion } else { CorrectionMode::Scaled },
-            max_lag: simulation.max_lag,
-            source_mesh,
-            appearance: None,
-            random_access: self.random_access,
-        }
     }
 }
 

@@ -1,0 +1,134 @@
+//! One encode as a user asks for it: the options in a user's terms (a codec
+//! by name, a grid size or `auto`, the corrections or `auto`, a QP, a
+//! bitrate or a target error), turned into the encoder's options and run.
+//! The CLI, the Python package and the Ray tasks fill one of these and call
+//! it, so that a new option, its check and its default are written once;
+//! the front ends only parse and print.
+
+use super::target::{encode_to_error, prepare_for_error, TargetReport};
+use super::{auto_grid, encode_into, CodecChoice, EncodeOptions, EncodeReport};
+use crate::error::{Error, Result};
+use crate::format::CorrectionMode;
+use crate::mesh::FrameSource;
+use crate::output::Sink;
+use crate::solve::SolverKind;
+
+/// `--grid`: a size, or chosen for the rate (or the target error).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum GridChoice {
+    #[default]
+    Auto,
+    Size(usize),
+}
+
+impl GridChoice {
+    /// `auto` or a size N.
+    pub fn parse(s: &str) -> std::result::Result<GridChoice, String> {
+        match s {
+            "auto" => Ok(GridChoice::Auto),
+            n => n.parse().map(GridChoice::Size).map_err(|_| format!("'{n}' is not a grid size (N, or auto)")),
+        }
+    }
+}
+
+/// An encode as asked for. `base` holds every option that is not decided
+/// by the choices beside it (its grid, codec, solver and corrections are
+/// overwritten); its `video.fps` is the motion's, set when the motion is
+/// known.
+#[derive(Debug, Clone, Default)]
+pub struct EncodeRequest {
+    pub base: EncodeOptions,
+    pub codec: CodecChoice,
+    /// The decoder the file names as intended (None: the codec's own).
+    pub solver: Option<SolverKind>,
+    pub grid: GridChoice,
+    /// Scaled or motion corrections (None: by the rate, as `auto`).
+    pub corrections: Option<CorrectionMode>,
+    /// The smallest file whose surface RMS is at most this percentage of
+    /// the diagonal, instead of a QP or a bitrate.
+    pub target_error: Option<f64>,
+}
+
+/// What [`EncodeRequest::encode`] made: the file, the options it was made
+/// with, and the encoder's report.
+pub struct Encoded<S> {
+    pub file: Made<S>,
+    pub options: EncodeOptions,
+    pub report: EncodeReport,
+    /// The target error's search, when one was asked.
+    pub target: Option<TargetReport>,
+}
+
+/// The file of an encode: streamed into the sink as it was coded, or (a
+/// target error's search decodes each file it makes) in memory.
+pub enum Made<S> {
+    Streamed(S),
+    Bytes(Vec<u8>),
+}
+
+impl EncodeRequest {
+    /// The encoder's options for a motion at `fps` frames/s, on `grid` when
+    /// given (else the request's, `auto` by the bitrate, or N = 128 first
+    /// for a target error), checked.
+    pub fn options_on(&self, fps: f32, grid: Option<usize>) -> Result<EncodeOptions> {
+        let mut base = self.base.clone();
+        base.video.fps = fps;
+        base.grid = match (grid, self.grid) {
+            (Some(n), _) | (None, GridChoice::Size(n)) => n,
+            (None, GridChoice::Auto) if self.target_error.is_some() => 128,
+            (None, GridChoice::Auto) => auto_grid(&base.video, fps),
+        };
+        let mut opts = self.codec.apply(base, self.solver)?;
+        if let Some(c) = self.corrections {
+            opts.corrections = c;
+        }
+        self.check(&opts)?;
+        Ok(opts)
+    }
+
+    /// [`options_on`](Self::options_on) the request's own grid.
+    pub fn options(&self, fps: f32) -> Result<EncodeOptions> {
+        self.options_on(fps, None)
+    }
+
+    /// The checks that need the request as well as the options.
+    fn check(&self, opts: &EncodeOptions) -> Result<()> {
+        opts.validate()?;
+        if self.target_error.is_some() && opts.video.kbps.is_some() {
+            return Err(Error::Argument("a bitrate and a target error ask for the size two ways: give one".into()));
+        }
+        if let Some(t) = self.target_error.filter(|t| !(t.is_finite() && *t > 0.0)) {
+            return Err(Error::Argument(format!("the target error must be above 0 %, not {t} %")));
+        }
+        if opts.correction_interval > 1 && opts.corrections != CorrectionMode::Motion {
+            return Err(Error::Argument(
+                "a correction interval applies to motion corrections, and these are scaled \
+                 (ask for motion corrections)"
+                    .into(),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Encodes `src`: into sinks that `open` makes, one per coding pass (the
+    /// last is kept), or, for a target error, into memory.
+    pub fn encode<S: Sink>(
+        &self,
+        src: &dyn FrameSource,
+        open: &mut dyn FnMut() -> Result<S>,
+        progress: &mut dyn FnMut(&str, usize, usize),
+    ) -> Result<Encoded<S>> {
+        let opts = self.options(src.fps())?;
+        let Some(percent) = self.target_error else {
+            let (sink, report) = encode_into(src, &opts, open, progress)?;
+            return Ok(Encoded { file: Made::Streamed(sink), options: opts, report, target: None });
+        };
+        // With a grid chosen for it, N = 128's resampling floor decides.
+        let fps = src.fps();
+        let regrid = |n| self.options_on(fps, Some(n));
+        let auto = (self.grid == GridChoice::Auto).then_some(&regrid as &dyn Fn(usize) -> Result<EncodeOptions>);
+        let (opts, image) = prepare_for_error(src, opts, percent / 100.0, auto)?;
+        let (bytes, report, target) = encode_to_error(src, &opts, self.codec, &image, percent / 100.0, progress)?;
+        Ok(Encoded { file: Made::Bytes(bytes), options: opts, report, target: Some(target) })
+    }
+}
