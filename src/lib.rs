@@ -30,6 +30,7 @@ pub mod place_fit;
 #[cfg(feature = "render")]
 pub mod render;
 pub mod resample;
+pub mod skin;
 pub mod solve;
 pub mod sparse;
 #[cfg(target_arch = "wasm32")]

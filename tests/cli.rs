@@ -778,3 +778,25 @@ fn a_mesh_info_calls_usable_encodes() {
     assert!(dec.status.success(), "{}", String::from_utf8_lossy(&dec.stderr));
 }
 
+/// `cgv skin`: a skinning decomposition of the default motion, written as a
+/// skinned glTF that passes the Khronos validator, with its error reported
+/// and within reach of the motion (a walking figure is articulated).
+#[test]
+fn skin_writes_a_valid_skinned_gltf_and_reports_its_error() {
+    let dir = common::temp_dir("cli-skin");
+    let glb = dir.join("walk-skin.glb");
+    let out =
+        cgv(&["skin", "builtin:walk", "--frames", "0..24", "--bones", "12", "-o", glb.to_str().unwrap(), "--json"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rms = v["vertex_rms"].as_f64().unwrap();
+    eprintln!("walk, 24 frames, 12 bones: {v}");
+    assert!(rms > 0.0 && rms < 0.01, "vertex RMS {rms} of the diagonal");
+    assert!(v["compact_bits_per_vertex_frame"].as_f64().unwrap() > 0.0);
+    let r = &validate_gltf(&[glb.as_path()])[0];
+    assert_eq!(r["errors"], 0, "{r}");
+    // Too few bones for four joints a vertex: refused by name, nothing written.
+    let bad = dir.join("bad.glb");
+    let out = cgv(&["skin", "builtin:walk", "--bones", "2", "-o", bad.to_str().unwrap()]);
+    assert!(!out.status.success() && stderr(&out).contains("--bones") && !bad.exists());
+}

@@ -11,6 +11,7 @@ mod remesh;
 #[cfg(feature = "render")]
 mod render;
 mod serve;
+mod skin;
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -54,6 +55,9 @@ enum Command {
     Render(render::Args),
     /// Serve a folder (the web viewer in www/) on 127.0.0.1.
     Serve(serve::Args),
+    /// Fit a few bones and four weights per vertex to a motion (a skinning decomposition) and write
+    /// a skinned glTF that three.js and game engines play natively, with its error and size.
+    Skin(skin::Args),
 }
 
 /// Options shared by the commands that read a mesh sequence.
@@ -165,6 +169,7 @@ pub fn main() -> ExitCode {
         #[cfg(feature = "render")]
         Command::Render(a) => render::run(a),
         Command::Serve(a) => serve::run(a),
+        Command::Skin(a) => skin::run(a),
     };
     report(result)
 }

@@ -1,0 +1,144 @@
+//! `cgv skin`: a skinning decomposition of a motion (a few bones and four
+//! weights per vertex, `cgv::skin::ssdr`), written as a standard skinned
+//! glTF that three.js and every engine play natively, with its error and
+//! its size.
+
+use super::InputArgs;
+use anyhow::{bail, Context, Result};
+use cgv::mesh::Bounds;
+use cgv::skin::SkinOptions;
+use std::path::PathBuf;
+
+#[derive(clap::Args)]
+pub struct Args {
+    #[command(flatten)]
+    input: InputArgs,
+    /// Output skinned glTF (.glb): the first frame as the rest mesh, one
+    /// joint per bone animated by translation and rotation tracks.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Bones (4 to 255). More bones, less error, more bits: 16 to 32 suit
+    /// a body, a few more a body with a face or hands.
+    #[arg(long, default_value_t = SkinOptions::default().bones)]
+    bones: usize,
+    /// Alternations of the weights' and the transforms' fits after the
+    /// clustering (each lowers the error less than the one before).
+    #[arg(long, default_value_t = SkinOptions::default().iterations)]
+    iterations: usize,
+    /// Measure the surface distance on every K-th frame too (0: not at all;
+    /// it is the slow part of the report).
+    #[arg(long, value_name = "K", default_value_t = 10)]
+    surface_every: usize,
+    /// Print the report as JSON.
+    #[arg(long)]
+    json: bool,
+}
+
+/// What `cgv skin` reports.
+#[derive(serde::Serialize)]
+struct Report {
+    frames: usize,
+    vertices: usize,
+    bones: usize,
+    /// Vertex RMS and max over frames, relative to each frame's diagonal.
+    vertex_rms: f64,
+    vertex_max: f64,
+    /// Surface RMS on the measured frames, relative to each frame's diagonal.
+    surface_rms: Option<f64>,
+    /// KG error (%, each frame's centroid).
+    kg: f64,
+    /// Bits per vertex per frame: the compact form (16-bit 3 x 4 matrices,
+    /// 8-bit bone and weight pairs; rest mesh not counted), and the GLB.
+    compact_bits_per_vertex_frame: f64,
+    glb_bytes: u64,
+    glb_bits_per_vertex_frame: f64,
+    seconds_decompose: f64,
+}
+
+pub fn run(args: Args) -> Result<()> {
+    if !super::is_glb(&args.output) {
+        bail!("{}: the output should end in .glb", args.output.display());
+    }
+    cgv::output::check_output_folder(&args.output)?;
+    if !(4..=255).contains(&args.bones) {
+        bail!("--bones {}: a skinned glTF needs 4 to 255 bones", args.bones);
+    }
+    let src = args.input.open()?;
+    let frames = (0..src.frame_count()).map(|i| src.read_frame(i)).collect::<cgv::Result<Vec<_>>>()?;
+    let faces = &src.topology().faces;
+    let opts = SkinOptions { bones: args.bones, iterations: args.iterations, rest: 0 };
+    let pb = super::progress(opts.iterations, "fitting bones", args.json);
+    let t = std::time::Instant::now();
+    let skin = cgv::skin::decompose(&frames, faces, &opts, &mut |it, _| pb.set_position(it as u64))
+        .with_context(|| format!("decomposing {}", src.label().display()))?;
+    let seconds_decompose = t.elapsed().as_secs_f64();
+    pb.finish_and_clear();
+    let name = src.label().file_stem().and_then(|s| s.to_str()).unwrap_or("motion").to_string();
+    cgv::skin::gltf::write_skinned_glb(&args.output, &skin, faces, src.fps(), &name)?;
+    let glb_bytes = std::fs::metadata(&args.output)?.len();
+    let report = measure(&frames, faces, &skin, args.surface_every, (glb_bytes, seconds_decompose))?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+        return Ok(());
+    }
+    println!(
+        "{} -> {} ({} frames, {} vertices, {} bones)",
+        src.label().display(),
+        args.output.display(),
+        report.frames,
+        report.vertices,
+        report.bones
+    );
+    println!(
+        "  vertex error   RMS {:.4} %, max {:.4} % of the diagonal (mean over frames); KG {:.3}",
+        100.0 * report.vertex_rms,
+        100.0 * report.vertex_max,
+        report.kg
+    );
+    if let Some(s) = report.surface_rms {
+        println!("  surface RMS    {:.4} % of the diagonal (every {} frames)", 100.0 * s, args.surface_every);
+    }
+    println!(
+        "  size           {:.3} bits/vertex/frame compact (16-bit matrices, 8-bit weights; rest mesh not counted), GLB {} bytes ({:.3} bits/vertex/frame)",
+        report.compact_bits_per_vertex_frame, report.glb_bytes, report.glb_bits_per_vertex_frame
+    );
+    println!("  time           {:.2} s to fit", report.seconds_decompose);
+    Ok(())
+}
+
+/// The skinning's errors against the frames, and its sizes.
+fn measure(
+    frames: &[Vec<glam::Vec3>],
+    faces: &[[u32; 3]],
+    skin: &cgv::skin::Skinning,
+    surface_every: usize,
+    (glb_bytes, seconds_decompose): (u64, f64),
+) -> Result<Report> {
+    let (n, nv) = (frames.len(), skin.rest.len());
+    let (mut rms, mut max, mut kg) = (0.0, 0.0f64, cgv::metrics::KgError::default());
+    let mut surface = Vec::new();
+    for (t, f) in frames.iter().enumerate() {
+        let x = skin.frame(t);
+        let diag = Bounds::of(f).diagonal() as f64;
+        let (r, m) = cgv::metrics::vertex_error(&x, f);
+        (rms, max) = (rms + r / diag / n as f64, max.max(m / diag));
+        kg.add_frame(f, &x);
+        if surface_every > 0 && t % surface_every == 0 {
+            surface.push(cgv::metrics::surface::symmetric(&x, faces, f, faces)?.rms / diag);
+        }
+    }
+    let per = |bits: f64| bits / (n * nv) as f64;
+    Ok(Report {
+        frames: n,
+        vertices: nv,
+        bones: skin.bones,
+        vertex_rms: rms,
+        vertex_max: max,
+        surface_rms: (!surface.is_empty()).then(|| surface.iter().sum::<f64>() / surface.len() as f64),
+        kg: kg.value(),
+        compact_bits_per_vertex_frame: per(skin.compact_bits() as f64),
+        glb_bytes,
+        glb_bits_per_vertex_frame: per(glb_bytes as f64 * 8.0),
+        seconds_decompose,
+    })
+}

@@ -1,0 +1,91 @@
+//! The weighted rigid fit of SSDR's transform update (Le and Deng 2012,
+//! section 4.2): the rotation R and translation T minimizing
+//! `Σ_v ‖q_v − w_v (R r_v + T)‖²`. T is eliminated in closed form
+//! (T = q̄ − R p̄ with p̄ = Σ w² r / Σ w², q̄ = Σ w q / Σ w²), which leaves the
+//! orthogonal Procrustes problem between w_v (r_v − p̄) and q_v − w_v q̄,
+//! solved by a 3 x 3 SVD (Kabsch 1976), reflections excluded.
+
+use glam::{DMat3, DVec3, Mat3, Vec3};
+
+/// A rigid transform: x ↦ R x + T.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Rigid {
+    pub rotation: Mat3,
+    pub translation: Vec3,
+}
+
+impl Default for Rigid {
+    fn default() -> Self {
+        Rigid { rotation: Mat3::IDENTITY, translation: Vec3::ZERO }
+    }
+}
+
+impl Rigid {
+    pub fn apply(&self, x: Vec3) -> Vec3 {
+        self.rotation * x + self.translation
+    }
+}
+
+/// The rigid transform minimizing `Σ ‖q − w (R r + T)‖²` over the triples
+/// `(r, q, w)`; the identity where the weights are all zero.
+pub fn fit(points: impl Iterator<Item = (Vec3, Vec3, f32)> + Clone) -> Rigid {
+    let (mut w2, mut wr, mut wq) = (0.0, DVec3::ZERO, DVec3::ZERO);
+    for (r, q, w) in points.clone() {
+        let w = w as f64;
+        w2 += w * w;
+        wr += w * w * r.as_dvec3();
+        wq += w * q.as_dvec3();
+    }
+    if w2 <= 1e-300 {
+        return Rigid::default();
+    }
+    let (p_bar, q_bar) = (wr / w2, wq / w2);
+    // H = Σ (q − w q̄)(w (r − p̄))ᵀ: R maximizes tr(Rᵀ H).
+    let mut h = DMat3::ZERO;
+    for (r, q, w) in points {
+        let w = w as f64;
+        let x = w * (r.as_dvec3() - p_bar);
+        let y = q.as_dvec3() - w * q_bar;
+        h += DMat3::from_cols(y * x.x, y * x.y, y * x.z);
+    }
+    let rotation = nearest_rotation(h);
+    let translation = q_bar - rotation * p_bar;
+    Rigid { rotation: rotation.as_mat3(), translation: translation.as_vec3() }
+}
+
+/// The rotation R maximizing tr(Rᵀ H): U diag(1, 1, det(U Vᵀ)) Vᵀ of H's SVD.
+fn nearest_rotation(h: DMat3) -> DMat3 {
+    let m = faer::Mat::<f64>::from_fn(3, 3, |i, j| h.col(j)[i]);
+    let Ok(svd) = m.svd() else { return DMat3::IDENTITY };
+    let (u, v) = (svd.U(), svd.V());
+    let to = |a: faer::MatRef<'_, f64>| DMat3::from_cols_array(&std::array::from_fn(|k| a[(k % 3, k / 3)]));
+    let (u, v) = (to(u), to(v));
+    let d = (u * v.transpose()).determinant().signum();
+    u * DMat3::from_diagonal(DVec3::new(1.0, 1.0, d)) * v.transpose()
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+
+    #[test]
+    fn a_weighted_rigid_motion_is_recovered() {
+        let rot = Mat3::from_axis_angle(Vec3::new(1.0, 2.0, 0.5).normalize(), 0.9);
+        let t = Vec3::new(0.3, -1.0, 2.0);
+        let pts: Vec<(Vec3, Vec3, f32)> = (0..20)
+            .map(|i| {
+                let r = Vec3::new((i as f32 * 0.7).sin(), (i as f32 * 1.3).cos(), i as f32 * 0.1);
+                let w = 0.2 + 0.04 * i as f32;
+                (r, w * (rot * r + t), w)
+            })
+            .collect();
+        let m = fit(pts.iter().copied());
+        assert!((m.rotation - rot).abs_diff_eq(Mat3::ZERO, 1e-4), "{:?}", m.rotation);
+        assert!(m.translation.abs_diff_eq(t, 1e-4), "{:?}", m.translation);
+        // A mirror image is not a rotation: the fit stays proper.
+        let mirrored: Vec<(Vec3, Vec3, f32)> =
+            pts.iter().map(|&(r, q, w)| (r, q * Vec3::new(-1.0, 1.0, 1.0), w)).collect();
+        assert!(fit(mirrored.into_iter()).rotation.determinant() > 0.99);
+    }
+}
