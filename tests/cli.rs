@@ -800,3 +800,49 @@ fn skin_writes_a_valid_skinned_gltf_and_reports_its_error() {
     let out = cgv(&["skin", "builtin:walk", "--bones", "2", "-o", bad.to_str().unwrap()]);
     assert!(!out.status.success() && stderr(&out).contains("--bones") && !bad.exists());
 }
+
+/// Behaviour kept through refactoring: these encodes give the bytes the
+/// encoder gave before the front ends shared one `EncodeRequest` and the
+/// format was split (commit 3d0243d's `cgv`, measured 2026-12-04: length
+/// and CRC-32 of each file; the real sequences named relative to their
+/// folder, since the file records the input's name). A change that means
+/// to change the bytes updates the figures here and says so.
+#[test]
+fn the_same_options_give_the_same_bytes() {
+    let dir = common::temp_dir("cli-same-bytes");
+    let data = common::real_sequence("pcow").parent().unwrap().to_path_buf();
+    common::real_sequence("samba");
+    let jobs: [(&str, Vec<&str>, usize, u32); 5] = [
+        ("walk", vec!["builtin:walk", "--frames", "0..12", "--grid", "32", "--qp", "24"], 66980, 0x116a_e0e6),
+        (
+            "walk-kbps",
+            vec!["builtin:walk", "--frames", "0..12", "--grid", "32", "--kbps", "300", "--no-source-mesh"],
+            14920,
+            0x795a_45d6,
+        ),
+        (
+            "walk-target",
+            vec!["builtin:walk", "--frames", "0..12", "--grid", "32", "--target-error", "0.5"],
+            61865,
+            0xbcb8_3a43,
+        ),
+        ("pcow", vec!["pcow", "--frames", "0..4", "--grid", "64", "--qp", "20"], 41123, 0x0f2e_c94f),
+        (
+            "samba",
+            vec!["samba", "--frames", "0..3", "--grid", "64", "--qp", "26", "--codec", "predictive"],
+            112928,
+            0xe4ae_12f6,
+        ),
+    ];
+    for (name, args, len, crc) in jobs {
+        let out = dir.join(format!("{name}.cgv"));
+        let run = Command::new(env!("CARGO_BIN_EXE_cgv"))
+            .current_dir(&data)
+            .args([&["encode"][..], &args, &["-o", out.to_str().unwrap()]].concat())
+            .output()
+            .unwrap();
+        assert!(run.status.success(), "{name}: {}", stderr(&run));
+        let bytes = std::fs::read(&out).unwrap();
+        assert_eq!((bytes.len(), crc32fast::hash(&bytes)), (len, crc), "{name}: the bytes changed");
+    }
+}
