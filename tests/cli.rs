@@ -846,3 +846,49 @@ fn the_same_options_give_the_same_bytes() {
         assert_eq!((bytes.len(), crc32fast::hash(&bytes)), (len, crc), "{name}: the bytes changed");
     }
 }
+
+/// A skinning beside the peers (`cgv eval --skin-bones`), and bones for a
+/// .cgv file's decoded motion (`cgv decode --skinned`): a skinned glTF that
+/// passes the validator.
+#[test]
+fn skinning_joins_eval_as_a_peer_and_decode_writes_bones() {
+    let dir = common::temp_dir("cli-skin-eval");
+    let p = |n: &str| dir.join(n).to_str().unwrap().to_string();
+    let out = cgv(&[
+        "eval",
+        "builtin:walk",
+        "--frames",
+        "0..8",
+        "--grid",
+        "16",
+        "--codecs",
+        "predictive",
+        "--rates",
+        "low",
+        "--surface-every",
+        "4",
+        "--skin-bones",
+        "4,8",
+        "--json",
+        &p("eval.json"),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let report: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(p("eval.json")).unwrap()).unwrap();
+    let curves = report["peers"]["report"]["curves"].as_array().or_else(|| report["peers"]["curves"].as_array());
+    let text = report["peers"].to_string();
+    assert!(text.contains("skinned glTF") && text.contains("skinning, compact"), "{}", report["peers"]);
+    if let Some(c) = curves {
+        let rms: Vec<f64> =
+            c[0]["points"].as_array().unwrap().iter().map(|x| x["vertex_rms"].as_f64().unwrap()).collect();
+        // More bones, less error.
+        assert!(rms.len() == 2 && rms[1] < rms[0] && rms[0] > 0.0, "{rms:?}");
+    }
+    let bad = cgv(&["eval", "builtin:walk", "--skin-bones", "2", "--md", &p("x.md")]);
+    assert!(!bad.status.success() && stderr(&bad).contains("--skin-bones"));
+    assert!(cgv(&["encode", "builtin:walk", "--frames", "0..12", "--grid", "32", "-o", &p("w.cgv")]).status.success());
+    let out = cgv(&["decode", &p("w.cgv"), "--skinned", "--bones", "8", "-o", &p("w-skin.glb"), "--json"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(v["skin_vertex_rms_of_decoded"].as_f64().unwrap() < 0.02, "{v}");
+    assert_eq!(validate_gltf(&[std::path::Path::new(&p("w-skin.glb"))])[0]["errors"], 0);
+}

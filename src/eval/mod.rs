@@ -24,6 +24,7 @@ mod codecs;
 pub mod peers;
 pub mod plot;
 pub mod report;
+pub mod skinning;
 pub mod source;
 
 use crate::codec::{encode_prepared, EncodeOptions, FileDecoder};

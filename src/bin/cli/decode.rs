@@ -34,6 +34,15 @@ pub struct Args {
     frames: Option<cgv::mesh::FrameSelection>,
     #[command(flatten)]
     memory: MemoryArgs,
+    /// Write a skinned glTF instead of one morph target a frame: bones and
+    /// four weights per vertex fitted to the decoded motion (`cgv skin`'s
+    /// decomposition), which three.js and game engines play natively. The
+    /// decoded frames are held in memory while the bones are fitted.
+    #[arg(long)]
+    skinned: bool,
+    /// With --skinned: the number of bones (4 to 255).
+    #[arg(long, default_value_t = cgv::skin::SkinOptions::default().bones, requires = "skinned")]
+    bones: usize,
     /// Print statistics as JSON.
     #[arg(long)]
     json: bool,
@@ -93,6 +102,13 @@ pub fn source_mesh(
 }
 
 pub fn run(args: Args) -> Result<()> {
+    if args.skinned && !(super::is_glb(&args.output) && (4..=255).contains(&args.bones)) {
+        anyhow::bail!(
+            "--skinned writes a .glb with 4 to 255 --bones ({}, {} bones)",
+            args.output.display(),
+            args.bones
+        );
+    }
     let (mut dec, solver) = open_decoder(&args.input, args.solver, args.memory)?;
     let source = source_mesh(&args.input, &dec, args.mesh)?;
     // The input's texture coordinates and material go with its own mesh.
@@ -116,6 +132,11 @@ pub fn run(args: Args) -> Result<()> {
         })
     };
     let out = &args.output;
+    if args.skinned {
+        let decoded = (0..frames).map(&mut next).collect::<cgv::Result<Vec<_>>>()?;
+        pb.finish_and_clear();
+        return write_skinned(&args, &decoded, &topo.faces, fps);
+    }
     super::write_sequence(out, &topo, frames, fps, "cgv", look.as_ref(), &mut next)?;
     pb.finish_and_clear();
     let video: f64 = stats.iter().map(|s| s.video_seconds).sum();
@@ -166,4 +187,37 @@ pub fn run(args: Args) -> Result<()> {
 fn selected(args: &Args, total: usize) -> Result<(usize, usize)> {
     let Some(sel) = args.frames else { return Ok((0, total)) };
     sel.resolve(total).map_err(|m| anyhow::anyhow!("{}: --{m}", args.input.display()))
+}
+
+/// `--skinned`: bones fitted to the decoded frames, written as a skinned
+/// glTF, with how far the skinning is from what the file decodes to.
+fn write_skinned(args: &Args, decoded: &[Vec<glam::Vec3>], faces: &[[u32; 3]], fps: f32) -> Result<()> {
+    let opts = cgv::skin::SkinOptions { bones: args.bones, ..Default::default() };
+    let pb = super::progress(opts.iterations, "fitting bones", args.json);
+    let skin = cgv::skin::decompose(decoded, faces, &opts, &mut |it, _| pb.set_position(it as u64))?;
+    pb.finish_and_clear();
+    cgv::skin::gltf::write_skinned_glb(&args.output, &skin, faces, fps, "cgv")?;
+    let rms = (0..decoded.len())
+        .map(|t| {
+            let diag = cgv::mesh::Bounds::of(&decoded[t]).diagonal() as f64;
+            cgv::metrics::vertex_error(&skin.frame(t), &decoded[t]).0 / diag
+        })
+        .sum::<f64>()
+        / decoded.len().max(1) as f64;
+    let bytes = std::fs::metadata(&args.output)?.len();
+    if args.json {
+        let report = serde_json::json!({"output": &args.output, "frames": decoded.len(), "bones": args.bones,
+            "skin_vertex_rms_of_decoded": rms, "bytes": bytes});
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        println!(
+            "{} -> {} ({} frames as {} bones: {bytes} bytes; the skinning is {:.4} % of the diagonal from the decoded frames, RMS)",
+            args.input.display(),
+            args.output.display(),
+            decoded.len(),
+            args.bones,
+            100.0 * rms
+        );
+    }
+    Ok(())
 }

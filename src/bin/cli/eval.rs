@@ -96,6 +96,12 @@ pub struct Args {
     /// `python -m cgv.peers` wrote for the same input and frames.
     #[arg(long, value_name = "PEERS.json")]
     peers: Option<PathBuf>,
+    /// Put a skinning decomposition beside the peers: bones and four weights
+    /// per vertex fitted to the motion (`cgv skin`), at each of these bone
+    /// counts, as the skinned glTF's bytes and in the compact form the
+    /// skinning literature counts (e.g. 8,16,32).
+    #[arg(long, value_name = "B,B,...", value_delimiter = ',')]
+    skin_bones: Vec<usize>,
     /// Write the rate-distortion chart (.svg or .png) and, beside it, the per-frame chart (NAME-frames.EXT).
     #[arg(long, value_name = "OUT.svg|png")]
     plot: Option<PathBuf>,
@@ -134,7 +140,13 @@ pub fn run(args: Args) -> Result<()> {
     }
     let plots = args.plot.as_deref().map(plot_paths).transpose()?;
     let src = args.input.open()?;
-    let peers = args.peers.as_deref().map(|p| read_peers(p, src.as_ref(), args.surface_every)).transpose()?;
+    let mut peers = args.peers.as_deref().map(|p| read_peers(p, src.as_ref(), args.surface_every)).transpose()?;
+    if let Some(b) = args.skin_bones.iter().find(|b| !(4..=255).contains(*b)) {
+        bail!("--skin-bones {b}: a skinned glTF has 4 to 255 bones");
+    }
+    if !args.skin_bones.is_empty() {
+        peers = Some(eval::skinning::add_skinning(src.as_ref(), &args.skin_bones, args.surface_every, peers)?);
+    }
     let mut base = EncodeOptions {
         grid: args.grid,
         key_interval: args.keyframes,
