@@ -206,12 +206,19 @@ fn site(name: &str) -> (PathBuf, Guard, u16) {
     }
     // The three.js module, its demo page, and the parts of three.js it loads.
     std::fs::create_dir_all(dir.join("three")).unwrap();
-    for f in ["three/cgv-three.js", "three/index.html"] {
+    for f in ["three/cgv-three.js", "three/index.html", "three/skinned.html"] {
         std::fs::copy(root.join("www").join(f), dir.join(f)).unwrap();
     }
     let three = root.join("www/node_modules/three");
     assert!(three.exists(), "{} is missing: run pkg-scripts/setup.sh (npm ci in www)", three.display());
-    for f in ["build/three.module.js", "build/three.core.js", "examples/jsm/controls/OrbitControls.js"] {
+    for f in [
+        "build/three.module.js",
+        "build/three.core.js",
+        "examples/jsm/controls/OrbitControls.js",
+        "examples/jsm/loaders/GLTFLoader.js",
+        "examples/jsm/utils/BufferGeometryUtils.js",
+        "examples/jsm/utils/SkeletonUtils.js",
+    ] {
         let to = dir.join("node_modules/three").join(f);
         std::fs::create_dir_all(to.parent().unwrap()).unwrap();
         std::fs::copy(three.join(f), to).unwrap();
@@ -884,4 +891,44 @@ fn textured_colours(browser: &Browser, file: &str, shot: &Path) -> (usize, usize
         .filter(|p| p[0] > 180 && p[1] > 170 && p[2] > 140 && p[0] as i32 - (p[2] as i32) < 60)
         .count();
     (orange, cream)
+}
+
+/// A skinned glTF from `cgv skin` plays in three.js as three.js plays any
+/// skin: its own GLTFLoader finds a SkinnedMesh with every bone, the
+/// AnimationMixer moves it, and two times give two pictures of a lit figure.
+#[test]
+fn a_skinned_gltf_from_cgv_skin_plays_in_three_js() {
+    let (dir, _server, port) = site("skinned");
+    let art = common::temp_dir("browser-skinned");
+    let out = Command::new(env!("CARGO_BIN_EXE_cgv"))
+        .args(["skin", "builtin:walk", "--frames", "0..24", "--bones", "12", "-o"])
+        .arg(dir.join("walk-skin.glb"))
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let browser = Browser::start(&dir.join("profile"));
+    browser.go(&format!("http://127.0.0.1:{port}/three/skinned.html?src=../walk-skin.glb"));
+    browser.wait("the skinned glTF in three.js", "return !!window.skinReady || !!window.skinError;", 60);
+    let state = browser.js("return window.skinError ? { error: window.skinError } : window.skinState();", json!([]));
+    assert!(state["error"].is_null(), "{state}");
+    assert_eq!(
+        (state["skinned"].clone(), state["bones"].clone(), state["vertices"].clone()),
+        (json!(true), json!(12), json!(6274)),
+        "{state}"
+    );
+    let bright = |png: &[u8]| {
+        let (px, ch) = common::decode_png(png);
+        px.chunks_exact(ch).filter(|p| p[..3].iter().map(|&c| c as u32).sum::<u32>() > 3 * 120).count()
+    };
+    let mut shots = Vec::new();
+    for t in [0.0, 0.4] {
+        browser.js(&format!("window.skinTime = {t}; return true;"), json!([]));
+        std::thread::sleep(Duration::from_millis(300));
+        shots.push(browser.screenshot(&art.join(format!("walk-skin-{t}.png"))));
+    }
+    for png in &shots {
+        let lit = bright(png);
+        assert!(lit > 1500, "{lit} lit pixels (see {})", art.display());
+    }
+    assert!(shots[0] != shots[1], "the bones did not move the figure (see {})", art.display());
 }
