@@ -35,7 +35,7 @@ pub struct SkinOptions {
 
 impl Default for SkinOptions {
     fn default() -> Self {
-        SkinOptions { bones: 32, iterations: 8, rest: 0 }
+        SkinOptions { bones: 32, iterations: 20, rest: 0 }
     }
 }
 
