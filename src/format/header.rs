@@ -3,7 +3,7 @@
 //! chunk's side data ([`FrameInfo`]), and which format version each
 //! feature needs ([`Header::min_version`]). Checked by [`super::validate`].
 
-use super::{stream, AppearanceInfo, ContainerError, PredictorCode, Quantizer, SolverKind, SourceMeshInfo, StreamName};
+use super::{stream, AppearanceInfo, ContainerError, PredictorCode, Quantizer, SourceMeshInfo, StreamName};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
@@ -447,4 +447,44 @@ impl Header {
 /// encoder's plan and [`Header::random_access_point`] share.
 pub fn random_access_point(interval: Option<u32>, f: u32) -> u32 {
     interval.map_or(0, |k| f - f % k)
+}
+
+/// The decoder a file was made for (the header's `solver`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+pub enum SolverKind {
+    /// The project's predictive decoder: each frame predicted from the
+    /// decoded past, then corrected (`crate::solve::predictor`). Written
+    /// `cgv`, as it always has been.
+    #[default]
+    #[serde(rename = "cgv")]
+    Predictive,
+    /// The paper's Eq. 1 as written (`crate::solve::paper`).
+    #[serde(rename = "paper")]
+    Paper,
+}
+
+impl SolverKind {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            SolverKind::Predictive => "cgv",
+            SolverKind::Paper => "paper",
+        }
+    }
+}
+
+impl std::str::FromStr for SolverKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "cgv" | "predictive" => Ok(SolverKind::Predictive),
+            "paper" => Ok(SolverKind::Paper),
+            _ => Err(format!("unknown solver '{s}' (expected cgv or paper)")),
+        }
+    }
+}
+
+impl std::fmt::Display for SolverKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.pad(self.as_str())
+    }
 }

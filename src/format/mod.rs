@@ -53,11 +53,11 @@ pub mod writer;
 
 pub use appearance::{Appearance, AppearanceInfo, TextureInfo};
 pub use header::{
-    random_access_point, CodecKind, CorrectionMode, Coverage, FrameInfo, Header, Representation, Settings, SourceInfo,
-    StreamInfo, MAX_FILTER, MAX_RELAX, MAX_SHRINK, SEAM_RULE,
+    random_access_point, CodecKind, CorrectionMode, Coverage, FrameInfo, Header, Representation, Settings, SolverKind,
+    SourceInfo, StreamInfo, MAX_FILTER, MAX_RELAX, MAX_SHRINK, SEAM_RULE,
 };
 pub use loose::LooseFrame;
-pub use predictor::{Extrapolation, PredictorCode, SolverKind, MAX_PREDICTOR, MAX_STEPS};
+pub use predictor::{Extrapolation, PredictorCode, MAX_PREDICTOR, MAX_STEPS};
 pub use quant::Quantizer;
 pub use reader::{index_tail_bytes, parse_chunk, parse_header, parse_index_tail, read, CgvFile, Chunk};
 

@@ -1,8 +1,6 @@
 //! What a frame chunk says about how the predictive decoder predicts the
-//! frame (its predictor and lag bytes), and which decoder a file was made
-//! for. The bytes are decoded here once; the predictor reads the result.
-
-use serde::{Deserialize, Serialize};
+//! frame (its predictor and lag bytes). The bytes are decoded here once;
+//! the predictor reads the result.
 
 /// Largest predictor byte (bits 0..=1: extrapolation 0..=3, bits 2..=3: steps 0..=3).
 pub const MAX_PREDICTOR: u8 = 0b1111;
@@ -77,45 +75,5 @@ impl PredictorCode {
             Extrapolation::Cycle => 3,
         };
         e | (self.steps.min(MAX_STEPS) << 2)
-    }
-}
-
-/// The decoder a file was made for (the header's `solver`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
-pub enum SolverKind {
-    /// The project's predictive decoder: each frame predicted from the
-    /// decoded past, then corrected (`crate::solve::predictor`). Written
-    /// `cgv`, as it always has been.
-    #[default]
-    #[serde(rename = "cgv")]
-    Predictive,
-    /// The paper's Eq. 1 as written (`crate::solve::paper`).
-    #[serde(rename = "paper")]
-    Paper,
-}
-
-impl SolverKind {
-    pub fn as_str(self) -> &'static str {
-        match self {
-            SolverKind::Predictive => "cgv",
-            SolverKind::Paper => "paper",
-        }
-    }
-}
-
-impl std::str::FromStr for SolverKind {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "cgv" | "predictive" => Ok(SolverKind::Predictive),
-            "paper" => Ok(SolverKind::Paper),
-            _ => Err(format!("unknown solver '{s}' (expected cgv or paper)")),
-        }
-    }
-}
-
-impl std::fmt::Display for SolverKind {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.pad(self.as_str())
     }
 }
