@@ -102,13 +102,7 @@ pub fn source_mesh(
 }
 
 pub fn run(args: Args) -> Result<()> {
-    if args.skinned && !(super::is_glb(&args.output) && (4..=255).contains(&args.bones)) {
-        anyhow::bail!(
-            "--skinned writes a .glb with 4 to 255 --bones ({}, {} bones)",
-            args.output.display(),
-            args.bones
-        );
-    }
+    check_skinned(&args)?;
     let (mut dec, solver) = open_decoder(&args.input, args.solver, args.memory)?;
     let source = source_mesh(&args.input, &dec, args.mesh)?;
     // The input's texture coordinates and material go with its own mesh.
@@ -187,6 +181,18 @@ pub fn run(args: Args) -> Result<()> {
 fn selected(args: &Args, total: usize) -> Result<(usize, usize)> {
     let Some(sel) = args.frames else { return Ok((0, total)) };
     sel.resolve(total).map_err(|m| anyhow::anyhow!("{}: --{m}", args.input.display()))
+}
+
+/// `--skinned` writes a .glb with 4 to 255 bones.
+fn check_skinned(args: &Args) -> Result<()> {
+    if args.skinned && !(super::is_glb(&args.output) && (4..=255).contains(&args.bones)) {
+        anyhow::bail!(
+            "--skinned writes a .glb with 4 to 255 --bones ({}, {} bones)",
+            args.output.display(),
+            args.bones
+        );
+    }
+    Ok(())
 }
 
 /// `--skinned`: bones fitted to the decoded frames, written as a skinned
