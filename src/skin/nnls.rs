@@ -24,8 +24,14 @@ pub fn solve(g: &[f64], h: &[f64]) -> Vec<f64> {
         };
         passive[enter] = true;
         // Inner loop: solve on the passive set; step back to stay feasible.
-        loop {
+        // Each step takes at least one variable out, so n + 1 steps end it;
+        // a system that gives no finite solution (degenerate input) keeps
+        // the last feasible x.
+        for _ in 0..=n {
             let z = solve_passive(g, h, &passive);
+            if z.iter().any(|v| !v.is_finite()) {
+                return x;
+            }
             if (0..n).all(|i| !passive[i] || z[i] > 0.0) {
                 x = z;
                 break;
@@ -116,5 +122,16 @@ mod tests {
         let x = solve(&g, &h);
         assert_eq!(x[1], 0.0);
         assert!((x[0] - 1.0).abs() < 1e-9 && (x[2] - 0.5).abs() < 1e-9, "{x:?}");
+    }
+
+    #[test]
+    fn degenerate_systems_end_with_a_finite_answer() {
+        // Two identical columns (two bones that move a vertex alike): any
+        // split of the weight is a solution; one is returned, finite.
+        let x = solve(&[1.0, 1.0, 1.0, 1.0], &[1.0, 1.0]);
+        assert!(x.iter().all(|v| v.is_finite() && *v >= 0.0) && (x[0] + x[1] - 1.0).abs() < 1e-6, "{x:?}");
+        // Non-finite input (a degenerate fit upstream) ends too.
+        let x = solve(&[f64::NAN, 0.0, 0.0, 1.0], &[1.0, 1.0]);
+        assert_eq!(x.len(), 2);
     }
 }

@@ -36,7 +36,7 @@ pub fn fit(points: impl Iterator<Item = (Vec3, Vec3, f32)> + Clone) -> Rigid {
         wr += w * w * r.as_dvec3();
         wq += w * q.as_dvec3();
     }
-    if w2 <= 1e-300 {
+    if !(w2 > 1e-300 && wr.is_finite() && wq.is_finite()) {
         return Rigid::default();
     }
     let (p_bar, q_bar) = (wr / w2, wq / w2);
