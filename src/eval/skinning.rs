@@ -76,27 +76,16 @@ fn measure(
     (setting, bytes): (String, usize),
 ) -> Result<PeerPoint> {
     let diag = Bounds::of(&frames[0]).diagonal() as f64;
-    let n = frames.len();
-    let (mut rms, mut max, mut surf, mut surf_max) = (0.0, 0.0f64, Vec::new(), 0.0f64);
-    for (t, f) in frames.iter().enumerate() {
-        let x = skin.frame(t);
-        let (r, m) = crate::metrics::vertex_error(&x, f);
-        (rms, max) = (rms + r / diag / n as f64, max.max(m / diag));
-        if surface_every > 0 && t % surface_every == 0 {
-            let d = crate::metrics::surface::symmetric(&x, faces, f, faces)?;
-            surf.push(d.rms / diag);
-            surf_max = surf_max.max(d.max / diag);
-        }
-    }
-    let nv = skin.rest.len();
+    let e = crate::skin::errors::measure(frames, faces, skin, surface_every, &|_| diag)?;
+    let (n, nv) = (frames.len(), skin.rest.len());
     Ok(PeerPoint {
         setting,
         bytes,
         kbps_30fps: bytes as f64 * 8.0 / 1000.0 * 30.0 / n as f64,
         bits_per_input_vertex: bytes as f64 * 8.0 / (n * nv) as f64,
-        vertex_rms: rms,
-        vertex_max: max,
-        surface_rms: (!surf.is_empty()).then(|| surf.iter().sum::<f64>() / surf.len() as f64),
-        surface_max: (!surf.is_empty()).then_some(surf_max),
+        vertex_rms: e.vertex_rms,
+        vertex_max: e.vertex_max,
+        surface_rms: e.surface_rms,
+        surface_max: e.surface_max,
     })
 }

@@ -8,8 +8,11 @@
 //!   with rigid bones"), initialised by rigid clustering;
 //! - [`nnls`]: the small non-negative least-squares solves its weights need;
 //! - [`procrustes`]: the weighted rigid fit its transforms need;
-//! - [`gltf`]: a skinning as a standard skinned, animated glTF.
+//! - [`gltf`]: a skinning as a standard skinned, animated glTF;
+//! - [`errors`]: how far a skinning is from its frames.
 
+#[cfg(not(target_arch = "wasm32"))]
+pub mod errors;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod gltf;
 pub mod nnls;

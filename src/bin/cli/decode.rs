@@ -203,13 +203,8 @@ fn write_skinned(args: &Args, decoded: &[Vec<glam::Vec3>], faces: &[[u32; 3]], f
     let skin = cgv::skin::decompose(decoded, faces, &opts, &mut |it, _| pb.set_position(it as u64))?;
     pb.finish_and_clear();
     cgv::skin::gltf::write_skinned_glb(&args.output, &skin, faces, fps, "cgv")?;
-    let rms = (0..decoded.len())
-        .map(|t| {
-            let diag = cgv::mesh::Bounds::of(&decoded[t]).diagonal() as f64;
-            cgv::metrics::vertex_error(&skin.frame(t), &decoded[t]).0 / diag
-        })
-        .sum::<f64>()
-        / decoded.len().max(1) as f64;
+    let diagonal = |t: usize| cgv::mesh::Bounds::of(&decoded[t]).diagonal() as f64;
+    let rms = cgv::skin::errors::measure(decoded, faces, &skin, 0, &diagonal)?.vertex_rms;
     let bytes = std::fs::metadata(&args.output)?.len();
     if args.json {
         let report = serde_json::json!({"output": &args.output, "frames": decoded.len(), "bones": args.bones,

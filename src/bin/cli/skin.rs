@@ -106,7 +106,7 @@ pub fn run(args: Args) -> Result<()> {
     Ok(())
 }
 
-/// The skinning's errors against the frames, and its sizes.
+/// The skinning's errors against the frames (each frame's diagonal), and its sizes.
 fn measure(
     frames: &[Vec<glam::Vec3>],
     faces: &[[u32; 3]],
@@ -114,28 +114,18 @@ fn measure(
     surface_every: usize,
     (glb_bytes, seconds_decompose): (u64, f64),
 ) -> Result<Report> {
+    let diagonal = |t: usize| Bounds::of(&frames[t]).diagonal() as f64;
+    let e = cgv::skin::errors::measure(frames, faces, skin, surface_every, &diagonal)?;
     let (n, nv) = (frames.len(), skin.rest.len());
-    let (mut rms, mut max, mut kg) = (0.0, 0.0f64, cgv::metrics::KgError::default());
-    let mut surface = Vec::new();
-    for (t, f) in frames.iter().enumerate() {
-        let x = skin.frame(t);
-        let diag = Bounds::of(f).diagonal() as f64;
-        let (r, m) = cgv::metrics::vertex_error(&x, f);
-        (rms, max) = (rms + r / diag / n as f64, max.max(m / diag));
-        kg.add_frame(f, &x);
-        if surface_every > 0 && t % surface_every == 0 {
-            surface.push(cgv::metrics::surface::symmetric(&x, faces, f, faces)?.rms / diag);
-        }
-    }
     let per = |bits: f64| bits / (n * nv) as f64;
     Ok(Report {
         frames: n,
         vertices: nv,
         bones: skin.bones,
-        vertex_rms: rms,
-        vertex_max: max,
-        surface_rms: (!surface.is_empty()).then(|| surface.iter().sum::<f64>() / surface.len() as f64),
-        kg: kg.value(),
+        vertex_rms: e.vertex_rms,
+        vertex_max: e.vertex_max,
+        surface_rms: e.surface_rms,
+        kg: e.kg,
         compact_bits_per_vertex_frame: per(skin.compact_bits() as f64),
         glb_bytes,
         glb_bits_per_vertex_frame: per(glb_bytes as f64 * 8.0),
