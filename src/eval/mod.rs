@@ -694,12 +694,7 @@ fn file_facts(file: &format::CgvFile) -> FileFacts {
             _ => 1,
         }
     });
-    let stream_bytes = h
-        .streams
-        .iter()
-        .zip(file.stream_bytes())
-        .map(|(s, b)| (format!("{}{}", s.name, if s.layer == 2 { "/2" } else { "" }), b))
-        .collect();
+    let stream_bytes = h.streams.iter().zip(file.stream_bytes()).map(|(s, b)| (s.label(), b)).collect();
     (corrections, correction_interval, stream_bytes)
 }
 

@@ -99,6 +99,11 @@ pub struct StreamInfo {
 }
 
 impl StreamInfo {
+    /// The stream's name in reports: `dx`, or `dx/2` for its refinement layer.
+    pub fn label(&self) -> String {
+        format!("{}{}", self.name, if self.layer == 2 { "/2" } else { "" })
+    }
+
     /// The side of this stream's pictures in a file of grid size `grid`.
     pub fn size(&self, grid: u32) -> u32 {
         grid >> self.shrink

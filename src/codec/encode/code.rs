@@ -169,10 +169,7 @@ pub(super) fn code(
         out.put(&format::write_index(&index))?;
     }
     out.put(&format::write_chunk(format::TAG_END, 0, plan.frames as u32, &[]))?;
-    let stream_bytes = streams
-        .iter()
-        .map(|s| (format!("{}{}", s.info.name, if s.info.layer == 2 { "/2" } else { "" }), s.bytes))
-        .collect();
+    let stream_bytes = streams.iter().map(|s| (s.info.label(), s.bytes)).collect();
     Ok(Coded { bytes: out.len, stream_bytes, side_bytes, source_mesh_bytes, seconds_coding })
 }
 
