@@ -464,6 +464,7 @@ fn greedy_file() -> Vec<u8> {
         source_mesh: None,
         appearance: None,
         random_access: None,
+        skin: None,
     };
     let mut bytes = format::write_header(&header).unwrap();
     bytes.extend(format::write_frame(0, &FrameInfo::default(), &[&[1u8][..]; 6]));

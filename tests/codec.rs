@@ -632,13 +632,17 @@ fn random_access_points_decode_the_same_frames_from_anywhere() {
     // 20 frames with a point every 8 (format v10): a decoder that seeks to
     // any frame, forward or back, gives exactly the frame a decoder from 0
     // gives, having decoded at most the frames since the point before it.
+    // Bones (v13) restart at each point too, from the decoded point as their rest pose.
     let src = cgv::mesh::builtin::motion(20);
-    for corrections in [CorrectionMode::Motion, CorrectionMode::Scaled] {
-        let opts = EncodeOptions { grid: 32, corrections, random_access: 8.0 / src.fps(), ..Default::default() };
+    for (corrections, bones) in [(CorrectionMode::Motion, 0), (CorrectionMode::Scaled, 0), (CorrectionMode::Motion, 8)]
+    {
+        let random_access = 8.0 / src.fps();
+        let opts = EncodeOptions { grid: 32, corrections, random_access, bones, ..Default::default() };
         let (bytes, _) = encode(&src, &opts, &mut |_, _, _| {}).unwrap();
         let file = format::read(&bytes).unwrap();
         let h = &file.header;
-        assert_eq!((file.version, h.random_access, &file.index.len()), (12, Some(8), &3));
+        assert_eq!((file.version, h.random_access, &file.index.len()), (format::VERSION, Some(8), &3));
+        assert_eq!(h.skin.is_some(), bones > 0, "the walk's bones pay");
         for s in 0..h.streams.len() {
             for f in [0, 8, 16] {
                 assert!(is_idr(&file.units[s][f]), "{corrections:?}: stream {s} frame {f} is not an IDR picture");

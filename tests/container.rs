@@ -55,6 +55,7 @@ fn header() -> Header {
         source_mesh: None,
         appearance: None,
         random_access: None,
+        skin: None,
     }
 }
 
@@ -71,7 +72,16 @@ fn frame_info(h: &Header, f: u32) -> format::FrameInfo {
     let loose = h.loose_vertices().map(|n| {
         format::LooseFrame { step: 0.25, residuals: (0..n as i32).map(|k| [k, -k, f as i32]).collect() }.to_bytes()
     });
-    format::FrameInfo { predictor: code(6, 0), filter: 0, relax: 0, correction_scale: 0.5, anchors, seed_origin, loose }
+    format::FrameInfo {
+        predictor: code(6, 0),
+        filter: 0,
+        relax: 0,
+        correction_scale: 0.5,
+        anchors,
+        seed_origin,
+        loose,
+        bones: None,
+    }
 }
 
 /// Not real H.264: the reader does not look inside.
@@ -141,9 +151,9 @@ fn bad_magic_and_versions() {
     assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::BadMagic);
     assert_eq!(format::read(b"GIF89a").unwrap_err(), ContainerError::BadMagic);
     let mut bytes = file(&header());
-    bytes[8] = 13;
-    assert_eq!(format::VERSION, 12);
-    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 13 });
+    bytes[8] = 14;
+    assert_eq!(format::VERSION, 13);
+    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 14 });
     bytes[8] = 0;
     assert!(matches!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 0 }));
 }
@@ -408,6 +418,7 @@ fn bad_frame_chunks_are_errors() {
         anchors: vec![[0.0; 3]; 4],
         seed_origin: None,
         loose: None,
+        bones: None,
     };
     let mut bad_bytes = good.to_bytes();
     bad_bytes.pop();
@@ -421,6 +432,18 @@ fn bad_frame_chunks_are_errors() {
             b
         },
         format::FrameInfo { predictor: PredictorCode { lag: 0, ..code(3, 2) }, ..good.clone() }.to_bytes(),
+        // A skinned prediction in a file without bones (version 13), and
+        // the skinned bit beside another extrapolation.
+        {
+            let mut b = good.to_bytes();
+            b[0] = format::predictor::SKINNED_BIT;
+            b
+        },
+        {
+            let mut b = good.to_bytes();
+            b[0] = format::predictor::SKINNED_BIT | 1;
+            b
+        },
         // A cycle prediction in a file whose header allows no lag, and a lag
         // on another predictor.
         format::FrameInfo { predictor: code(3, 2), ..good.clone() }.to_bytes(),

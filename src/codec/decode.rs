@@ -43,6 +43,11 @@ impl UnitDecoder {
         self.sequence.set_loose_anchors(anchors)
     }
 
+    /// Version 13: the file's skin weights (see [`SequenceDecoder::set_skin`]).
+    pub fn set_skin(&mut self, weights: &crate::format::SkinWeights) -> Result<()> {
+        self.sequence.set_skin(weights)
+    }
+
     /// Restarts at random-access point `f` (see [`SequenceDecoder::seek`]),
     /// with new H.264 decoders: `f`'s pictures are IDR pictures.
     pub fn seek(&mut self, f: u32) -> Result<()> {
@@ -87,6 +92,9 @@ impl FileDecoder {
         let mut units = UnitDecoder::new(file.header.clone(), solver, memory_limit)?;
         if let (Some(_), Some(mesh)) = (file.header.loose_vertices(), &file.source_mesh) {
             units.set_loose_anchors(&mesh.loose_anchors)?;
+        }
+        if let Some(weights) = &file.skin {
+            units.set_skin(weights)?;
         }
         Ok(FileDecoder { grid: Grid::new(file.header.grid as usize)?, file, units })
     }

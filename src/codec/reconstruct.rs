@@ -13,13 +13,15 @@ use super::loose::LooseVertices;
 use crate::error::{Error, Result};
 use crate::format::stream::{POSITION, SEED};
 use crate::format::{
-    CodecKind, CorrectionMode, FrameInfo, Header, LooseFrame, PredictorCode, SolverKind, SourceMesh, StreamName,
+    CodecKind, CorrectionMode, FrameInfo, Header, LooseFrame, PredictorCode, SkinWeights, SolverKind, SourceMesh,
+    StreamName,
 };
 use crate::grid::{Grid, Stencils};
 use crate::mesh::Topology;
 use crate::resample::SourcePoints;
 use crate::solve::paper::PaperSolver;
 use crate::solve::predictor::{Extrapolation, Predictor};
+use crate::solve::skinned::SkinnedPredictor;
 use crate::solve::SolveStats;
 use glam::Vec3;
 
@@ -113,6 +115,16 @@ impl Predictive {
         Predictive { predictor, corrections: Corrections::of(header, st) }
     }
 
+    /// Version 13: the bones of a file with a skin (`weights`, its `SKIN`
+    /// chunk), before its first frame.
+    pub fn set_skin(&mut self, header: &Header, weights: &SkinWeights) -> Result<()> {
+        let info =
+            header.skin.as_ref().ok_or_else(|| Error::Argument("skin weights for a file without bones".into()))?;
+        let grid = Grid::new(header.grid as usize)?;
+        self.predictor.set_skin(Some(SkinnedPredictor::new(grid, info, weights)?));
+        Ok(())
+    }
+
     /// Starts afresh, as at frame 0: at a random-access point (format
     /// version 10) the decoder forgets the decoded past and the previous
     /// correction pictures.
@@ -162,7 +174,7 @@ impl Predictive {
 /// How a file's frames are rebuilt from their values.
 enum Rebuild {
     Gv,
-    Predictive(Predictive),
+    Predictive(Box<Predictive>),
     Paper(PaperSolver),
 }
 
@@ -202,12 +214,22 @@ impl Reconstructor {
                 require(&SEED)?;
                 let st = Stencils::new(Grid::new(h.grid as usize)?);
                 match solver {
-                    SolverKind::Predictive => Rebuild::Predictive(Predictive::new(h, st)),
+                    SolverKind::Predictive => Rebuild::Predictive(Box::new(Predictive::new(h, st))),
                     SolverKind::Paper => Rebuild::Paper(PaperSolver::new(st, h.anchors.clone())),
                 }
             }
         };
         Ok(Reconstructor { rebuild })
+    }
+
+    /// Version 13: the bones of a file with a skin. Only the predictive
+    /// decoder predicts with them (a file with bones has corrections, so it
+    /// is decoded by it).
+    pub fn set_skin(&mut self, header: &Header, weights: &SkinWeights) -> Result<()> {
+        match &mut self.rebuild {
+            Rebuild::Predictive(p) => p.set_skin(header, weights),
+            _ => Err(Error::Argument("bones need the predictive (cgv) decoder".into())),
+        }
     }
 
     /// Forgets the frames rebuilt so far (a random-access point).
@@ -231,6 +253,9 @@ impl Reconstructor {
             }
             Rebuild::Predictive(p) => {
                 let code = info.predictor;
+                if let Some(unit) = &info.bones {
+                    p.predictor.decode_bones(unit).map_err(|e| Error::Argument(format!("frame {f}: {e}")))?;
+                }
                 let x = p.predict(code, values, &anchors)?;
                 let x = p.finish(x, values.corrections(), (info.filter, info.relax), &anchors);
                 Ok((x, SolveStats { iterations: code.steps as usize, residual: 0.0, converged: true }))
@@ -262,6 +287,7 @@ pub struct SequenceDecoder {
     reconstructor: Reconstructor,
     /// Version 11: the loose vertices' decoded past.
     loose: LooseVertices,
+    skin_given: bool,
     next: u32,
 }
 
@@ -276,7 +302,7 @@ impl SequenceDecoder {
         let grid = Grid::new(header.grid as usize)?;
         let reconstructor = Reconstructor::new(&header, solver)?;
         let loose = LooseVertices::for_header(&header);
-        Ok(SequenceDecoder { header, grid, reconstructor, loose, next: 0 })
+        Ok(SequenceDecoder { header, grid, reconstructor, loose, skin_given: false, next: 0 })
     }
 
     pub fn header(&self) -> &Header {
@@ -332,6 +358,9 @@ impl SequenceDecoder {
             };
             return Err(Error::Video(format!("stream {s} frame {f}: {problem}")));
         }
+        if h.skin.is_some() && !self.skin_given {
+            return Err(Error::Argument("a file with bones decoded without its skin weights".into()));
+        }
         if f > 0 && h.is_random_access_point(f) {
             self.reconstructor.reset();
             self.loose.reset();
@@ -349,6 +378,19 @@ impl SequenceDecoder {
         }
         self.next += 1;
         Ok(out)
+    }
+
+    /// Version 13: the file's skin weights (its `SKIN` chunk), needed
+    /// before the first frame of a file with bones.
+    pub fn set_skin(&mut self, weights: &SkinWeights) -> Result<()> {
+        self.reconstructor.set_skin(&self.header, weights)?;
+        self.skin_given = true;
+        Ok(())
+    }
+
+    /// Whether [`set_skin`](Self::set_skin) was called.
+    pub fn has_skin(&self) -> bool {
+        self.skin_given
     }
 
     /// Version 11: the anchors of the file's loose vertices (its source
@@ -423,8 +465,9 @@ pub const DEFAULT_MEMORY_LIMIT: u64 = 1 << 30;
 /// corrections' previous picture, the tangential coefficients) and, for H
 /// steps and the paper's solver, their factorization or L-BFGS history;
 /// a version-6 source mesh with its rebuilt vertices, version 11's loose
-/// vertices (two frames and one being decoded), and a version-8
-/// appearance (texture coordinates and the texture image's bytes).
+/// vertices (two frames and one being decoded), a version-8
+/// appearance (texture coordinates and the texture image's bytes), and
+/// version 13's bones.
 pub fn decoder_memory(h: &Header, solver: SolverKind) -> u64 {
     let n = u64::from(h.grid) * u64::from(h.grid);
     let streams = h.streams.len() as u64 * n * (1 + 4);
@@ -443,5 +486,8 @@ pub fn decoder_memory(h: &Header, solver: SolverKind) -> u64 {
         let vertices = h.source_mesh.map_or(0, |m| u64::from(m.vertices));
         vertices * 8 + a.texture.as_ref().map_or(0, |t| u64::from(t.bytes))
     });
-    streams + past + source + look + loose
+    // Version 13: four influences a sample, each bone's expanded field while
+    // they are chosen, the rest pose and two skinned frames.
+    let skin = h.skin.map_or(0, |s| n * 32 + u64::from(s.bones) * n * 4 + 3 * frame);
+    streams + past + source + look + loose + skin
 }

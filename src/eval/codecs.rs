@@ -53,6 +53,9 @@ const ALIASES: [(&str, EvalCodec); 4] = [
 /// 1.15 %).
 const EVERY_SECOND: u32 = 2;
 
+/// With bones, [`EvalCodec::variants`] tries these correction intervals too.
+const BONE_INTERVALS: [u32; 2] = [4, 8];
+
 /// The best-of entries pass over a variant whose worst frame's error is more
 /// than this many times its mean (the no-drift bound of issue 6) for one
 /// without such a spike whose worst frame is no worse: pcow at N = 128,
@@ -79,21 +82,21 @@ impl EvalCodec {
     ];
 
     /// The encodes a best-of entry matches at each rate point (codec,
-    /// correction interval); None for a codec encoded one way.
-    pub fn variants(self) -> Option<[(EvalCodec, u32); 3]> {
-        match self {
-            EvalCodec::Predictive => Some([
-                (EvalCodec::PredictiveScaled, 1),
-                (EvalCodec::PredictiveMotion, 1),
-                (EvalCodec::PredictiveMotion, EVERY_SECOND),
-            ]),
-            EvalCodec::Normal => Some([
-                (EvalCodec::NormalScaled, 1),
-                (EvalCodec::NormalMotion, 1),
-                (EvalCodec::NormalMotion, EVERY_SECOND),
-            ]),
-            _ => None,
+    /// correction interval); None for a codec encoded one way. With bones,
+    /// motion corrections on every fourth and eighth frame too: between
+    /// corrections the bones carry the motion alone, which is the lowest
+    /// rates' best use of bits (a skinned mesh's size).
+    pub fn variants(self, bones: bool) -> Option<Vec<(EvalCodec, u32)>> {
+        let (scaled, motion) = match self {
+            EvalCodec::Predictive => (EvalCodec::PredictiveScaled, EvalCodec::PredictiveMotion),
+            EvalCodec::Normal => (EvalCodec::NormalScaled, EvalCodec::NormalMotion),
+            _ => return None,
+        };
+        let mut v = vec![(scaled, 1), (motion, 1), (motion, EVERY_SECOND)];
+        if bones {
+            v.extend(BONE_INTERVALS.map(|k| (motion, k)));
         }
+        Some(v)
     }
 
     /// Whether the codec lays its corrections out along the normal.

@@ -137,7 +137,7 @@ fn bitrates(s: &mut String, r: &Report) {
                 p.target_kbps_30fps,
                 c.codec,
                 match (c.codec, c.correction_interval) {
-                    (codec, _) if codec.variants().is_some() => {
+                    (codec, _) if codec.variants(false).is_some() => {
                         format!(" ({})", variant_label(c.corrections, c.correction_interval))
                     }
                     (_, Some(k)) if k > 1 => format!(" (corrections every {k} frames)"),

@@ -3,7 +3,10 @@
 //! chunk's side data ([`FrameInfo`]), and which format version each
 //! feature needs ([`Header::min_version`]). Checked by [`super::validate`].
 
-use super::{stream, AppearanceInfo, ContainerError, PredictorCode, Quantizer, SourceMeshInfo, StreamName};
+use super::{
+    stream, AppearanceInfo, ContainerError, Extrapolation, PredictorCode, Quantizer, SkinInfo, SourceMeshInfo,
+    StreamName,
+};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
@@ -140,6 +143,11 @@ pub struct FrameInfo {
     /// (deflated: [`LooseFrame::parse`] reads it; a reader checks it but
     /// keeps it small).
     pub loose: Option<Vec<u8>>,
+    /// Version 13, in every frame of a file with a skin: the bones unit
+    /// (empty unless the predictor is skinned; see [`super::skin`]), as the
+    /// file has it; its motions are differences that only a decoder in
+    /// order can resolve (`crate::solve::skinned`).
+    pub bones: Option<Vec<u8>>,
 }
 
 impl FrameInfo {
@@ -172,8 +180,10 @@ impl FrameInfo {
         // A cycle prediction names a lag the header allows and the frames
         // since the last random-access point can serve.
         let since = frame - header.random_access_point(frame);
+        // A skinned one, bones the header has and a previous frame.
         let predictor = PredictorCode::from_bytes(payload[0], payload[1])
-            .filter(|c| c.lag == 0 || (c.lag <= header.max_lag && u32::from(c.lag) < since));
+            .filter(|c| c.lag == 0 || (c.lag <= header.max_lag && u32::from(c.lag) < since))
+            .filter(|c| c.extrapolation != Extrapolation::Skinned || (header.skin.is_some() && since > 0));
         let filter = payload[2];
         let filter_ok = filter == 0 || (version >= 5 && filter <= MAX_FILTER);
         let relax = payload[3];
@@ -181,7 +191,8 @@ impl FrameInfo {
         let (Some(predictor), true, true) = (predictor, filter_ok, relax_ok) else {
             return Err(bad(format!(
                 "unknown predictor {:?} at frame {frame} (lags up to {} allowed; filters up to {} from version 5, \
-                 relaxation up to {} from version 9, this file is version {version})",
+                 relaxation up to {} from version 9, bones with a skin from version 13, this file is version \
+                 {version})",
                 &payload[..4],
                 header.max_lag,
                 MAX_FILTER,
@@ -199,7 +210,7 @@ impl FrameInfo {
         if anchors.iter().chain(&seed_origin).flatten().any(|v| !v.is_finite()) {
             return Err(bad("non-finite anchor position or seed origin".into()));
         }
-        Ok(FrameInfo { predictor, filter, relax, correction_scale, anchors, seed_origin, loose: None })
+        Ok(FrameInfo { predictor, filter, relax, correction_scale, anchors, seed_origin, loose: None, bones: None })
     }
 }
 
@@ -302,6 +313,10 @@ pub struct Header {
     /// `RIDX` chunk of their offsets.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub random_access: Option<u32>,
+    /// Version 13: bones as a predictor, their weights in the `SKIN` chunk
+    /// and each frame's motions in its bones unit (absent: none).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub skin: Option<SkinInfo>,
 }
 
 fn is_scaled(m: &CorrectionMode) -> bool {
@@ -316,7 +331,8 @@ fn is_zero(v: &u8) -> bool {
 pub const SEAM_RULE: &str = "octahedral-half-turn";
 
 impl Header {
-    /// The oldest format version that can hold this header: 12 for a
+    /// The oldest format version that can hold this header: 13 for a skin,
+    /// 12 for a
     /// source mesh coded as a walk, 11 for loose
     /// vertices, 10 for random-access points, 9 for a normal
     /// correction or a shrunk stream, 8 for an
@@ -325,7 +341,9 @@ impl Header {
     /// predictions, 3 for a CGV file without H, 2 for motion corrections,
     /// else 1.
     pub fn min_version(&self) -> u16 {
-        if self.source_mesh.is_some_and(|m| m.walk) {
+        if self.skin.is_some() {
+            13
+        } else if self.source_mesh.is_some_and(|m| m.walk) {
             12
         } else if self.loose_vertices().is_some() {
             11

@@ -1,6 +1,6 @@
-//! The `.cgv` file format, versions 1 to 12 (documented in
+//! The `.cgv` file format, versions 1 to 13 (documented in
 //! `docs/FORMAT.md`, with the compatibility promise): this writer writes
-//! version 12, the reader reads all twelve. Split as the png crate splits
+//! version 13, the reader reads all thirteen. Split as the png crate splits
 //! its decoder:
 //!
 //! - [`header`]: what a file holds, the frame chunk's side data, and which
@@ -10,14 +10,14 @@
 //!   bytes arrive, or in pieces from random-access points;
 //! - [`writer`]: the prefix, chunks, frames and the index;
 //! - the payloads: [`source_mesh`] (with [`connectivity`] and [`places`]),
-//!   [`appearance`], [`loose`], the samples' [`quant`]izer, the
+//!   [`appearance`], [`loose`], [`skin`], the samples' [`quant`]izer, the
 //!   [`stream`] names and the [`predictor`] codes.
 //!
 //! The prefix and the chunks:
 //!
 //! ```text
 //! magic    8 bytes   89 43 47 56 0D 0A 1A 0A   ("\x89CGV\r\n\x1a\n")
-//! version  u16 LE    1 to 11
+//! version  u16 LE    1 to 13
 //! flags    u16 LE    0
 //! length   u32 LE    header length L (at most 1 MiB)
 //! header   L bytes   UTF-8 JSON (serde), see [`Header`]
@@ -31,7 +31,8 @@
 //! [`FrameInfo`]; from version 2 followed by the frame's access units, each
 //! after its LEB128 length), `AUNT` (version 1: one H.264 access unit,
 //! Annex-B, of `stream` at `frame`), `SMSH` (version 6: the input's mesh,
-//! once, before frame 0), `RIDX` (version 10: the random-access points'
+//! once, before frame 0), `SKIN` (version 13: bone weights, once, before
+//! frame 0), `RIDX` (version 10: the random-access points'
 //! offsets, right before the end), `CEND` (end of file). Chunks are
 //! ordered by frame, so a reader can start on frame 0 before the rest of the
 //! file has arrived.
@@ -45,6 +46,7 @@ pub mod places;
 pub mod predictor;
 pub mod quant;
 pub mod reader;
+pub mod skin;
 pub mod source_mesh;
 pub mod stream;
 pub mod stream_reader;
@@ -60,16 +62,19 @@ pub use loose::LooseFrame;
 pub use predictor::{Extrapolation, PredictorCode, MAX_PREDICTOR, MAX_STEPS};
 pub use quant::Quantizer;
 pub use reader::{index_tail_bytes, parse_chunk, parse_header, parse_index_tail, read, CgvFile, Chunk};
+pub use skin::{BoneMotions, SkinInfo, SkinWeights};
 
 pub use source_mesh::{Offsets, SourceMesh, SourceMeshInfo};
 
 pub use stream::StreamName;
 pub use stream_reader::StreamReader;
-pub use writer::{write_appearance, write_chunk, write_frame, write_header, write_index, write_source_mesh};
+pub use writer::{
+    write_appearance, write_chunk, write_frame, write_header, write_index, write_skin, write_source_mesh,
+};
 
 pub const MAGIC: [u8; 8] = [0x89, b'C', b'G', b'V', b'\r', b'\n', 0x1A, b'\n'];
 /// The newest version this reader reads and this writer writes.
-pub const VERSION: u16 = 12;
+pub const VERSION: u16 = 13;
 /// Largest header accepted.
 pub const MAX_HEADER: usize = 1 << 20;
 /// Largest chunk payload accepted (an access unit of a 2160² frame at QP 0
@@ -105,6 +110,8 @@ pub const TAG_APPEARANCE: [u8; 4] = *b"APPR";
 /// Version 10: the byte offsets of the random-access points' frame chunks,
 /// right before the end chunk.
 pub const TAG_INDEX: [u8; 4] = *b"RIDX";
+/// Version 13: the skin weights, after the source mesh and appearance.
+pub const TAG_SKIN: [u8; 4] = *b"SKIN";
 
 /// What is wrong with a `.cgv` file, with the byte offset where it was found.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

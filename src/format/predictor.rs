@@ -2,10 +2,13 @@
 //! frame (its predictor and lag bytes). The bytes are decoded here once;
 //! the predictor reads the result.
 
-/// Largest predictor byte (bits 0..=1: extrapolation 0..=3, bits 2..=3: steps 0..=3).
-pub const MAX_PREDICTOR: u8 = 0b1111;
+/// Largest predictor byte (bits 0..=1: extrapolation 0..=3, bits 2..=3:
+/// steps 0..=3, bit 4 (version 13): skinned, with bits 0..=1 zero).
+pub const MAX_PREDICTOR: u8 = 0b1_1111;
+/// The predictor byte's skinned bit (version 13).
+pub const SKINNED_BIT: u8 = 0b1_0000;
 /// Most mean-curvature steps a predictor code can ask for.
-pub const MAX_STEPS: u8 = MAX_PREDICTOR >> 2;
+pub const MAX_STEPS: u8 = 3;
 
 /// How a frame is extrapolated from the decoded past (the predictor
 /// byte's bits 0..=1; `crate::solve::predictor` computes each).
@@ -31,6 +34,10 @@ pub enum Extrapolation {
     /// 0.77 / 0.38 % smoothed at GV's `low` and `medium` sizes, and a
     /// smoothness metric above GV's instead of 20-25 % below).
     Cycle,
+    /// Version 13: x₋₁ moved by the bones: each bone's rigid motion from
+    /// the previous frame to this one (the frame's bones unit), blended by
+    /// the file's skin weights (`crate::solve::skinned`).
+    Skinned,
 }
 
 /// A frame's predictor: the extrapolation (bits 0..=1 of the predictor
@@ -54,6 +61,8 @@ impl PredictorCode {
     /// another extrapolation.
     pub fn from_bytes(b: u8, lag: u8) -> Option<PredictorCode> {
         let extrapolation = match b & 3 {
+            0 if b & SKINNED_BIT != 0 => Extrapolation::Skinned,
+            _ if b & SKINNED_BIT != 0 => return None,
             0 => Extrapolation::Rigid,
             1 => Extrapolation::Velocity,
             2 => Extrapolation::SmoothVelocity,
@@ -63,7 +72,7 @@ impl PredictorCode {
             Extrapolation::Cycle => lag >= 2,
             _ => lag == 0,
         };
-        (b <= MAX_PREDICTOR && lag_ok).then_some(PredictorCode { extrapolation, steps: b >> 2, lag })
+        (b <= MAX_PREDICTOR && lag_ok).then_some(PredictorCode { extrapolation, steps: (b >> 2) & 3, lag })
     }
 
     /// The predictor byte (the lag is [`lag`](Self::lag)).
@@ -73,6 +82,7 @@ impl PredictorCode {
             Extrapolation::Velocity => 1,
             Extrapolation::SmoothVelocity => 2,
             Extrapolation::Cycle => 3,
+            Extrapolation::Skinned => SKINNED_BIT,
         };
         e | (self.steps.min(MAX_STEPS) << 2)
     }

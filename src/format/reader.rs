@@ -3,8 +3,8 @@
 //! these checks as bytes arrive.
 
 use super::{
-    leb128, Appearance, ContainerError, FrameInfo, Header, SourceMesh, StreamReader, MAGIC, MAX_CHUNK, MAX_HEADER,
-    TAG_ACCESS_UNIT, TAG_APPEARANCE, TAG_END, TAG_FRAME, TAG_INDEX, TAG_SOURCE_MESH, VERSION,
+    leb128, Appearance, ContainerError, FrameInfo, Header, SkinWeights, SourceMesh, StreamReader, MAGIC, MAX_CHUNK,
+    MAX_HEADER, TAG_ACCESS_UNIT, TAG_APPEARANCE, TAG_END, TAG_FRAME, TAG_INDEX, TAG_SKIN, TAG_SOURCE_MESH, VERSION,
 };
 
 /// Reads a LEB128 length of at most 4 bytes at `b[*at..]`, advancing `at`.
@@ -91,7 +91,7 @@ pub fn parse_chunk(bytes: &[u8], offset: usize) -> Result<Option<(Chunk<'_>, usi
         return Err(ContainerError::BadCrc { offset, what: "a chunk" });
     }
     let tag = [b[0], b[1], b[2], b[3]];
-    if ![TAG_ACCESS_UNIT, TAG_FRAME, TAG_END, TAG_SOURCE_MESH, TAG_APPEARANCE, TAG_INDEX].contains(&tag) {
+    if ![TAG_ACCESS_UNIT, TAG_FRAME, TAG_END, TAG_SOURCE_MESH, TAG_APPEARANCE, TAG_INDEX, TAG_SKIN].contains(&tag) {
         return Err(ContainerError::Chunk {
             offset,
             msg: format!("unknown chunk tag {:?}", String::from_utf8_lossy(&tag)),
@@ -117,6 +117,8 @@ pub struct CgvFile {
     pub source_mesh: Option<SourceMesh>,
     /// Version 8: how it looks, when the file says.
     pub appearance: Option<Appearance>,
+    /// Version 13: the bones' weights, when the file has a skin.
+    pub skin: Option<SkinWeights>,
     /// The byte offset of each random-access point's first chunk, as read
     /// (frame 0's alone before version 10); a version-10 file's `RIDX`
     /// chunk was checked against them.

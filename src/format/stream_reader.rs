@@ -3,8 +3,8 @@
 
 use super::reader::{read_len, u16_at, u64_at};
 use super::{
-    parse_chunk, parse_header, Appearance, CgvFile, Chunk, ContainerError, FrameInfo, Header, LooseFrame, SourceMesh,
-    TAG_ACCESS_UNIT, TAG_APPEARANCE, TAG_END, TAG_FRAME, TAG_INDEX, TAG_SOURCE_MESH,
+    parse_chunk, parse_header, Appearance, CgvFile, Chunk, ContainerError, FrameInfo, Header, LooseFrame, SkinWeights,
+    SourceMesh, TAG_ACCESS_UNIT, TAG_APPEARANCE, TAG_END, TAG_FRAME, TAG_INDEX, TAG_SKIN, TAG_SOURCE_MESH,
 };
 
 /// Reads a `.cgv` file as its bytes arrive (a browser's fetch stream): each
@@ -96,9 +96,10 @@ impl StreamReader {
         let file = self.file.as_ref().ok_or_else(|| bad("a jump before the header".into()))?;
         let h = &file.header;
         let waiting = (h.source_mesh.is_some() && file.source_mesh.is_none())
-            || (h.appearance.is_some() && file.appearance.is_none());
+            || (h.appearance.is_some() && file.appearance.is_none())
+            || (h.skin.is_some() && file.skin.is_none());
         if !self.index_given || waiting {
-            return Err(bad("a jump needs the header, the source mesh and the index first".into()));
+            return Err(bad("a jump needs the header, the source mesh, the skin and the index first".into()));
         }
         let offset = *file.index.get(point as usize).ok_or_else(|| bad(format!("no random-access point {point}")))?;
         // An index was given, so the header has an interval.
@@ -149,6 +150,7 @@ impl StreamReader {
                         frames: Vec::new(),
                         source_mesh: None,
                         appearance: None,
+                        skin: None,
                         index: Vec::new(),
                         bytes: 0,
                     });
@@ -212,6 +214,14 @@ impl StreamReader {
                 return Err(unexpected(&chunk, offset, "the appearance", 0));
             }
             file.appearance = Some(Appearance::parse(chunk.payload, look, &info, offset)?);
+            return Ok(());
+        }
+        if let (Some(skin), None, 0, 0) = (&file.header.skin, &file.skin, self.frame, self.slot) {
+            // Version 13: the skin weights come after those, before frame 0.
+            if chunk.tag != TAG_SKIN || chunk.frame != 0 {
+                return Err(unexpected(&chunk, offset, "the skin weights", 0));
+            }
+            file.skin = Some(SkinWeights::parse(chunk.payload, skin, file.header.grid, offset)?);
             return Ok(());
         }
         let header = &file.header;
@@ -323,6 +333,21 @@ impl StreamReader {
             at += len;
         }
         let mut info = info;
+        if let Some(skin) = &header.skin {
+            let bad = |msg: String| ContainerError::Chunk { offset, msg };
+            let len = read_len(p, &mut at).ok_or_else(|| bad("bones: bad unit length".into()))?;
+            // Every frame but a random-access point has one.
+            let rap = header.is_random_access_point(frame);
+            let most = if rap { 0 } else { crate::format::BoneMotions::max_bytes(skin.bones) };
+            if len > p.len() - at || len > most || (!rap && len == 0) {
+                return Err(bad(format!(
+                    "bones: a unit of {len} bytes (frame {frame}'s has {} to {most})",
+                    most.min(1)
+                )));
+            }
+            info.bones = Some(p[at..at + len].to_vec());
+            at += len;
+        }
         if let Some(count) = header.loose_vertices() {
             let bad = |msg: String| ContainerError::Chunk { offset, msg };
             let len = read_len(p, &mut at).ok_or_else(|| bad("loose vertices: bad unit length".into()))?;

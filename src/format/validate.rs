@@ -60,6 +60,12 @@ impl Header {
         if self.max_lag > 0 && !closed_loop {
             return bad("cycle predictions (max_lag) need correction streams".into());
         }
+        if let Some(skin) = &self.skin {
+            skin.check(self.grid).map_err(ContainerError::Header)?;
+            if !closed_loop {
+                return bad("bones (skin) need correction streams".into());
+            }
+        }
         if self.codec == CodecKind::Cgv && self.anchors.len() < 4 && !closed_loop {
             return bad("a CGV file without correction streams needs at least 4 anchors".into());
         }

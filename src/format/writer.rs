@@ -1,8 +1,8 @@
 //! The writer: the file prefix, chunks, frames, the random-access index.
 
 use super::{
-    leb128, Appearance, ContainerError, FrameInfo, Header, SourceMesh, MAGIC, MAX_HEADER, TAG_APPEARANCE, TAG_FRAME,
-    TAG_INDEX, TAG_SOURCE_MESH, VERSION,
+    leb128, Appearance, ContainerError, FrameInfo, Header, SkinWeights, SourceMesh, MAGIC, MAX_HEADER, TAG_APPEARANCE,
+    TAG_FRAME, TAG_INDEX, TAG_SKIN, TAG_SOURCE_MESH, VERSION,
 };
 
 /// Writes the file prefix (magic, version [`VERSION`], header, CRC); the
@@ -34,6 +34,12 @@ pub fn write_appearance(look: &Appearance) -> Vec<u8> {
     write_chunk(TAG_APPEARANCE, 0, 0, &look.to_bytes())
 }
 
+/// Version 13: the skin weights' chunk, after the source mesh and
+/// appearance (or the header).
+pub fn write_skin(weights: &SkinWeights) -> Vec<u8> {
+    write_chunk(TAG_SKIN, 0, 0, &weights.to_bytes())
+}
+
 /// Encodes one chunk.
 pub fn write_chunk(tag: [u8; 4], stream: u16, frame: u32, payload: &[u8]) -> Vec<u8> {
     let mut out = Vec::with_capacity(payload.len() + 20);
@@ -58,10 +64,10 @@ pub fn write_index(offsets: &[u64]) -> Vec<u8> {
 
 /// A version-2 frame chunk: the frame's side data, then each access unit
 /// the frame has (streams in header order) after its LEB128 length, and
-/// from version 11 the loose vertices' unit the same way.
+/// the same way version 13's bones unit and version 11's loose vertices.
 pub fn write_frame(frame: u32, info: &FrameInfo, units: &[&[u8]]) -> Vec<u8> {
     let mut payload = info.to_bytes();
-    for au in units.iter().copied().chain(info.loose.as_deref()) {
+    for au in units.iter().copied().chain(info.bones.as_deref()).chain(info.loose.as_deref()) {
         leb128::write(&mut payload, au.len() as u64);
         payload.extend_from_slice(au);
     }

@@ -7,10 +7,13 @@
 //!   matrix factored once per sequence), plus the encoder's closed-loop
 //!   corrections.
 //! - [`rigid`]: the rigid motion between anchor sets (Horn 1987).
+//! - [`skinned`]: bones as a predictor (format version 13): the previous
+//!   frame moved by each bone's rigid motion, blended by its weights.
 
 pub mod paper;
 pub mod predictor;
 pub mod rigid;
+pub mod skinned;
 
 use crate::error::{Error, Result};
 use glam::Vec3;

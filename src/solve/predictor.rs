@@ -47,6 +47,7 @@ use crate::error::{Error, Result};
 pub use crate::format::{Extrapolation, PredictorCode, MAX_STEPS};
 use crate::grid::stencil::Stencils;
 use crate::solve::rigid;
+use crate::solve::skinned::SkinnedPredictor;
 use crate::sparse::Cholesky;
 use glam::Vec3;
 
@@ -60,9 +61,15 @@ pub const ANCHOR_WEIGHT: f64 = 1e4;
 pub const MIN_ANCHORS: usize = 4;
 pub const GUESS_WEIGHT: f64 = 1e-4;
 
-/// Every extrapolation, for [`Predictor::closest`].
-pub const ALL_EXTRAPOLATIONS: [Extrapolation; 4] =
-    [Extrapolation::Rigid, Extrapolation::Velocity, Extrapolation::SmoothVelocity, Extrapolation::Cycle];
+/// Every extrapolation, for [`Predictor::closest`] (the skinned one only
+/// where the file has bones).
+pub const ALL_EXTRAPOLATIONS: [Extrapolation; 5] = [
+    Extrapolation::Rigid,
+    Extrapolation::Velocity,
+    Extrapolation::SmoothVelocity,
+    Extrapolation::Cycle,
+    Extrapolation::Skinned,
+];
 /// The extrapolations that keep motion-mode correction streams (see
 /// [`crate::format::CorrectionMode::Motion`]) within a range: those
 /// streams carry the running sum of the corrections, which telescopes to a
@@ -70,9 +77,11 @@ pub const ALL_EXTRAPOLATIONS: [Extrapolation; 4] =
 /// displacements after rigid ones (no anchors: the previous frame); the
 /// range grew 1.3-2.3x on horse-gallop when rigid was allowed.
 /// A cycle prediction keeps the running sum bounded too: it adds
-/// v − v₋ₗ, a difference of two velocities.
-pub const MOTION_EXTRAPOLATIONS: [Extrapolation; 3] =
-    [Extrapolation::Velocity, Extrapolation::SmoothVelocity, Extrapolation::Cycle];
+/// v − v₋ₗ, a difference of two velocities; so does a skinned one, whose
+/// running sum is what the bones leave of the motion since the last
+/// random-access point.
+pub const MOTION_EXTRAPOLATIONS: [Extrapolation; 4] =
+    [Extrapolation::Velocity, Extrapolation::SmoothVelocity, Extrapolation::Cycle, Extrapolation::Skinned];
 
 /// The encoder's default longest lag: 2 s at 30 fps, enough for a gait or a
 /// gallop cycle (the default motion's is 36 frames, horse-gallop's 24). A
@@ -103,6 +112,8 @@ pub struct Predictor {
     /// Tangential coefficients of the previous decoded frame (or the seed).
     a: Vec<f32>,
     b: Vec<f32>,
+    /// Version 13: the file's bones.
+    skin: Option<SkinnedPredictor>,
 }
 
 impl Predictor {
@@ -117,7 +128,38 @@ impl Predictor {
             max_lag: 0,
             a: Vec::new(),
             b: Vec::new(),
+            skin: None,
         }
+    }
+
+    /// Allows skinned predictions with these bones (format version 13).
+    pub fn with_skin(mut self, skin: Option<SkinnedPredictor>) -> Predictor {
+        self.set_skin(skin);
+        self
+    }
+
+    /// See [`with_skin`](Self::with_skin).
+    pub fn set_skin(&mut self, skin: Option<SkinnedPredictor>) {
+        self.skin = skin;
+    }
+
+    /// Whether skinned predictions have their bones.
+    pub fn has_skin(&self) -> bool {
+        self.skin.is_some()
+    }
+
+    /// The decoder, at every frame of a file with bones: the bones'
+    /// transforms from the frame's unit.
+    pub fn decode_bones(&mut self, unit: &[u8]) -> Result<()> {
+        let skin = self.skin.as_mut().ok_or_else(|| Error::Argument("bones in a file without a skin".into()))?;
+        skin.decode(unit)
+    }
+
+    /// The encoder, at every frame of a file with bones, before the
+    /// prediction: the bones' transforms fitted to `truth`, as the frame's
+    /// unit (`None` without bones).
+    pub fn encode_bones(&mut self, truth: &[Vec3]) -> Option<Vec<u8>> {
+        self.skin.as_mut().map(|s| s.encode(truth))
     }
 
     /// Allows cycle predictions with lags up to `max_lag` (the header's
@@ -135,6 +177,9 @@ impl Predictor {
         self.prev_anchors.clear();
         self.a.clear();
         self.b.clear();
+        if let Some(s) = &mut self.skin {
+            s.reset();
+        }
     }
 
     /// x₋₁ + S(x₋ₗ − x₋ₗ₋₁), if that far a past has been decoded.
@@ -187,6 +232,10 @@ impl Predictor {
         match (prev, prev2, code.extrapolation) {
             (None, _, _) => seed.map(<[Vec3]>::to_vec).ok_or_else(|| Error::Argument("frame 0 needs the seed".into())),
             (Some(_), _, Extrapolation::Cycle) => self.cycle(code.lag),
+            (Some(p), _, Extrapolation::Skinned) => match &self.skin {
+                Some(skin) => skin.predict(p),
+                None => Err(Error::Argument("a skinned prediction in a file without bones".into())),
+            },
             (Some(p), Some(p2), Extrapolation::Velocity) => Ok(p.iter().zip(p2).map(|(a, b)| *a * 2.0 - *b).collect()),
             (Some(p), Some(p2), Extrapolation::SmoothVelocity) => {
                 // The same numbers as the stored velocity, when there is one.
@@ -301,12 +350,17 @@ impl Predictor {
     ) -> Result<(PredictorCode, Vec<Vec3>)> {
         use Extrapolation::*;
         self.check(h, anchors)?;
-        // Without two past frames every extrapolation is the rigid one.
+        // Without two past frames every extrapolation is the rigid one,
+        // but for the bones, which need one.
         let extrapolations: &[Extrapolation] =
-            if self.past.len() >= 2 && !allowed.is_empty() { allowed } else { &[Rigid] };
+            if self.past.len() >= 2 && !allowed.is_empty() { allowed } else { &[Rigid, Skinned] };
         let mut best: Option<(f64, PredictorCode, Vec<Vec3>)> = None;
         for &extrapolation in extrapolations {
             let code = match extrapolation {
+                Skinned => match &self.skin {
+                    Some(skin) if allowed.contains(&Skinned) && skin.ready() => PredictorCode::plain(Skinned),
+                    _ => continue,
+                },
                 // The lag is found without building each prediction.
                 Cycle => match self.closest_lag(truth) {
                     Some(lag) => PredictorCode { lag, ..PredictorCode::plain(Cycle) },
@@ -360,6 +414,9 @@ impl Predictor {
             let v = self.smooth(x.iter().zip(p).map(|(a, b)| *a - *b).collect());
             self.velocities.push_front(v);
             self.velocities.truncate(self.max_lag as usize);
+        }
+        if let Some(s) = &mut self.skin {
+            s.commit(&x);
         }
         self.past.push_front(x);
         self.past.truncate(2);

@@ -61,6 +61,17 @@ impl Player {
             }
             self.source = Some(SourceMeshDecoder::new(dec.grid(), mesh));
         }
+        self.give_skin()
+    }
+
+    /// Version 13: hands the skin weights to a decoder that lacks them, once
+    /// they have arrived (they come before frame 0).
+    fn give_skin(&mut self) -> std::result::Result<(), JsError> {
+        if let (Some(dec), Some(weights)) = (self.dec.as_mut(), self.reader.file().and_then(|f| f.skin.as_ref())) {
+            if !dec.has_skin() {
+                dec.set_skin(weights).map_err(js)?;
+            }
+        }
         Ok(())
     }
 
@@ -208,7 +219,7 @@ impl Player {
         let solver = self.solver.unwrap_or(header.solver);
         self.lumas = vec![None; header.streams.len()];
         self.dec = Some(SequenceDecoder::new(header, solver, self.memory_limit).map_err(js)?);
-        Ok(())
+        self.give_skin()
     }
 
     /// The last random-access point at or before `frame` (format version

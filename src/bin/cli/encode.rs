@@ -149,6 +149,16 @@ pub struct Args {
     /// version 10; a motion shorter than two intervals gets none either.
     #[arg(long, value_name = "SECONDS", default_value_t = cgv::codec::DEFAULT_RANDOM_ACCESS)]
     random_access: f32,
+    /// normal and predictive: bones as a predictor (format version 13). A
+    /// skinning decomposition of the motion with this many bones (1-255)
+    /// goes in the file (its weights on a 32 x 32 grid, a few KB), and each
+    /// frame may be predicted by the bones' rigid motions from the previous
+    /// frame where that lands closer than the velocity predictors; the
+    /// corrections code what the bones miss. Pays on articulated motion (a
+    /// body, an animal); on cloth or a face the encoder keeps velocity
+    /// predictions and the file costs the weights more. 0: no bones.
+    #[arg(long, value_name = "N", default_value_t = EncodeOptions::default().bones)]
+    bones: u16,
     /// Frames between H.264 intra frames.
     #[arg(long, default_value_t = 30)]
     gop: u32,
@@ -205,6 +215,7 @@ fn request(args: &Args) -> EncodeRequest {
         source_mesh: !args.no_source_mesh,
         fit_places: args.fit_places,
         random_access: args.random_access,
+        bones: args.bones,
         ..EncodeOptions::default()
     };
     EncodeRequest {
@@ -288,7 +299,13 @@ fn print_sizes(report: &cgv::codec::EncodeReport) {
     for (name, b) in &report.stream_bytes {
         println!("  stream {name:<8} {b:>10} bytes");
     }
-    println!("  frame chunks    {:>10} bytes (chunk framing, anchors, predictor, scale)", report.side_bytes);
+    println!(
+        "  frame chunks    {:>10} bytes (chunk framing, anchors, predictor, scale, bone motions)",
+        report.side_bytes
+    );
+    if report.skin_bytes > 0 {
+        println!("  bone weights    {:>10} bytes (--bones: the skin's weights, once)", report.skin_bytes);
+    }
     if report.source_mesh_bytes > 0 {
         println!(
             "  source mesh     {:>10} bytes (the input's faces and vertex places, once; --no-source-mesh leaves it out)",

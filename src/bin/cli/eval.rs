@@ -81,6 +81,10 @@ pub struct Args {
     /// far as the grid allows, down to 16 a side), as in `cgv encode`.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(0..=3))]
     correction_shrink: u8,
+    /// predictive and normal: bones as a predictor, as `cgv encode --bones`
+    /// (0: none).
+    #[arg(long, value_name = "N", default_value_t = EncodeOptions::default().bones)]
+    bones: u16,
     /// Write the report as JSON.
     #[arg(long, value_name = "OUT.json")]
     json: Option<PathBuf>,
@@ -157,6 +161,7 @@ pub fn run(args: Args) -> Result<()> {
         correction_shrink: args.correction_shrink,
         random_access: args.random_access,
         fit_places: args.fit_places,
+        bones: args.bones,
         ..Default::default()
     };
     base.video.gop = args.gop;

@@ -12,7 +12,7 @@ use crate::codec::loose::{step_for as loose_step, LooseVertices};
 use crate::codec::reconstruct::{frame_values, Predictive, Values};
 use crate::error::{Error, Result};
 use crate::format::stream::{CORRECTION, POSITION};
-use crate::format::{self, Coverage, FrameInfo, Header, StreamInfo, StreamName};
+use crate::format::{self, Coverage, FrameInfo, Header, SkinWeights, StreamInfo, StreamName};
 use crate::geometry_image::GeometryImage;
 use crate::grid::Stencils;
 use crate::mesh::FrameSource;
@@ -29,7 +29,16 @@ pub(super) struct Coded {
     pub side_bytes: usize,
     /// The source mesh chunk's bytes.
     pub source_mesh_bytes: usize,
+    /// The skin weights chunk's bytes.
+    pub skin_bytes: usize,
     pub seconds_coding: f64,
+}
+
+/// The chunks before frame 0: the source mesh's (and appearance's), as
+/// made, and the bones' weights.
+pub(super) struct Chunks<'a> {
+    pub source: Option<&'a [u8]>,
+    pub skin: Option<&'a SkinWeights>,
 }
 
 /// A sink and the length of what went into it: the index names offsets.
@@ -100,7 +109,7 @@ pub(super) fn code(
     src: &dyn FrameSource,
     opts: &EncodeOptions,
     (plan, header): (&Plan, &Header),
-    (image, source_chunk): (&GeometryImage, Option<&[u8]>),
+    (image, chunks): (&GeometryImage, Chunks),
     st: &Stencils,
     sink: &mut dyn Sink,
     progress: &mut dyn FnMut(&str, usize, usize),
@@ -108,11 +117,13 @@ pub(super) fn code(
     let map = &image.map;
     // Each chunk goes out as it is made.
     let mut out = Written { sink, len: 0 };
-    out.put(&format::write_header(header).map_err(|e| Error::Container { path: src.label().into(), source: e })?)?;
-    let source_mesh_bytes = source_chunk.map_or(0, <[u8]>::len);
-    out.put(source_chunk.unwrap_or_default())?;
-    let mut streams = open_streams(header, opts, plan)?;
+    let (source_mesh_bytes, skin_bytes) = write_prefix(&mut out, src, header, &chunks)?;
     let mut predictive = Predictive::new(header, st.clone());
+    if let Some(weights) = chunks.skin {
+        // The bones as the decoder will have them.
+        predictive.set_skin(header, weights)?;
+    }
+    let mut streams = open_streams(header, opts, plan)?;
     let (mut seconds_coding, mut side_bytes) = (0.0, 0);
     // The corrections (and their second layers) are coded after the rest,
     // which the prediction reads.
@@ -170,7 +181,17 @@ pub(super) fn code(
     }
     out.put(&format::write_chunk(format::TAG_END, 0, plan.frames as u32, &[]))?;
     let stream_bytes = streams.iter().map(|s| (s.info.label(), s.bytes)).collect();
-    Ok(Coded { bytes: out.len, stream_bytes, side_bytes, source_mesh_bytes, seconds_coding })
+    Ok(Coded { bytes: out.len, stream_bytes, side_bytes, source_mesh_bytes, skin_bytes, seconds_coding })
+}
+
+/// What comes before frame 0: the header, the source mesh's chunks and the
+/// skin weights'. Returns the bytes of the last two.
+fn write_prefix(out: &mut Written, src: &dyn FrameSource, header: &Header, chunks: &Chunks) -> Result<(usize, usize)> {
+    out.put(&format::write_header(header).map_err(|e| Error::Container { path: src.label().into(), source: e })?)?;
+    out.put(chunks.source.unwrap_or_default())?;
+    let skin = chunks.skin.map(format::write_skin).unwrap_or_default();
+    out.put(&skin)?;
+    Ok((chunks.source.map_or(0, <[u8]>::len), skin.len()))
 }
 
 /// A frame's loose vertices coded against their prediction on the decoded
@@ -240,7 +261,9 @@ fn close_loop(
     let header = coder.header;
     let vals = frame_values(header, &coder.decoded, 0.0)?;
     let values = Values::new(header, &vals).with_seed_origin(info.seed_origin);
-    // The predictor that lands closest to the true frame.
+    // The bones' transforms (every frame of a file with them), then the
+    // predictor that lands closest to the true frame.
+    info.bones = predictive.predictor.encode_bones(truth);
     let (code, pred) = predictive.choose(plan.allowed, opts.max_steps, &values, anchors, truth)?;
     let err: Vec<Vec3> = truth.iter().zip(&pred).map(|(p, q)| *p - *q).collect();
     let corrections = &predictive.corrections;

@@ -82,5 +82,6 @@ pub(super) fn header(
         source_mesh,
         appearance: None,
         random_access: plan.random_access,
+        skin: None,
     }
 }

@@ -15,6 +15,7 @@
 //! fill and call.
 
 mod analyse;
+mod bones;
 mod budget;
 mod choice;
 mod code;
@@ -126,6 +127,12 @@ pub struct EncodeOptions {
     /// only. Rounded to whole frames; a motion shorter than two intervals
     /// gets none.
     pub random_access: f32,
+    /// Closed-loop codecs: bones as a predictor (format version 13), 1 to
+    /// 255 of them, or 0 for none: a skinning decomposition's weights go in
+    /// the file, and each frame may be predicted by the bones' motions from
+    /// the previous one where that lands closer than the velocity
+    /// predictors (`crate::solve::skinned`).
+    pub bones: u16,
 }
 
 impl Default for EncodeOptions {
@@ -152,6 +159,7 @@ impl Default for EncodeOptions {
             source_mesh: true,
             fit_places: false,
             random_access: DEFAULT_RANDOM_ACCESS,
+            bones: 0,
         }
     }
 }
@@ -174,6 +182,9 @@ impl EncodeOptions {
         }
         if self.normal_correction && self.layers == 2 && self.closed_loop() {
             return bad("a normal correction has no residual layer (layers 1)".into());
+        }
+        if self.bones > format::skin::MAX_BONES {
+            return bad(format!("{} bones: at most {}", self.bones, format::skin::MAX_BONES));
         }
         if self.max_steps > MAX_STEPS {
             return bad(format!("max_steps {} is above {MAX_STEPS}", self.max_steps));
@@ -219,6 +230,9 @@ pub struct EncodeReport {
     pub side_bytes: usize,
     /// Bytes of the source mesh chunk (0 without one).
     pub source_mesh_bytes: usize,
+    /// Bytes of the bones' weights (the `SKIN` chunk; 0 without bones);
+    /// each frame's bone motions are in `side_bytes`.
+    pub skin_bytes: usize,
     pub parameterization: Parameterization,
     pub seconds_parameterize: f64,
     pub seconds_coding: f64,
@@ -323,13 +337,18 @@ pub fn encode_prepared_into(
     let source = if opts.source_mesh { Some(source_mesh_chunk(src, image)?) } else { None };
     let st = Stencils::new(plan.grid);
     let analysis = analyse::analyse(src, &plan, &image.map, &st, progress)?;
-    let simulation = simulate::simulate(src, &plan, opts, &image.map, &st)?;
     let diagonal = Bounds::of(&src.read_frame(opts.reference)?).diagonal();
+    let bones = bones::fit_bones(src, &plan, opts, &image.map, diagonal, progress)?;
+    let skin = bones.as_ref().map(|b| &b.predictor);
+    let simulation = simulate::simulate(src, &plan, opts, (&image.map, &st), skin)?;
+    let bones = bones.filter(|_| simulation.bones);
     let (source_chunk, source_info) = source.map_or((None, None), |(chunk, info)| (Some(chunk), Some(info)));
     let mut header = header::header(&plan, src, opts, (&analysis, &simulation), diagonal, source_info);
     header.appearance = src.appearance().filter(|_| opts.source_mesh).map(|a| a.look.info());
-    let code::Coded { bytes, stream_bytes, side_bytes, source_mesh_bytes, seconds_coding } =
-        code::code(src, opts, (&plan, &header), (image, source_chunk.as_deref()), &st, sink, progress)?;
+    header.skin = bones.as_ref().map(|b| b.info);
+    let chunks = code::Chunks { source: source_chunk.as_deref(), skin: bones.as_ref().map(|b| &b.weights) };
+    let code::Coded { bytes, stream_bytes, side_bytes, source_mesh_bytes, skin_bytes, seconds_coding } =
+        code::code(src, opts, (&plan, &header), (image, chunks), &st, sink, progress)?;
     let seconds_parameterize = image.seconds();
     let report = EncodeReport {
         codec: header.representation(),
@@ -338,6 +357,7 @@ pub fn encode_prepared_into(
         stream_bytes,
         side_bytes,
         source_mesh_bytes,
+        skin_bytes,
         parameterization: image.param.clone(),
         seconds_parameterize,
         seconds_coding,

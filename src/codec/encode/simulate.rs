@@ -12,6 +12,7 @@ use crate::grid::Stencils;
 use crate::mesh::FrameSource;
 use crate::resample::SampleMap;
 use crate::solve::predictor::{squared_distance, Extrapolation, Predictor, PredictorCode};
+use crate::solve::skinned::SkinnedPredictor;
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -21,33 +22,47 @@ pub(super) struct Simulation {
     pub max_lag: u8,
     /// Motion corrections: the quantizers of the three correction streams.
     pub motion_quant: Vec<Quantizer>,
+    /// Whether the file predicts with the bones it was given (see [`BONE_GAIN`]).
+    pub bones: bool,
 }
 
 /// Runs the uncoded loop where the plan needs it: always for motion
-/// corrections, and for scaled ones when cycles are allowed.
+/// corrections or bones, and for scaled ones when cycles are allowed.
 pub(super) fn simulate(
     src: &dyn FrameSource,
     plan: &Plan,
     opts: &EncodeOptions,
-    map: &SampleMap,
-    st: &Stencils,
+    (map, st): (&SampleMap, &Stencils),
+    skin: Option<&SkinnedPredictor>,
 ) -> Result<Simulation> {
-    if !(plan.closed_loop && (plan.motion || opts.max_lag > 0)) {
-        return Ok(Simulation { max_lag: 0, motion_quant: Vec::new() });
+    if !(plan.closed_loop && (plan.motion || opts.max_lag > 0 || skin.is_some())) {
+        return Ok(Simulation { max_lag: 0, motion_quant: Vec::new(), bones: false });
     }
     // Without cycles, and with them where allowed: cycle predictions only
-    // where the motion repeats (see CYCLE_GAIN).
+    // where the motion repeats (see CYCLE_GAIN); each without bones and,
+    // if given, with them (see BONE_GAIN).
     let lags: &[u8] = if opts.max_lag > 0 { &[0, opts.max_lag] } else { &[0] };
+    let skins: &[Option<&SkinnedPredictor>] = if skin.is_some() { &[None, skin] } else { &[None] };
+    let variants: Vec<(u8, Option<&SkinnedPredictor>)> =
+        lags.iter().flat_map(|&l| skins.iter().map(move |&s| (l, s))).collect();
     let frames = Frames { corrected: &|f| plan.corrected(f), rap: &|f| plan.is_rap(f) };
-    let mut runs = uncoded_loops(src, (map, st, plan.layout), plan.allowed, lags, &frames)?.into_iter();
-    let without = runs.next().ok_or_else(|| Error::Numerical("no uncoded loop".into()))?;
-    let kept = match runs.next() {
-        Some(w) if w.energy < CYCLE_GAIN * without.energy => w,
-        _ => without,
-    };
+    let runs = uncoded_loops(src, (map, st, plan.layout), plan.allowed, &variants, &frames)?;
+    let energy = |k: usize| runs.get(k).map_or(f64::INFINITY, |r| r.energy);
+    // Runs: (0, none), (0, bones)?, (lag, none), (lag, bones)?.
+    let per_lag = skins.len();
+    let bones = skin.is_some() && energy(1) < BONE_GAIN * energy(0);
+    let k0 = usize::from(bones);
+    let k = if energy(per_lag + k0) < CYCLE_GAIN * energy(k0) { per_lag + k0 } else { k0 };
+    let kept = runs.get(k).ok_or_else(|| Error::Numerical("no uncoded loop".into()))?;
     let motion_quant = if plan.motion { kept.running_sum_quantizers() } else { Vec::new() };
-    Ok(Simulation { max_lag: kept.longest_lag, motion_quant })
+    Ok(Simulation { max_lag: kept.longest_lag, motion_quant, bones })
 }
+
+/// Bones are used in a file only if, on the true frames, they cut the
+/// corrections' total squared size below this fraction of what the other
+/// predictors leave: their weights and every frame's transforms cost bits
+/// (samba, 32 bones at N = 128: a 6.7 KB chunk and about 150 bytes a frame).
+pub const BONE_GAIN: f64 = 0.75;
 
 /// Cycle predictions are used in a file only if, on the true frames, they
 /// cut the corrections' total squared size below this fraction of what the
@@ -107,7 +122,7 @@ struct Frames<'a> {
 }
 
 /// Runs the loop without coding (no anchors, no H steps: what the motion
-/// predictor uses), once for each longest lag in `lags`, over one reading
+/// predictor uses), once for each longest lag and bones in `variants`, over one reading
 /// of the frames: the frames with corrections are decoded as the true
 /// ones, the others as their prediction; at each random-access point the
 /// loop starts afresh from the true frame, as the decoder does from its seed.
@@ -115,7 +130,7 @@ fn uncoded_loops(
     src: &dyn FrameSource,
     (map, st, layout): (&SampleMap, &Stencils, Layout),
     allowed: &[Extrapolation],
-    lags: &[u8],
+    variants: &[(u8, Option<&SkinnedPredictor>)],
     frames: &Frames,
 ) -> Result<Vec<UncodedLoop>> {
     struct Run {
@@ -124,10 +139,10 @@ fn uncoded_loops(
         sum: Corrections,
         out: UncodedLoop,
     }
-    let mut runs: Vec<Run> = lags
+    let mut runs: Vec<Run> = variants
         .iter()
-        .map(|&lag| Run {
-            sim: Predictor::new(st.clone(), Vec::new()).with_max_lag(lag),
+        .map(|&(lag, skin)| Run {
+            sim: Predictor::new(st.clone(), Vec::new()).with_max_lag(lag).with_skin(skin.cloned()),
             sum: Corrections::new(CorrectionMode::Motion, layout, st.clone()),
             out: UncodedLoop {
                 ranges: vec![Range::default(); 3 + usize::from(layout.normal)],
@@ -146,6 +161,7 @@ fn uncoded_loops(
                 sum.reset();
             }
             let seed = rap.then_some(g.as_slice());
+            sim.encode_bones(&g);
             let (code, pred): (PredictorCode, _) = sim.closest(allowed, 0, seed, None, &[], &g)?;
             out.longest_lag = out.longest_lag.max(code.lag);
             if !(frames.corrected)(fi) {
