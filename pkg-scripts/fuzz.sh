@@ -39,6 +39,10 @@ done
 f=fuzz/corpus/read/walk-motion.cgv
 [ -e "$f" ] || "$cgv" encode builtin:walk --corrections motion --grid 16 --qp 30 --no-source-mesh -o "$f" >/dev/null
 cp "$f" fuzz/corpus/decode/
+# Version 13's bones (the fixture's source mesh is past -max_len).
+f=fuzz/corpus/read/walk-bones.cgv
+[ -e "$f" ] || "$cgv" encode builtin:walk --corrections motion --grid 16 --qp 30 --no-source-mesh --bones 4 -o "$f" >/dev/null
+cp "$f" fuzz/corpus/decode/
 f=fuzz/corpus/read/icosahedron-source.cgv
 if [ ! -e "$f" ]; then
   awk 'BEGIN { t = (1 + sqrt(5)) / 2

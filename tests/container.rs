@@ -1043,3 +1043,121 @@ fn a_version_ten_file_read_in_pieces_from_its_points() {
     lie[0] -= 1;
     assert!(r.set_index(lie).is_err());
 }
+
+/// A chunk as (tag, frame, payload).
+type RawChunk = ([u8; 4], u32, Vec<u8>);
+
+/// The v13 fixture's prefix and chunks.
+fn v13_chunks() -> (Vec<u8>, Vec<RawChunk>) {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/v13/walk-bones.cgv");
+    let bytes = std::fs::read(path).unwrap();
+    let len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    let prefix = bytes[..20 + len].to_vec();
+    let mut chunks = Vec::new();
+    let mut at = prefix.len();
+    while let Some((c, next)) = format::parse_chunk(&bytes, at).unwrap() {
+        chunks.push((c.tag, c.frame, c.payload.to_vec()));
+        at = next;
+    }
+    (prefix, chunks)
+}
+
+/// The file of these chunks, its random-access index (points at 0, 3, 6)
+/// rewritten for where the frames now lie.
+fn v13_file(prefix: &[u8], chunks: &[RawChunk]) -> Vec<u8> {
+    let mut out = prefix.to_vec();
+    let mut points = Vec::new();
+    for (tag, frame, payload) in chunks {
+        if tag == b"FRAM" && frame % 3 == 0 {
+            points.push(out.len() as u64);
+        }
+        match tag {
+            b"RIDX" => out.extend(format::write_index(&points)),
+            _ => out.extend(format::write_chunk(*tag, 0, *frame, payload)),
+        }
+    }
+    out
+}
+
+/// Version 13's parts, each broken on its own: the skin weights missing,
+/// truncated or naming a bone past the count, a frame's bones unit missing
+/// or overlong, and the file declared as version 12. Each is a typed
+/// error; the intact file reads.
+#[test]
+fn broken_bones_are_errors() {
+    let (prefix, chunks) = v13_chunks();
+    assert!(format::read(&v13_file(&prefix, &chunks)).is_ok());
+    let skin = chunks.iter().position(|c| &c.0 == b"SKIN").expect("a SKIN chunk");
+    let frame1 = chunks.iter().position(|c| &c.0 == b"FRAM" && c.1 == 1).unwrap();
+    let h = format::read(&v13_file(&prefix, &chunks)).unwrap().header;
+    let info = h.skin.unwrap();
+    let side = h.grid as usize >> info.shrink;
+    let weights = format::SkinWeights::parse(&chunks[skin].2, &info, h.grid, 0).unwrap();
+    let mut bad_bone = weights.clone();
+    bad_bone.influences[side][0] = (info.bones as u8, 10);
+    // Frame 1's side data, its access units' lengths and units, then the bones unit.
+    let frame = |f: &mut Vec<u8>, unit: &[u8]| {
+        let h = &h;
+        let mut at = h.side_data_len(1);
+        for s in 0..h.streams.len() {
+            if h.stream_has_frame(s, 1) {
+                let mut n = 0usize;
+                let mut shift = 0;
+                loop {
+                    let b = f[at];
+                    at += 1;
+                    n |= ((b & 0x7f) as usize) << shift;
+                    shift += 7;
+                    if b & 0x80 == 0 {
+                        break;
+                    }
+                }
+                at += n;
+            }
+        }
+        f.truncate(at);
+        // The unit's LEB128 length (under 2^14).
+        match unit.len() {
+            n if n < 128 => f.push(n as u8),
+            n => f.extend([(n & 0x7f) as u8 | 0x80, (n >> 7) as u8]),
+        }
+        f.extend_from_slice(unit);
+    };
+    type Break<'a> = Box<dyn Fn(&mut Vec<RawChunk>) + 'a>;
+    let cases: Vec<(&str, &str, Break)> = vec![
+        ("no skin chunk", "skin weights", Box::new(move |c| drop(c.remove(skin)))),
+        (
+            "truncated weights",
+            "skin weights",
+            Box::new(move |c| {
+                let n = c[skin].2.len() / 2;
+                c[skin].2.truncate(n)
+            }),
+        ),
+        ("a bone past the count", "names a bone past", Box::new(move |c| c[skin].2 = bad_bone.to_bytes())),
+        ("no bones at frame 1", "bones: a unit of 0 bytes", Box::new(move |c| frame(&mut c[frame1].2, &[]))),
+        ("a bones unit too long", "bones: a unit of 200", Box::new(move |c| frame(&mut c[frame1].2, &[7; 200]))),
+    ];
+    for (what, says, break_it) in cases {
+        let mut c = chunks.clone();
+        break_it(&mut c);
+        let Err(e) = format::read(&v13_file(&prefix, &c)) else { panic!("{what}: read") };
+        assert!(matches!(e, ContainerError::Chunk { .. }) && e.to_string().contains(says), "{what}: {e}");
+    }
+    // Bones the reader cannot check alone (they are differences): a unit
+    // that does not inflate to the bones' numbers is the decoder's error.
+    let mut c = chunks.clone();
+    frame(&mut c[frame1].2, &miniz_oxide::deflate::compress_to_vec(&[1, 2, 3], 9));
+    let file = format::read(&v13_file(&prefix, &c)).unwrap();
+    let mut dec = cgv::codec::FileDecoder::new(file, cgv::solve::SolverKind::Predictive).unwrap();
+    dec.next_frame().unwrap();
+    let e = dec.next_frame().unwrap_err().to_string();
+    assert!(e.contains("frame 1") && e.contains("bone"), "{e}");
+    // Version 12 cannot hold a skin.
+    let mut old = prefix.clone();
+    old[8] = 12;
+    let crc = crc32fast::hash(&old[8..old.len() - 4]);
+    let n = old.len();
+    old[n - 4..].copy_from_slice(&crc.to_le_bytes());
+    assert!(format::read(&v13_file(&old, &chunks)).is_err());
+}

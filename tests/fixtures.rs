@@ -212,6 +212,21 @@ fn v12_walked_source_mesh_fixture_decodes_as_frozen() {
 }
 
 #[test]
+fn v13_bones_fixture_decodes_as_frozen() {
+    // Frames predicted by 4 bones (codes 16 and 17), random-access points
+    // at 0, 3 and 6 where the bones restart from the decoded point.
+    let f = open("v13/walk-bones.cgv");
+    assert_eq!(f.version, 13);
+    let skin = f.header.skin.expect("the file has bones");
+    assert_eq!((skin.bones, f.header.random_access), (4, Some(3)));
+    let codes: Vec<u8> = f.frames.iter().map(|i| i.predictor.to_byte()).collect();
+    assert_eq!(codes, [0, 16, 17, 0, 16, 17, 0, 16]);
+    assert!(f.frames.iter().enumerate().all(|(k, i)| i.bones.as_ref().is_some_and(|b| b.is_empty() == (k % 3 == 0))));
+    check("v13/walk-bones.cgv", SolverKind::Predictive, 1e-5);
+    check_source("v13/walk-bones.cgv", f);
+}
+
+#[test]
 fn v7_source_offsets_fixture_decodes_as_frozen() {
     let f = open("v7/walk-cgv-offsets.cgv");
     assert_eq!(f.version, 7);

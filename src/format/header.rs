@@ -180,10 +180,18 @@ impl FrameInfo {
         // A cycle prediction names a lag the header allows and the frames
         // since the last random-access point can serve.
         let since = frame - header.random_access_point(frame);
-        // A skinned one, bones the header has and a previous frame.
+        // A skinned one, bones the header has and one previous frame (two
+        // with the velocity of what the bones missed).
         let predictor = PredictorCode::from_bytes(payload[0], payload[1])
             .filter(|c| c.lag == 0 || (c.lag <= header.max_lag && u32::from(c.lag) < since))
-            .filter(|c| c.extrapolation != Extrapolation::Skinned || (header.skin.is_some() && since > 0));
+            .filter(|c| {
+                let needs = match c.extrapolation {
+                    Extrapolation::Skinned => 1,
+                    e if e.is_skinned() => 2,
+                    _ => 0,
+                };
+                needs == 0 || (header.skin.is_some() && since >= needs)
+            });
         let filter = payload[2];
         let filter_ok = filter == 0 || (version >= 5 && filter <= MAX_FILTER);
         let relax = payload[3];

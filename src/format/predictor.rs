@@ -3,7 +3,8 @@
 //! the predictor reads the result.
 
 /// Largest predictor byte (bits 0..=1: extrapolation 0..=3, bits 2..=3:
-/// steps 0..=3, bit 4 (version 13): skinned, with bits 0..=1 zero).
+/// steps 0..=3, bit 4 (version 13): skinned, bits 0..=1 then saying what
+/// is added, 0 nothing, 1 velocity, 2 smoothed velocity).
 pub const MAX_PREDICTOR: u8 = 0b1_1111;
 /// The predictor byte's skinned bit (version 13).
 pub const SKINNED_BIT: u8 = 0b1_0000;
@@ -34,10 +35,21 @@ pub enum Extrapolation {
     /// 0.77 / 0.38 % smoothed at GV's `low` and `medium` sizes, and a
     /// smoothness metric above GV's instead of 20-25 % below).
     Cycle,
-    /// Version 13: x₋₁ moved by the bones: each bone's rigid motion from
-    /// the previous frame to this one (the frame's bones unit), blended by
-    /// the file's skin weights (`crate::solve::skinned`).
+    /// Version 13: x₋₁ moved as the bones move, x₋₁ + L − L₋₁ (L the
+    /// file's skinning of this frame, `crate::solve::skinned`).
     Skinned,
+    /// Version 13: [`Skinned`](Self::Skinned) plus what the bones missed of
+    /// the last frame's motion, (x₋₁ − x₋₂) − (L₋₁ − L₋₂).
+    SkinnedVelocity,
+    /// Version 13: the same, smoothed like [`SmoothVelocity`](Self::SmoothVelocity).
+    SkinnedSmoothVelocity,
+}
+
+impl Extrapolation {
+    /// Whether the extrapolation uses the file's bones.
+    pub fn is_skinned(self) -> bool {
+        matches!(self, Extrapolation::Skinned | Extrapolation::SkinnedVelocity | Extrapolation::SkinnedSmoothVelocity)
+    }
 }
 
 /// A frame's predictor: the extrapolation (bits 0..=1 of the predictor
@@ -62,6 +74,8 @@ impl PredictorCode {
     pub fn from_bytes(b: u8, lag: u8) -> Option<PredictorCode> {
         let extrapolation = match b & 3 {
             0 if b & SKINNED_BIT != 0 => Extrapolation::Skinned,
+            1 if b & SKINNED_BIT != 0 => Extrapolation::SkinnedVelocity,
+            2 if b & SKINNED_BIT != 0 => Extrapolation::SkinnedSmoothVelocity,
             _ if b & SKINNED_BIT != 0 => return None,
             0 => Extrapolation::Rigid,
             1 => Extrapolation::Velocity,
@@ -83,6 +97,8 @@ impl PredictorCode {
             Extrapolation::SmoothVelocity => 2,
             Extrapolation::Cycle => 3,
             Extrapolation::Skinned => SKINNED_BIT,
+            Extrapolation::SkinnedVelocity => SKINNED_BIT | 1,
+            Extrapolation::SkinnedSmoothVelocity => SKINNED_BIT | 2,
         };
         e | (self.steps.min(MAX_STEPS) << 2)
     }

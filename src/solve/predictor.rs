@@ -63,12 +63,14 @@ pub const GUESS_WEIGHT: f64 = 1e-4;
 
 /// Every extrapolation, for [`Predictor::closest`] (the skinned one only
 /// where the file has bones).
-pub const ALL_EXTRAPOLATIONS: [Extrapolation; 5] = [
+pub const ALL_EXTRAPOLATIONS: [Extrapolation; 7] = [
     Extrapolation::Rigid,
     Extrapolation::Velocity,
     Extrapolation::SmoothVelocity,
     Extrapolation::Cycle,
     Extrapolation::Skinned,
+    Extrapolation::SkinnedVelocity,
+    Extrapolation::SkinnedSmoothVelocity,
 ];
 /// The extrapolations that keep motion-mode correction streams (see
 /// [`crate::format::CorrectionMode::Motion`]) within a range: those
@@ -80,8 +82,14 @@ pub const ALL_EXTRAPOLATIONS: [Extrapolation; 5] = [
 /// v − v₋ₗ, a difference of two velocities; so does a skinned one, whose
 /// running sum is what the bones leave of the motion since the last
 /// random-access point.
-pub const MOTION_EXTRAPOLATIONS: [Extrapolation; 4] =
-    [Extrapolation::Velocity, Extrapolation::SmoothVelocity, Extrapolation::Cycle, Extrapolation::Skinned];
+pub const MOTION_EXTRAPOLATIONS: [Extrapolation; 6] = [
+    Extrapolation::Velocity,
+    Extrapolation::SmoothVelocity,
+    Extrapolation::Cycle,
+    Extrapolation::Skinned,
+    Extrapolation::SkinnedVelocity,
+    Extrapolation::SkinnedSmoothVelocity,
+];
 
 /// The encoder's default longest lag: 2 s at 30 fps, enough for a gait or a
 /// gallop cycle (the default motion's is 36 frames, horse-gallop's 24). A
@@ -232,10 +240,7 @@ impl Predictor {
         match (prev, prev2, code.extrapolation) {
             (None, _, _) => seed.map(<[Vec3]>::to_vec).ok_or_else(|| Error::Argument("frame 0 needs the seed".into())),
             (Some(_), _, Extrapolation::Cycle) => self.cycle(code.lag),
-            (Some(p), _, Extrapolation::Skinned) => match &self.skin {
-                Some(skin) => skin.predict(p),
-                None => Err(Error::Argument("a skinned prediction in a file without bones".into())),
-            },
+            (Some(p), p2, e) if e.is_skinned() => self.skinned(e, p, p2),
             (Some(p), Some(p2), Extrapolation::Velocity) => Ok(p.iter().zip(p2).map(|(a, b)| *a * 2.0 - *b).collect()),
             (Some(p), Some(p2), Extrapolation::SmoothVelocity) => {
                 // The same numbers as the stored velocity, when there is one.
@@ -251,6 +256,22 @@ impl Predictor {
                 Ok(p.iter().map(|&q| m.apply(q)).collect())
             }
         }
+    }
+
+    /// A skinned extrapolation from x₋₁ = `p` and x₋₂ = `p2`.
+    fn skinned(&self, e: Extrapolation, p: &[Vec3], p2: Option<&Vec<Vec3>>) -> Result<Vec<Vec3>> {
+        let skin = self.skin.as_ref().ok_or_else(|| Error::Argument("a skinned prediction without bones".into()))?;
+        let mut x: Vec<Vec3> = p.iter().zip(skin.motion()?).map(|(p, d)| *p + d).collect();
+        if e != Extrapolation::Skinned {
+            let (Some(p2), Some(m1)) = (p2, skin.previous_motion()) else {
+                return Err(Error::Argument("a skinned velocity without two frames since the point".into()));
+            };
+            // What the bones missed of the last frame's motion.
+            let missed: Vec<Vec3> = p.iter().zip(p2).zip(&m1).map(|((a, b), m)| *a - *b - *m).collect();
+            let missed = if e == Extrapolation::SkinnedSmoothVelocity { self.smooth(missed) } else { missed };
+            x.iter_mut().zip(&missed).for_each(|(x, d)| *x += *d);
+        }
+        Ok(x)
     }
 
     /// A velocity field after [`SMOOTHING_PASSES`] averaging passes.
@@ -357,8 +378,13 @@ impl Predictor {
         let mut best: Option<(f64, PredictorCode, Vec<Vec3>)> = None;
         for &extrapolation in extrapolations {
             let code = match extrapolation {
-                Skinned => match &self.skin {
-                    Some(skin) if allowed.contains(&Skinned) && skin.ready() => PredictorCode::plain(Skinned),
+                e if e.is_skinned() => match &self.skin {
+                    Some(skin) if allowed.contains(&e) && skin.ready() => {
+                        if e != Skinned && !skin.has_previous_motion() {
+                            continue;
+                        }
+                        PredictorCode::plain(e)
+                    }
                     _ => continue,
                 },
                 // The lag is found without building each prediction.

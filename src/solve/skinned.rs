@@ -10,7 +10,9 @@
 //!
 //! x̂_t = x₋₁ + L_t − L_{t−1},
 //!
-//! the previous decoded frame moved as the bones move: with no correction
+//! the previous decoded frame moved as the bones move (`Extrapolation::Skinned`;
+//! `SkinnedVelocity` and `SkinnedSmoothVelocity` add what the bones missed
+//! of the last frame's motion, as the velocity predictors do): with no correction
 //! at all the decoded motion is the skinning itself (an error bounded by
 //! the decomposition's), and the motion corrections' running sum is what
 //! the bones leave, x − L, bounded too. The encoder fits each bone's
@@ -25,8 +27,12 @@ use crate::grid::{coarse, Grid};
 use crate::skin::{procrustes, Rigid};
 use glam::{Mat3, Quat, Vec3};
 
-/// Sweeps of the encoder's transform fit over the bones.
+/// Sweeps of the encoder's transform fit over the bones. On samba (N =
+/// 128, 32 bones, the bones alone): 2 sweeps 0.447 % vertex RMS, 6 0.346 %,
+/// 12 0.340 %.
 pub const FIT_SWEEPS: usize = 6;
+/// The fit reads every this many samples each way on grids of 64 and up.
+pub const FIT_STRIDE: usize = 2;
 
 /// The decoder's bones: weights on the grid, the segment's rest pose, and
 /// the transforms of the last frames.
@@ -35,7 +41,9 @@ pub struct SkinnedPredictor {
     info: SkinInfo,
     /// Each grid sample's bones and weights (summing to one).
     influences: Vec<[(u16, f32); INFLUENCES]>,
-    /// Each bone's samples and their weights (the encoder's fit).
+    /// The samples the encoder's fit reads, and each bone's among them
+    /// with their weights.
+    fitted: Vec<u32>,
     members: Vec<Vec<(u32, f32)>>,
     /// The segment's rest pose and its bones' centroids (none until the
     /// random-access point's frame is decoded).
@@ -44,8 +52,9 @@ pub struct SkinnedPredictor {
     /// random-access point): a frame's unit codes the difference from
     /// their linear extrapolation.
     history: [Vec<Motion>; 2],
-    /// L of the previous frame, and of this one once its transforms are known.
-    last_skinned: Vec<Vec3>,
+    /// L of the two frames before this one (newest first), and of this one
+    /// once its transforms are known.
+    last_skinned: std::collections::VecDeque<Vec<Vec3>>,
     skinned: Option<Vec<Vec3>>,
 }
 
@@ -57,20 +66,27 @@ impl SkinnedPredictor {
             return Err(Error::Argument(format!("{} skin weights for a {side}² grid", weights.influences.len())));
         }
         let influences = expand(Grid { n: side }, info, weights);
+        // The fit reads every FIT_STRIDE-th sample each way: 6 unknowns a
+        // bone need no more, and it is 4x faster.
+        let stride = if grid.n >= 64 { FIT_STRIDE } else { 1 };
+        let fitted: Vec<u32> = (0..grid.len() as u32)
+            .filter(|&v| (v as usize % grid.n) % stride == 0 && (v as usize / grid.n) % stride == 0)
+            .collect();
         let mut members = vec![Vec::new(); info.bones as usize];
-        for (v, inf) in influences.iter().enumerate() {
-            for &(b, w) in inf.iter().filter(|i| i.1 > 0.0) {
-                members[b as usize].push((v as u32, w));
+        for &v in &fitted {
+            for &(b, w) in influences[v as usize].iter().filter(|i| i.1 > 0.0) {
+                members[b as usize].push((v, w));
             }
         }
         let identity = vec![[0; MOTION_PARAMS]; info.bones as usize];
         Ok(SkinnedPredictor {
             info: *info,
             influences,
+            fitted,
             members,
             rest: None,
             history: [identity.clone(), identity],
-            last_skinned: Vec::new(),
+            last_skinned: Default::default(),
             skinned: None,
         })
     }
@@ -82,6 +98,7 @@ impl SkinnedPredictor {
     /// Forgets the segment (a random-access point).
     pub fn reset(&mut self) {
         self.rest = None;
+        self.last_skinned.clear();
         self.history.iter_mut().flatten().for_each(|m| *m = [0; MOTION_PARAMS]);
         self.skinned = None;
     }
@@ -116,9 +133,11 @@ impl SkinnedPredictor {
             })
             .collect();
         let apply = |m: &Rigid, v: usize, b: usize| m.apply(rest[v] - c[b]);
+        // Only the fitted samples' residuals are read.
         let mut residual: Vec<Vec3> = truth.to_vec();
-        for (v, inf) in self.influences.iter().enumerate() {
-            for &(b, w) in inf {
+        for &v in &self.fitted {
+            let v = v as usize;
+            for &(b, w) in &self.influences[v] {
                 residual[v] -= w * apply(&m[b as usize], v, b as usize);
             }
         }
@@ -223,13 +242,26 @@ impl SkinnedPredictor {
         self.skinned.is_some()
     }
 
-    /// x₋₁ + L_t − L_{t−1}, once this frame's transforms are known.
-    pub fn predict(&self, prev: &[Vec3]) -> Result<Vec<Vec3>> {
-        match &self.skinned {
-            Some(l) if prev.len() == l.len() && l.len() == self.last_skinned.len() => {
-                Ok(prev.iter().zip(l).zip(&self.last_skinned).map(|((x, a), b)| *x + (*a - *b)).collect())
-            }
+    /// How the bones move from the previous frame to this one, L_t − L_{t−1},
+    /// once this frame's transforms are known.
+    pub fn motion(&self) -> Result<Vec<Vec3>> {
+        match (&self.skinned, self.last_skinned.front()) {
+            (Some(l), Some(l1)) => Ok(l.iter().zip(l1).map(|(a, b)| *a - *b).collect()),
             _ => Err(Error::Argument("a skinned prediction before the frame's bones".into())),
+        }
+    }
+
+    /// Whether [`previous_motion`](Self::previous_motion) has one.
+    pub fn has_previous_motion(&self) -> bool {
+        self.last_skinned.len() >= 2
+    }
+
+    /// How the bones moved into the previous frame, L_{t−1} − L_{t−2}, if
+    /// that frame was not the random-access point.
+    pub fn previous_motion(&self) -> Option<Vec<Vec3>> {
+        match (self.last_skinned.front(), self.last_skinned.get(1)) {
+            (Some(a), Some(b)) => Some(a.iter().zip(b).map(|(a, b)| *a - *b).collect()),
+            _ => None,
         }
     }
 
@@ -239,9 +271,12 @@ impl SkinnedPredictor {
         match (&self.rest, self.skinned.take()) {
             (None, _) => {
                 self.rest = Some((x.to_vec(), self.centroids(x)));
-                self.last_skinned = x.to_vec();
+                self.last_skinned = [x.to_vec()].into();
             }
-            (Some(_), Some(l)) => self.last_skinned = l,
+            (Some(_), Some(l)) => {
+                self.last_skinned.push_front(l);
+                self.last_skinned.truncate(2);
+            }
             (Some(_), None) => {}
         }
     }
@@ -308,8 +343,9 @@ mod tests {
         }
         let unit = enc.encode(&truth);
         dec.decode(&unit).unwrap();
-        let (x, y) = (enc.predict(&rest).unwrap(), dec.predict(&rest).unwrap());
-        assert_eq!(x, y);
+        let (m, n) = (enc.motion().unwrap(), dec.motion().unwrap());
+        assert_eq!(m, n);
+        let x: Vec<Vec3> = rest.iter().zip(&m).map(|(p, d)| *p + *d).collect();
         // Within the quantizer's reach (1e-4 rad and units) of the truth.
         let worst = x.iter().zip(&truth).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
         assert!(worst < 1e-3, "{worst}");
