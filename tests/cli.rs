@@ -888,8 +888,9 @@ fn skinning_joins_eval_as_a_peer_and_decode_writes_bones() {
     if let Some(c) = curves {
         let rms: Vec<f64> =
             c[0]["points"].as_array().unwrap().iter().map(|x| x["vertex_rms"].as_f64().unwrap()).collect();
-        // More bones, less error.
+        // More bones, less error; the KG error beside it.
         assert!(rms.len() == 2 && rms[1] < rms[0] && rms[0] > 0.0, "{rms:?}");
+        assert!(c[0]["points"][0]["kg"].as_f64().is_some_and(|k| k > 0.0), "{}", c[0]);
     }
     let bad = cgv(&["eval", "builtin:walk", "--skin-bones", "2", "--md", &p("x.md")]);
     assert!(!bad.status.success() && stderr(&bad).contains("--skin-bones"));

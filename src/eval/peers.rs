@@ -50,6 +50,10 @@ pub struct PeerPoint {
     pub vertex_max: f64,
     pub surface_rms: Option<f64>,
     pub surface_max: Option<f64>,
+    /// KG error (%, each frame's centroid), where the peer's report has it
+    /// (the skinning's; `python -m cgv.peers` does not write it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kg: Option<f64>,
 }
 
 /// Where one peer point is on our curve.

@@ -82,8 +82,8 @@ fn peers(s: &mut String, r: &Report) {
          error are read off our curve, log–log between neighbouring points.\n",
         p.codec, r.source_mesh_bytes, r.frames
     );
-    let _ = writeln!(s, "| peer | setting | bits per input vertex per frame | kbit/s @30 fps | vertex RMSE | surface RMS | surface max | ours at its surface RMS, grid mesh out | with your mesh | we need | ours at its vertex RMSE, your mesh | we need |");
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let _ = writeln!(s, "| peer | setting | bits per input vertex per frame | kbit/s @30 fps | vertex RMSE | surface RMS | surface max | KG error (%) | ours at its surface RMS, grid mesh out | with your mesh | we need | ours at its vertex RMSE, your mesh | we need |");
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let points = p.report.curves.iter().flat_map(|c| c.points.iter());
     for (q, cmp) in points.zip(&p.comparisons) {
         let (gb, _) = reach_cell(cmp.grid_at_surface_rms, q.bits_per_input_vertex);
@@ -91,7 +91,7 @@ fn peers(s: &mut String, r: &Report) {
         let (vb, vr) = reach_cell(cmp.ours_at_vertex_rms, q.bits_per_input_vertex);
         let _ = writeln!(
             s,
-            "| {} | {} | {:.2} | {:.1} | {} | {} | {} | {gb} | {sb} | {sr} | {vb} | {vr} |",
+            "| {} | {} | {:.2} | {:.1} | {} | {} | {} | {} | {gb} | {sb} | {sr} | {vb} | {vr} |",
             cmp.peer,
             cmp.setting,
             q.bits_per_input_vertex,
@@ -99,6 +99,7 @@ fn peers(s: &mut String, r: &Report) {
             pct(q.vertex_rms),
             opt_pct(q.surface_rms),
             opt_pct(q.surface_max),
+            q.kg.map_or("–".into(), |k| format!("{k:.3}")),
         );
     }
     let _ = writeln!(

@@ -87,5 +87,6 @@ fn measure(
         vertex_max: e.vertex_max,
         surface_rms: e.surface_rms,
         surface_max: e.surface_max,
+        kg: Some(e.kg),
     })
 }
