@@ -901,3 +901,17 @@ fn skinning_joins_eval_as_a_peer_and_decode_writes_bones() {
     assert!(v["skin_vertex_rms_of_decoded"].as_f64().unwrap() < 0.02, "{v}");
     assert_eq!(validate_gltf(&[std::path::Path::new(&p("w-skin.glb"))])[0]["errors"], 0);
 }
+
+/// `cgv info` on a file with bones (format v13): how many, where their
+/// weights lie, and which frames they predicted.
+#[test]
+fn info_names_the_bones_and_the_frames_they_predict() {
+    let fixture = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/v13/walk-bones.cgv");
+    let out = cgv(&["info", fixture]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("bones         4 (weights on a 16 x 16 grid; 5 of 8 frames predicted by them)"), "{text}");
+    assert!(text.contains("bones 3, bones and velocity 2, bones and smoothed velocity 0"), "{text}");
+    let bad = cgv(&["encode", "builtin:walk", "--bones", "many", "-o", "/nonexistent/x.cgv"]);
+    assert!(!bad.status.success() && stderr(&bad).contains("give auto or a count"), "{}", stderr(&bad));
+}

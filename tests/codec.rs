@@ -634,10 +634,11 @@ fn random_access_points_decode_the_same_frames_from_anywhere() {
     // gives, having decoded at most the frames since the point before it.
     // Bones (v13) restart at each point too, from the decoded point as their rest pose.
     let src = cgv::mesh::builtin::motion(20);
-    for (corrections, bones) in [(CorrectionMode::Motion, 0), (CorrectionMode::Scaled, 0), (CorrectionMode::Motion, 8)]
+    for (corrections, bones) in
+        [(CorrectionMode::Motion, 0), (CorrectionMode::Scaled, 0), (CorrectionMode::Motion, 8u16)]
     {
         let random_access = 8.0 / src.fps();
-        let opts = EncodeOptions { grid: 32, corrections, random_access, bones, ..Default::default() };
+        let opts = EncodeOptions { grid: 32, corrections, random_access, bones: Some(bones), ..Default::default() };
         let (bytes, _) = encode(&src, &opts, &mut |_, _, _| {}).unwrap();
         let file = format::read(&bytes).unwrap();
         let h = &file.header;

@@ -151,11 +151,18 @@ fn encode_request(options: Option<&Bound<'_, PyDict>>, fps: f32) -> PyResult<Enc
             "source_mesh" => o.source_mesh = value.extract()?,
             "fit_places" => o.fit_places = value.extract()?,
             "random_access" => o.random_access = value.extract()?,
+            "bones" => {
+                o.bones = match value.extract::<String>() {
+                    Ok(a) if a == "auto" => None,
+                    Ok(a) => return Err(invalid(format!("bones {a:?}: expected \"auto\" or a count"))),
+                    Err(_) => Some(value.extract()?),
+                }
+            }
             "target_error" => r.target_error = Some(value.extract::<f64>()?),
             _ => {
                 return Err(PyTypeError::new_err(format!(
                     "encode() got an unexpected keyword {key:?} (known: codec, grid, qp, kbps, gop, keyframes, layers, \
-                     max_lag, corrections, correction_shrink, source_mesh, fit_places, random_access, \
+                     max_lag, corrections, correction_shrink, source_mesh, fit_places, random_access, bones, \
                      target_error)"
                 )))
             }
@@ -239,7 +246,8 @@ fn bytes_of(made: Made) -> Vec<u8> {
 /// file carries the input's own faces so that decode gives them back),
 /// fit_places (default False: as `cgv encode --fit-places`),
 /// random_access (seconds between random-access points, default 2; 0 for
-/// frame 0 only), target_error (instead of qp or kbps: the smallest file whose surface RMS
+/// frame 0 only), bones (as `cgv encode --bones`: a skinning's bones as the
+/// predictor, 0 for none), target_error (instead of qp or kbps: the smallest file whose surface RMS
 /// is at most this percentage of the diagonal, as `cgv encode
 /// --target-error` finds it).
 #[pyfunction]

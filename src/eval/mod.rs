@@ -535,7 +535,7 @@ impl Ctx<'_> {
     }
 
     fn job(&self, codec: EvalCodec, target: usize) -> Result<CodecResult> {
-        let Some(variants) = codec.variants(self.opts.base.bones > 0) else {
+        let Some(variants) = codec.variants(self.opts.base.bones != Some(0)) else {
             let (t, matched, tries) = self.search(codec, self.opts.base.correction_interval, target)?;
             return self.measure(codec, t, matched, tries);
         };

@@ -82,9 +82,9 @@ pub struct Args {
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u8).range(0..=3))]
     correction_shrink: u8,
     /// predictive and normal: bones as a predictor, as `cgv encode --bones`
-    /// (0: none).
-    #[arg(long, value_name = "N", default_value_t = EncodeOptions::default().bones)]
-    bones: u16,
+    /// (auto, N, or 0 for none).
+    #[arg(long, value_name = "auto|N", default_value = "auto", value_parser = super::encode::parse_bones)]
+    bones: super::encode::BonesArg,
     /// Write the report as JSON.
     #[arg(long, value_name = "OUT.json")]
     json: Option<PathBuf>,
@@ -161,7 +161,7 @@ pub fn run(args: Args) -> Result<()> {
         correction_shrink: args.correction_shrink,
         random_access: args.random_access,
         fit_places: args.fit_places,
-        bones: args.bones,
+        bones: args.bones.0,
         ..Default::default()
     };
     base.video.gop = args.gop;

@@ -179,6 +179,14 @@ fn cgv_info(args: &Args) -> Result<()> {
         None => println!("  random access frame 0 only (a seek decodes from the start)"),
     }
     println!("  anchors       {:?}", h.anchors);
+    if let Some(skin) = &h.skin {
+        let skinned = file.frames.iter().filter(|f| f.predictor.extrapolation.is_skinned()).count();
+        let side = h.grid >> skin.shrink;
+        println!(
+            "  bones         {} (weights on a {side} x {side} grid; {skinned} of {} frames predicted by them)",
+            skin.bones, h.frames
+        );
+    }
     if h.stream(StreamName::Dx).is_some() {
         println!(
             "  corrections   {}",
@@ -206,7 +214,7 @@ fn cgv_info(args: &Args) -> Result<()> {
     print_streams(h, &file.stream_bytes());
     if h.stream(StreamName::Dx).is_some() {
         // How the encoder chose to predict each frame (see src/solve/predictor.rs).
-        let mut counts = [0usize; 4];
+        let mut counts = [0usize; 7];
         let mut with_h = 0;
         let mut lags = std::collections::BTreeMap::<u8, usize>::new();
         for f in &file.frames {
@@ -218,12 +226,19 @@ fn cgv_info(args: &Args) -> Result<()> {
         }
         let lags: Vec<String> = lags.iter().map(|(l, n)| format!("{n} at lag {l}")).collect();
         println!(
-            "  predictors    rigid {}, velocity {}, smoothed velocity {}, cycle {}{}; with mean-curvature steps {}",
+            "  predictors    rigid {}, velocity {}, smoothed velocity {}, cycle {}{}{}; with mean-curvature steps {}",
             counts[0],
             counts[1],
             counts[2],
             counts[3],
             if lags.is_empty() { String::new() } else { format!(" ({})", lags.join(", ")) },
+            match h.skin {
+                Some(_) => format!(
+                    ", bones {}, bones and velocity {}, bones and smoothed velocity {}",
+                    counts[4], counts[5], counts[6]
+                ),
+                None => String::new(),
+            },
             with_h
         );
         print_passes(&file.frames, "filtered", "averaging passes", |f| f.filter);

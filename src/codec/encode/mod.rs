@@ -25,6 +25,7 @@ mod request;
 mod simulate;
 mod target;
 
+pub use bones::{DEFAULT_BONES, MIN_BONE_FRAMES};
 pub use budget::{encode_on_budget, encode_on_budget_into, BUDGET_TOLERANCE, MAX_PASSES};
 pub use choice::CodecChoice;
 pub use request::{EncodeRequest, Encoded, GridChoice, Made};
@@ -127,12 +128,14 @@ pub struct EncodeOptions {
     /// only. Rounded to whole frames; a motion shorter than two intervals
     /// gets none.
     pub random_access: f32,
-    /// Closed-loop codecs: bones as a predictor (format version 13), 1 to
-    /// 255 of them, or 0 for none: a skinning decomposition's weights go in
-    /// the file, and each frame may be predicted by the bones' motions from
-    /// the previous one where that lands closer than the velocity
-    /// predictors (`crate::solve::skinned`).
-    pub bones: u16,
+    /// Closed-loop codecs: bones as a predictor (format version 13): a
+    /// skinning decomposition's weights go in the file, and each frame may
+    /// be predicted by the bones (`crate::solve::skinned`) where that lands
+    /// closer than the other predictors. `Some(n)`: n bones (1 to 255;
+    /// 0 for none); `None` (the default): [`DEFAULT_BONES`] in a motion of
+    /// at least [`MIN_BONE_FRAMES`] frames. Either way a file keeps them
+    /// only where they cut the corrections 4x (`BONE_GAIN`).
+    pub bones: Option<u16>,
 }
 
 impl Default for EncodeOptions {
@@ -159,7 +162,7 @@ impl Default for EncodeOptions {
             source_mesh: true,
             fit_places: false,
             random_access: DEFAULT_RANDOM_ACCESS,
-            bones: 0,
+            bones: None,
         }
     }
 }
@@ -183,8 +186,8 @@ impl EncodeOptions {
         if self.normal_correction && self.layers == 2 && self.closed_loop() {
             return bad("a normal correction has no residual layer (layers 1)".into());
         }
-        if self.bones > format::skin::MAX_BONES {
-            return bad(format!("{} bones: at most {}", self.bones, format::skin::MAX_BONES));
+        if let Some(b) = self.bones.filter(|&b| b > format::skin::MAX_BONES) {
+            return bad(format!("{b} bones: at most {}", format::skin::MAX_BONES));
         }
         if self.max_steps > MAX_STEPS {
             return bad(format!("max_steps {} is above {MAX_STEPS}", self.max_steps));
