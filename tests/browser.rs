@@ -691,7 +691,8 @@ fn the_three_js_module_plays_a_motion_in_a_scene() {
         let (px, ch) = common::decode_png(png);
         px.chunks_exact(ch).filter(|p| p[..3].iter().map(|&c| c as u32).sum::<u32>() > 3 * 120).count()
     };
-    for (file, vertices) in [("walk-source.cgv", 6274), ("walk-cgv.cgv", 16 * 16)] {
+    // And a file whose frames are predicted by bones (format v13).
+    for (file, vertices) in [("walk-source.cgv", 6274), ("walk-cgv.cgv", 16 * 16), ("bones.cgv", 6274)] {
         browser.go(&format!("http://127.0.0.1:{port}/three/index.html?src=../{file}"));
         browser.wait(&format!("{file} in three.js"), "return !!window.cgvMesh || !!window.cgvError;", 90);
         let s = browser.js(THREE_STATE, json!([]));
