@@ -486,8 +486,8 @@ pub fn decoder_memory(h: &Header, solver: SolverKind) -> u64 {
         let vertices = h.source_mesh.map_or(0, |m| u64::from(m.vertices));
         vertices * 8 + a.texture.as_ref().map_or(0, |t| u64::from(t.bytes))
     });
-    // Version 13: four influences a sample, each bone's expanded field while
-    // they are chosen, the rest pose and two skinned frames.
-    let skin = h.skin.map_or(0, |s| n * 32 + u64::from(s.bones) * n * 4 + 3 * frame);
+    // Version 13: four influences a sample, one bone's expanded field while
+    // they are chosen, the rest pose and three skinned frames.
+    let skin = h.skin.map_or(0, |_| n * 32 + n * 4 + 4 * frame);
     streams + past + source + look + loose + skin
 }

@@ -286,29 +286,35 @@ impl SkinnedPredictor {
 /// bilinearly (`grid::coarse`), each sample's four largest kept and
 /// scaled to sum to one.
 fn expand(coarse_grid: Grid, info: &SkinInfo, weights: &SkinWeights) -> Vec<[(u16, f32); INFLUENCES]> {
-    let bones = info.bones as usize;
-    let mut fields = vec![vec![0.0f32; weights.influences.len()]; bones];
-    for (k, inf) in weights.influences.iter().enumerate() {
-        let total: f32 = inf.iter().map(|p| f32::from(p.1)).sum();
-        for &(b, w) in inf.iter().filter(|p| p.1 > 0) {
-            fields[b as usize][k] += f32::from(w) / total;
+    // Each coarse sample's weights out of their sum.
+    let coarse_weights: Vec<[(u8, f32); INFLUENCES]> = weights
+        .influences
+        .iter()
+        .map(|inf| {
+            let total: f32 = inf.iter().map(|p| f32::from(p.1)).sum();
+            inf.map(|(b, w)| (b, if total > 0.0 { f32::from(w) / total } else { 0.0 }))
+        })
+        .collect();
+    // One bone's field at a time (a file may have 255 bones on a large
+    // grid), each sample keeping its four largest (ties: the lower bone).
+    let n = (coarse_grid.n << info.shrink).pow(2);
+    let mut best = vec![[(0u16, 0.0f32); INFLUENCES]; n];
+    for b in 0..info.bones {
+        let field: Vec<f32> = coarse_weights
+            .iter()
+            .map(|inf| inf.iter().filter(|p| u16::from(p.0) == b && p.1 > 0.0).map(|p| p.1).sum())
+            .collect();
+        for (top, &w) in best.iter_mut().zip(&coarse::expand(coarse_grid, &field, info.shrink)) {
+            if let Some(k) = top.iter().position(|p| w > p.1) {
+                top[k..].rotate_right(1);
+                top[k] = (b, w);
+            }
         }
     }
-    let fine: Vec<Vec<f32>> = fields.iter().map(|f| coarse::expand(coarse_grid, f, info.shrink)).collect();
-    let n = fine.first().map_or(0, Vec::len);
-    (0..n)
-        .map(|v| {
-            let mut best = [(0u16, 0.0f32); INFLUENCES];
-            for (b, f) in fine.iter().enumerate() {
-                let w = f[v];
-                // Insertion into the four largest so far (ties: lower bone).
-                if let Some(k) = best.iter().position(|p| w > p.1) {
-                    best[k..].rotate_right(1);
-                    best[k] = (b as u16, w);
-                }
-            }
-            let total: f32 = best.iter().map(|p| p.1).sum();
-            best.map(|(b, w)| (b, if total > 0.0 { w / total } else { 0.0 }))
+    best.into_iter()
+        .map(|top| {
+            let total: f32 = top.iter().map(|p| p.1).sum();
+            top.map(|(b, w)| (b, if total > 0.0 { w / total } else { 0.0 }))
         })
         .collect()
 }

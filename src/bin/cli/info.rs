@@ -213,38 +213,42 @@ fn cgv_info(args: &Args) -> Result<()> {
     }
     print_streams(h, &file.stream_bytes());
     if h.stream(StreamName::Dx).is_some() {
-        // How the encoder chose to predict each frame (see src/solve/predictor.rs).
-        let mut counts = [0usize; 7];
-        let mut with_h = 0;
-        let mut lags = std::collections::BTreeMap::<u8, usize>::new();
-        for f in &file.frames {
-            counts[f.predictor.extrapolation as usize] += 1;
-            with_h += usize::from(f.predictor.steps > 0);
-            if f.predictor.lag > 0 {
-                *lags.entry(f.predictor.lag).or_default() += 1;
-            }
-        }
-        let lags: Vec<String> = lags.iter().map(|(l, n)| format!("{n} at lag {l}")).collect();
-        println!(
-            "  predictors    rigid {}, velocity {}, smoothed velocity {}, cycle {}{}{}; with mean-curvature steps {}",
-            counts[0],
-            counts[1],
-            counts[2],
-            counts[3],
-            if lags.is_empty() { String::new() } else { format!(" ({})", lags.join(", ")) },
-            match h.skin {
-                Some(_) => format!(
-                    ", bones {}, bones and velocity {}, bones and smoothed velocity {}",
-                    counts[4], counts[5], counts[6]
-                ),
-                None => String::new(),
-            },
-            with_h
-        );
+        print_predictors(h, &file.frames);
         print_passes(&file.frames, "filtered", "averaging passes", |f| f.filter);
         print_passes(&file.frames, "relaxed", "tangential relaxation passes", |f| f.relax);
     }
     Ok(())
+}
+
+/// How the encoder chose to predict each frame (see src/solve/predictor.rs).
+fn print_predictors(h: &cgv::format::Header, frames: &[cgv::format::FrameInfo]) {
+    let mut counts = [0usize; 7];
+    let mut with_h = 0;
+    let mut lags = std::collections::BTreeMap::<u8, usize>::new();
+    for f in frames {
+        counts[f.predictor.extrapolation as usize] += 1;
+        with_h += usize::from(f.predictor.steps > 0);
+        if f.predictor.lag > 0 {
+            *lags.entry(f.predictor.lag).or_default() += 1;
+        }
+    }
+    let lags: Vec<String> = lags.iter().map(|(l, n)| format!("{n} at lag {l}")).collect();
+    println!(
+        "  predictors    rigid {}, velocity {}, smoothed velocity {}, cycle {}{}{}; with mean-curvature steps {}",
+        counts[0],
+        counts[1],
+        counts[2],
+        counts[3],
+        if lags.is_empty() { String::new() } else { format!(" ({})", lags.join(", ")) },
+        match h.skin {
+            Some(_) => format!(
+                ", bones {}, bones and velocity {}, bones and smoothed velocity {}",
+                counts[4], counts[5], counts[6]
+            ),
+            None => String::new(),
+        },
+        with_h
+    );
 }
 
 /// One line a stream: its name, layer, frames, picture size, range, bytes.

@@ -40,7 +40,27 @@ pub fn encode_on_budget(
 
 /// [`encode_on_budget`] with each pass written into a sink of its own
 /// from `open`; the closest pass's sink is returned, the others dropped.
+/// Bones the options leave to the encoder (`bones: None`) are a fixed cost
+/// that a small budget may not afford: where the file with them cannot
+/// keep it, the budget is tried without them.
 pub fn encode_on_budget_into<S: Sink>(
+    src: &dyn FrameSource,
+    opts: &EncodeOptions,
+    image: &GeometryImage,
+    open: &mut dyn FnMut() -> Result<S>,
+    progress: &mut dyn FnMut(&str, usize, usize),
+) -> Result<(S, EncodeReport)> {
+    match on_budget(src, opts, image, open, progress) {
+        Err(Error::Argument(_)) if opts.bones.is_none() && opts.video.kbps.is_some() => {
+            let without = EncodeOptions { bones: Some(0), ..opts.clone() };
+            on_budget(src, &without, image, open, progress)
+        }
+        r => r,
+    }
+}
+
+/// [`encode_on_budget_into`] with the options as they are.
+fn on_budget<S: Sink>(
     src: &dyn FrameSource,
     opts: &EncodeOptions,
     image: &GeometryImage,
@@ -130,7 +150,7 @@ fn refuse_or_keep<S: Sink>(
             if opts.layers == 1 && !(opts.normal_correction && opts.closed_loop()) {
                 let two = EncodeOptions { layers: 2, ..opts.clone() };
                 drop(closest);
-                return encode_on_budget_into(src, &two, image, open, &mut |_, _, _| {});
+                return on_budget(src, &two, image, open, &mut |_, _, _| {});
             }
             return Err(Error::Argument(format!(
                 "the largest file this codec makes of this motion (QP 0{}) is {:.1} kbit/s, below the budget of {:.1}",
