@@ -490,16 +490,21 @@ fn a_bitrate_is_kept_by_the_whole_file_or_refused() {
         o.video.kbps = Some(kbps);
         o.corrections = cgv::codec::auto_corrections(&o.video, 64, 30.0);
         cgv::codec::encode_on_budget(&src, &o, &image, &mut |_, _, _| {})
-            .map(|(b, _)| b.len() as f64 * 8.0 / 1000.0 / 2.4)
+            .map(|(b, _)| (b.len() as f64 * 8.0 / 1000.0 / 2.4, format::read(&b).unwrap().header.skin.is_some()))
     };
-    for (codec, kbps) in [(CodecKind::Cgv, 60.0), (CodecKind::Cgv, 300.0), (CodecKind::Gv, 60.0)] {
-        let got = budget(codec, kbps, false).unwrap();
-        eprintln!("{codec:?} at {kbps} kbit/s: {got:.1}");
+    // The bones (on by default) fit 300 kbit/s; at 60 their fixed cost
+    // does not, and the budget is kept without them.
+    for (codec, kbps, bones) in
+        [(CodecKind::Cgv, 60.0, false), (CodecKind::Cgv, 300.0, true), (CodecKind::Gv, 60.0, false)]
+    {
+        let (got, skin) = budget(codec, kbps, false).unwrap();
+        eprintln!("{codec:?} at {kbps} kbit/s: {got:.1}, bones {skin}");
         assert!((got / kbps as f64 - 1.0).abs() <= cgv::codec::BUDGET_TOLERANCE, "{codec:?}: {got} for {kbps}");
+        assert_eq!(skin, bones, "{codec:?} at {kbps} kbit/s");
     }
     // GV's one 8-bit layer at N = 64 cannot spend 500 kbit/s on this
     // motion (162 kbit/s at QP 0): the encoder adds a second layer.
-    let got = budget(CodecKind::Gv, 500.0, false).unwrap();
+    let (got, _) = budget(CodecKind::Gv, 500.0, false).unwrap();
     assert!((got / 500.0 - 1.0).abs() <= cgv::codec::BUDGET_TOLERANCE, "GV with two layers: {got}");
     // Beyond two layers' QP 0, a refusal that says so.
     let e = budget(CodecKind::Gv, 50_000.0, false).unwrap_err().to_string();
