@@ -15,10 +15,12 @@
 //! of the last frame's motion, as the velocity predictors do): with no correction
 //! at all the decoded motion is the skinning itself (an error bounded by
 //! the decomposition's), and the motion corrections' running sum is what
-//! the bones leave, x − L, bounded too. The encoder fits each bone's
-//! transform to the true frame (a weighted rigid fit, Kabsch 1976),
-//! quantizes it in the header's steps, and every frame of the file carries
-//! them (a frame predicted otherwise still needs L_t for the next one).
+//! the bones leave, x − L, bounded too. The encoder fits the bones'
+//! transforms to the true frame by SSDR's transform update (Le and Deng
+//! 2012: each bone's weighted rigid fit, Kabsch 1976, to what the others
+//! leave), quantizes them in the header's steps, and every frame of the
+//! file carries them (a frame predicted otherwise still needs L_t for the
+//! next one).
 
 use crate::error::{Error, Result};
 use crate::format::skin::{coarse_side, Motion, INFLUENCES, MOTION_PARAMS};
