@@ -1,5 +1,6 @@
 //! Codec speed: H.264 encode and decode of one grid frame per stream, and
-//! reconstruction of one frame by each solver (the paper: 12 s/frame to
+//! reconstruction of one frame by each solver and predictor (bones
+//! included) (the paper: 12 s/frame to
 //! compress, 23 s/frame to reconstruct, on a 2011 PC). Default motion.
 //!
 //! Run: `cargo bench --bench codec`
@@ -8,13 +9,14 @@
 use cgv::codec::h264::{Decoder, Encoder, VideoSettings};
 use cgv::codec::{choose_anchors, Corrections, Layout};
 use cgv::format::quant::Quantizer;
-use cgv::format::CorrectionMode;
+use cgv::format::{CorrectionMode, SkinInfo, SkinWeights};
 use cgv::grid::stencil::Stencils;
 use cgv::grid::Grid;
 use cgv::param::{parameterize, ParamOptions};
 use cgv::resample::SampleMap;
 use cgv::solve::paper::PaperSolver;
 use cgv::solve::predictor::{Extrapolation, Predictor, PredictorCode, DEFAULT_MAX_LAG};
+use cgv::solve::skinned::SkinnedPredictor;
 use criterion::{criterion_group, criterion_main, Criterion};
 use glam::Vec3;
 
@@ -117,6 +119,25 @@ fn bench(c: &mut Criterion) {
                 p
             })
         });
+        // Format v13: 32 bones, their weights on a 32 x 32 grid. The
+        // decoder's step (a frame's transforms from its unit, the rest pose
+        // skinned, the skinned prediction; timed with a return to the rest
+        // pose first, a copy and the bones' centroids) and the encoder's
+        // fit of a frame's transforms.
+        let mut enc = bone_predictor(grid);
+        enc.commit(&g0);
+        let unit = enc.encode(&g1);
+        let mut dec = bone_predictor(grid);
+        g.bench_function(format!("reconstruct-bones/{n}"), |b| {
+            b.iter(|| {
+                dec.reset();
+                dec.commit(&g0);
+                dec.decode(&unit).expect("bones");
+                let m = dec.motion().expect("motion");
+                g0.iter().zip(&m).map(|(p, d)| *p + *d).collect::<Vec<Vec3>>()
+            })
+        });
+        g.bench_function(format!("bones-fit-a-frame/{n}"), |b| b.iter(|| enc.encode(&g1)));
         g.bench_function(format!("reconstruct-paper/{n}"), |b| {
             b.iter(|| {
                 let mut s = PaperSolver::new(st.clone(), anchors.clone());
@@ -126,6 +147,21 @@ fn bench(c: &mut Criterion) {
         });
     }
     g.finish();
+}
+
+/// 32 bones in 8 x 4 blocks of the weights' 32 x 32 grid, each sample
+/// shared with the next bone.
+fn bone_predictor(grid: Grid) -> SkinnedPredictor {
+    let side = 32usize.min(grid.n);
+    let shrink = (grid.n / side).trailing_zeros() as u8;
+    let info = SkinInfo { bones: 32, shrink, rotation_step: 1.0 / 512.0, translation_step: 1e-3 };
+    let influences = (0..side * side)
+        .map(|k| {
+            let b = (8 * (k % side) / side + 8 * (4 * (k / side) / side)) as u8;
+            [(b, 200), ((b + 1) % 32, 55), (0, 0), (0, 0)]
+        })
+        .collect();
+    SkinnedPredictor::new(grid, &info, &SkinWeights { influences }).expect("bones")
 }
 
 criterion_group!(benches, bench);
