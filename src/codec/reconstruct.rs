@@ -232,6 +232,11 @@ impl Reconstructor {
         }
     }
 
+    /// Whether [`set_skin`](Self::set_skin) gave the decoder its bones.
+    pub fn has_skin(&self) -> bool {
+        matches!(&self.rebuild, Rebuild::Predictive(p) if p.predictor.has_skin())
+    }
+
     /// Forgets the frames rebuilt so far (a random-access point).
     pub fn reset(&mut self) {
         match &mut self.rebuild {
@@ -287,7 +292,6 @@ pub struct SequenceDecoder {
     reconstructor: Reconstructor,
     /// Version 11: the loose vertices' decoded past.
     loose: LooseVertices,
-    skin_given: bool,
     next: u32,
 }
 
@@ -302,7 +306,7 @@ impl SequenceDecoder {
         let grid = Grid::new(header.grid as usize)?;
         let reconstructor = Reconstructor::new(&header, solver)?;
         let loose = LooseVertices::for_header(&header);
-        Ok(SequenceDecoder { header, grid, reconstructor, loose, skin_given: false, next: 0 })
+        Ok(SequenceDecoder { header, grid, reconstructor, loose, next: 0 })
     }
 
     pub fn header(&self) -> &Header {
@@ -358,7 +362,7 @@ impl SequenceDecoder {
             };
             return Err(Error::Video(format!("stream {s} frame {f}: {problem}")));
         }
-        if h.skin.is_some() && !self.skin_given {
+        if h.skin.is_some() && !self.reconstructor.has_skin() {
             return Err(Error::Argument("a file with bones decoded without its skin weights".into()));
         }
         if f > 0 && h.is_random_access_point(f) {
@@ -383,14 +387,12 @@ impl SequenceDecoder {
     /// Version 13: the file's skin weights (its `SKIN` chunk), needed
     /// before the first frame of a file with bones.
     pub fn set_skin(&mut self, weights: &SkinWeights) -> Result<()> {
-        self.reconstructor.set_skin(&self.header, weights)?;
-        self.skin_given = true;
-        Ok(())
+        self.reconstructor.set_skin(&self.header, weights)
     }
 
-    /// Whether [`set_skin`](Self::set_skin) was called.
+    /// Whether [`set_skin`](Self::set_skin) gave the decoder its bones.
     pub fn has_skin(&self) -> bool {
-        self.skin_given
+        self.reconstructor.has_skin()
     }
 
     /// Version 11: the anchors of the file's loose vertices (its source

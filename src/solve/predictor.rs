@@ -61,8 +61,8 @@ pub const ANCHOR_WEIGHT: f64 = 1e4;
 pub const MIN_ANCHORS: usize = 4;
 pub const GUESS_WEIGHT: f64 = 1e-4;
 
-/// Every extrapolation, for [`Predictor::closest`] (the skinned one only
-/// where the file has bones).
+/// Every extrapolation, for [`Predictor::closest`] (the skinned ones only
+/// where the file has bones); rigid first, see [`MOTION_EXTRAPOLATIONS`].
 pub const ALL_EXTRAPOLATIONS: [Extrapolation; 7] = [
     Extrapolation::Rigid,
     Extrapolation::Velocity,
@@ -81,15 +81,8 @@ pub const ALL_EXTRAPOLATIONS: [Extrapolation; 7] = [
 /// A cycle prediction keeps the running sum bounded too: it adds
 /// v − v₋ₗ, a difference of two velocities; so does a skinned one, whose
 /// running sum is what the bones leave of the motion since the last
-/// random-access point.
-pub const MOTION_EXTRAPOLATIONS: [Extrapolation; 6] = [
-    Extrapolation::Velocity,
-    Extrapolation::SmoothVelocity,
-    Extrapolation::Cycle,
-    Extrapolation::Skinned,
-    Extrapolation::SkinnedVelocity,
-    Extrapolation::SkinnedSmoothVelocity,
-];
+/// random-access point. So: every extrapolation but rigid.
+pub const MOTION_EXTRAPOLATIONS: &[Extrapolation] = ALL_EXTRAPOLATIONS.split_at(1).1;
 
 /// The encoder's default longest lag: 2 s at 30 fps, enough for a gait or a
 /// gallop cycle (the default motion's is 36 frames, horse-gallop's 24). A

@@ -1,8 +1,9 @@
 //! Step 3b: the bones of a file that predicts with them (format version
 //! 13): a skinning decomposition (`crate::skin::ssdr`, Le and Deng 2012)
 //! of the grid's motion on the coarse grid the weights are stored on.
-//! Only its weights go in the file; each frame's bone motions are fitted in
-//! the closed loop, to the decoded previous frame (`crate::solve::skinned`).
+//! Only its weights go in the file; each frame's bone transforms, from the
+//! decoded random-access point, are fitted in the closed loop
+//! (`crate::solve::skinned`).
 
 use super::plan::Plan;
 use super::EncodeOptions;

@@ -55,7 +55,7 @@ impl Plan {
             key_frames: Vec::new(),
             names: Vec::new(),
             anchor_count: opts.anchor_count(),
-            allowed: if motion { &MOTION_EXTRAPOLATIONS } else { &ALL_EXTRAPOLATIONS },
+            allowed: if motion { MOTION_EXTRAPOLATIONS } else { &ALL_EXTRAPOLATIONS },
             layout: correction_layout(opts)?,
             random_access: random_access_interval(opts.random_access, fps, frames),
         };

@@ -47,13 +47,13 @@ pub(super) fn simulate(
         lags.iter().flat_map(|&l| skins.iter().map(move |&s| (l, s))).collect();
     let frames = Frames { corrected: &|f| plan.corrected(f), rap: &|f| plan.is_rap(f) };
     let runs = uncoded_loops(src, (map, st, plan.layout), plan.allowed, &variants, &frames)?;
-    let energy = |k: usize| runs.get(k).map_or(f64::INFINITY, |r| r.energy);
-    // Runs: (0, none), (0, bones)?, (lag, none), (lag, bones)?.
-    let per_lag = skins.len();
-    let bones = skin.is_some() && energy(1) < BONE_GAIN * energy(0);
-    let k0 = usize::from(bones);
-    let k = if energy(per_lag + k0) < CYCLE_GAIN * energy(k0) { per_lag + k0 } else { k0 };
-    let kept = runs.get(k).ok_or_else(|| Error::Numerical("no uncoded loop".into()))?;
+    // The run of a longest lag, with bones or without.
+    let run =
+        |lag: u8, bones: bool| variants.iter().position(|v| v.0 == lag && v.1.is_some() == bones).map(|k| &runs[k]);
+    let energy = |lag: u8, bones: bool| run(lag, bones).map_or(f64::INFINITY, |r| r.energy);
+    let bones = energy(0, true) < BONE_GAIN * energy(0, false);
+    let lag = if energy(opts.max_lag, bones) < CYCLE_GAIN * energy(0, bones) { opts.max_lag } else { 0 };
+    let kept = run(lag, bones).ok_or_else(|| Error::Numerical("no uncoded loop".into()))?;
     let motion_quant = if plan.motion { kept.running_sum_quantizers() } else { Vec::new() };
     Ok(Simulation { max_lag: kept.longest_lag, motion_quant, bones })
 }
