@@ -283,10 +283,12 @@ fn a_tiny_part_is_coded_as_its_own_vertices() {
     let diag = cgv::mesh::Bounds::of(&p).diagonal();
     let mut opts = EncodeOptions { grid: 32, random_access: 0.1, ..Default::default() };
     opts.video.qp = 16;
-    use cgv::format::CodecKind::{Cgv, Gv};
+    use cgv::format::Representation as R;
     use cgv::solve::SolverKind::{Paper, Predictive};
-    for (codec, solver, follows) in [(Cgv, Predictive, true), (Gv, Predictive, true), (Cgv, Paper, false)] {
-        let o = EncodeOptions { codec, solver, ..opts.clone() };
+    for (codec, solver, follows) in
+        [(R::Predictive, Predictive, true), (R::Gv, Predictive, true), (R::Conformal, Paper, false)]
+    {
+        let o = EncodeOptions { representation: codec, solver, ..opts.clone() };
         let (bytes, _) = encode(&src, &o, &mut |_, _, _| {}).unwrap();
         let file = cgv::format::read(&bytes).unwrap();
         let h = &file.header;

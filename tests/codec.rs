@@ -4,7 +4,7 @@
 mod common;
 
 use cgv::codec::{encode, h264::VideoSettings, Corrections, EncodeOptions, FileDecoder, Layout, FILTER_CHOICES};
-use cgv::format::{self, CodecKind, CorrectionMode};
+use cgv::format::{self, CorrectionMode, Representation};
 use cgv::format::{Extrapolation, StreamName};
 use cgv::grid::Grid;
 use cgv::mesh::{Bounds, FrameSource};
@@ -34,7 +34,7 @@ fn round_trip(src: &dyn FrameSource, opts: &EncodeOptions, solver: SolverKind) -
 #[test]
 fn gv_round_trip_within_bounds_and_layer_two_refines() {
     let src = cgv::mesh::builtin::motion(8);
-    let base = EncodeOptions { codec: CodecKind::Gv, grid: 64, ..Default::default() };
+    let base = EncodeOptions { representation: Representation::Gv, grid: 64, ..Default::default() };
     let (bytes1, e1) = round_trip(&src, &base, SolverKind::Predictive);
     let (bytes2, e2) = round_trip(&src, &EncodeOptions { layers: 2, ..base.clone() }, SolverKind::Predictive);
     let worst = |e: &[(f64, f64)]| e.iter().map(|x| x.0).fold(0.0, f64::max);
@@ -54,7 +54,7 @@ fn gv_round_trip_within_bounds_and_layer_two_refines() {
 #[test]
 fn decoding_is_deterministic_and_bad_streams_are_errors() {
     let src = cgv::mesh::builtin::motion(4);
-    let opts = EncodeOptions { codec: CodecKind::Cgv, grid: 32, ..Default::default() };
+    let opts = EncodeOptions { representation: Representation::Predictive, grid: 32, ..Default::default() };
     let (bytes, _) = encode(&src, &opts, &mut |_, _, _| {}).unwrap();
     let decode_all = |bytes: &[u8], solver| -> cgv::Result<Vec<Vec<glam::Vec3>>> {
         let file = format::read(bytes).map_err(|e| cgv::Error::Container { path: "mem".into(), source: e })?;
@@ -104,7 +104,7 @@ fn cgv_round_trip_is_faithful_and_does_not_drift() {
     // 12 frames of the default motion, N = 64, QP 20: the closed loop keeps
     // every frame within the corrections' quantization.
     let src = cgv::mesh::builtin::motion(12);
-    let opts = EncodeOptions { codec: CodecKind::Cgv, grid: 64, ..Default::default() };
+    let opts = EncodeOptions { representation: Representation::Predictive, grid: 64, ..Default::default() };
     let (bytes, errs) = round_trip(&src, &opts, SolverKind::Predictive);
     eprintln!("cgv: {bytes} bytes, {errs:?}");
     assert_faithful_without_drift(&errs);
@@ -122,7 +122,7 @@ fn motion_corrections_round_trip_without_drift() {
     // QP 18 (0.89e-3 at 17, flat over the 12 frames: no drift either way).
     let src = cgv::mesh::builtin::motion(12);
     let mut opts = EncodeOptions {
-        codec: CodecKind::Cgv,
+        representation: Representation::Predictive,
         grid: 64,
         corrections: CorrectionMode::Motion,
         video: VideoSettings { qp: 17, ..Default::default() },
@@ -167,7 +167,7 @@ fn motion_corrections_at_qp_51_hold_with_the_filter() {
     // (Without bones, after which the walk's corrections need no filter.)
     let src = cgv::mesh::builtin::motion(24);
     let opts = EncodeOptions {
-        codec: CodecKind::Cgv,
+        representation: Representation::Predictive,
         grid: 64,
         corrections: CorrectionMode::Motion,
         video: VideoSettings { qp: 51, ..Default::default() },
@@ -254,10 +254,9 @@ fn a_normal_correction_round_trips_without_drift() {
     // is not.
     let src = cgv::mesh::builtin::motion(12);
     let opts = EncodeOptions {
-        codec: CodecKind::Cgv,
+        representation: Representation::Normal,
         grid: 64,
         corrections: CorrectionMode::Motion,
-        normal_correction: true,
         video: VideoSettings { qp: 17, ..Default::default() },
         ..Default::default()
     };
@@ -333,7 +332,7 @@ fn cycle_prediction_makes_the_second_gait_cycle_nearly_free() {
     // (Without bones, which predict the walk better than its cycle.)
     let src = cgv::mesh::builtin::motion(72);
     let base = EncodeOptions {
-        codec: CodecKind::Cgv,
+        representation: Representation::Predictive,
         grid: 64,
         corrections: CorrectionMode::Motion,
         video: VideoSettings { qp: 30, ..Default::default() },
@@ -392,7 +391,7 @@ fn corrections_every_second_frame_hold_the_loop() {
     // the same QP and the loop still holds (24 frames, N = 32, QP 30).
     let src = cgv::mesh::builtin::motion(24);
     let every = |k: u32| EncodeOptions {
-        codec: CodecKind::Cgv,
+        representation: Representation::Predictive,
         grid: 32,
         corrections: CorrectionMode::Motion,
         correction_interval: k,
@@ -434,7 +433,8 @@ fn corrections_every_second_frame_hold_the_loop() {
 #[test]
 fn cgv_round_trip_at_high_quality() {
     let src = cgv::mesh::builtin::motion(4);
-    let mut opts = EncodeOptions { codec: CodecKind::Cgv, grid: 32, layers: 2, ..Default::default() };
+    let mut opts =
+        EncodeOptions { representation: Representation::Predictive, grid: 32, layers: 2, ..Default::default() };
     opts.video.qp = 8;
     let (bytes, errs) = round_trip(&src, &opts, SolverKind::Predictive);
     eprintln!("cgv high: {bytes} bytes, {errs:?}");
@@ -485,8 +485,8 @@ fn a_bitrate_is_kept_by_the_whole_file_or_refused() {
     let src = cgv::mesh::builtin::motion(72);
     let base = EncodeOptions { grid: 64, source_mesh: false, ..Default::default() };
     let image = cgv::codec::prepare(&src, &base).unwrap();
-    let budget = |codec: CodecKind, kbps: f32, source_mesh: bool| {
-        let mut o = EncodeOptions { codec, source_mesh, ..base.clone() };
+    let budget = |representation: Representation, kbps: f32, source_mesh: bool| {
+        let mut o = EncodeOptions { representation, source_mesh, ..base.clone() };
         o.video.kbps = Some(kbps);
         o.corrections = cgv::codec::auto_corrections(&o.video, 64, 30.0);
         cgv::codec::encode_on_budget(&src, &o, &image, &mut |_, _, _| {})
@@ -494,9 +494,11 @@ fn a_bitrate_is_kept_by_the_whole_file_or_refused() {
     };
     // The bones (on by default) fit 300 kbit/s; at 60 their fixed cost
     // does not, and the budget is kept without them.
-    for (codec, kbps, bones) in
-        [(CodecKind::Cgv, 60.0, false), (CodecKind::Cgv, 300.0, true), (CodecKind::Gv, 60.0, false)]
-    {
+    for (codec, kbps, bones) in [
+        (Representation::Predictive, 60.0, false),
+        (Representation::Predictive, 300.0, true),
+        (Representation::Gv, 60.0, false),
+    ] {
         let (got, skin) = budget(codec, kbps, false).unwrap();
         eprintln!("{codec:?} at {kbps} kbit/s: {got:.1}, bones {skin}");
         assert!((got / kbps as f64 - 1.0).abs() <= cgv::codec::BUDGET_TOLERANCE, "{codec:?}: {got} for {kbps}");
@@ -504,28 +506,28 @@ fn a_bitrate_is_kept_by_the_whole_file_or_refused() {
     }
     // GV's one 8-bit layer at N = 64 cannot spend 500 kbit/s on this
     // motion (162 kbit/s at QP 0): the encoder adds a second layer.
-    let (got, _) = budget(CodecKind::Gv, 500.0, false).unwrap();
+    let (got, _) = budget(Representation::Gv, 500.0, false).unwrap();
     assert!((got / 500.0 - 1.0).abs() <= cgv::codec::BUDGET_TOLERANCE, "GV with two layers: {got}");
     // Beyond two layers' QP 0, a refusal that says so.
-    let e = budget(CodecKind::Gv, 50_000.0, false).unwrap_err().to_string();
+    let e = budget(Representation::Gv, 50_000.0, false).unwrap_err().to_string();
     assert!(e.contains("largest file") && e.contains("two layers"), "{e}");
     // The source mesh (135 KB, once) does not fit in 100 kbit/s over 2.4 s.
-    let e = budget(CodecKind::Cgv, 100.0, true).unwrap_err().to_string();
+    let e = budget(Representation::Predictive, 100.0, true).unwrap_err().to_string();
     assert!(e.contains("--no-source-mesh"), "{e}");
     // Nor the frame chunks alone in 3 kbit/s.
-    let e = budget(CodecKind::Cgv, 3.0, false).unwrap_err().to_string();
+    let e = budget(Representation::Predictive, 3.0, false).unwrap_err().to_string();
     assert!(e.contains("what is not video alone") && !e.contains("source mesh"), "{e}");
     // Room for the frame chunks but not for QP 51's video: refused with the
     // smallest file the codec makes, not kept as the closest.
-    let mut coarsest = EncodeOptions { codec: CodecKind::Gv, ..base.clone() };
+    let mut coarsest = EncodeOptions { representation: Representation::Gv, ..base.clone() };
     coarsest.video.qp = 51;
     let (bytes, report) = cgv::codec::encode_prepared(&src, &coarsest, &image, &mut |_, _, _| {}).unwrap();
     let video: usize = report.stream_bytes.iter().map(|s| s.1).sum();
     let between = (bytes.len() - video / 2) as f64 * 8.0 / 1000.0 / 2.4;
-    let e = budget(CodecKind::Gv, between as f32, false).unwrap_err().to_string();
+    let e = budget(Representation::Gv, between as f32, false).unwrap_err().to_string();
     assert!(e.contains("smallest file") && e.contains("QP 51"), "{between:.1} kbit/s: {e}");
     // A budget kept says how close it came.
-    let mut o = EncodeOptions { codec: CodecKind::Gv, ..base.clone() };
+    let mut o = EncodeOptions { representation: Representation::Gv, ..base.clone() };
     o.video.kbps = Some(60.0);
     let (bytes, report) = cgv::codec::encode_on_budget(&src, &o, &image, &mut |_, _, _| {}).unwrap();
     let miss = report.budget_miss.unwrap();
@@ -625,7 +627,11 @@ fn a_target_error_gives_the_coarsest_qp_within_it_or_is_refused() {
     coarser.video.qp = t.qp + 1;
     let mut coarser = cgv::codec::CodecChoice::Auto.apply(coarser, None).unwrap();
     coarser.corrections = h.corrections;
-    coarser.normal_correction = h.stream(cgv::format::StreamName::Dn).is_some();
+    coarser.representation = if h.stream(cgv::format::StreamName::Dn).is_some() {
+        Representation::Normal
+    } else {
+        Representation::Predictive
+    };
     let (b, _) = cgv::codec::encode_prepared(&src, &coarser, &image, &mut |_, _, _| {}).unwrap();
     assert!(error(&b) > target, "QP {} is within the target too", t.qp + 1);
     let e = cgv::codec::encode_to_error(&src, &opts, cgv::codec::CodecChoice::Auto, &image, 1e-6, &mut |_, _, _| {})
@@ -679,7 +685,12 @@ fn random_access_points_decode_the_same_frames_from_anywhere() {
         }
     }
     // GV has points too (every picture an IDR there), and no seed to give an origin.
-    let gv = EncodeOptions { codec: CodecKind::Gv, grid: 16, random_access: 8.0 / src.fps(), ..Default::default() };
+    let gv = EncodeOptions {
+        representation: Representation::Gv,
+        grid: 16,
+        random_access: 8.0 / src.fps(),
+        ..Default::default()
+    };
     let file = format::read(&encode(&src, &gv, &mut |_, _, _| {}).unwrap().0).unwrap();
     assert_eq!(file.header.random_access, Some(8));
     assert!(file.frames.iter().all(|i| i.seed_origin.is_none()));

@@ -75,7 +75,7 @@ fn metrics_on_known_cases() {
 fn bitrate_matcher_lands_within_five_percent_on_the_default_motion() {
     let src = cgv::mesh::builtin::motion(8);
     let mut opts = EvalOptions {
-        codecs: vec![EvalCodec::Gv, EvalCodec::Predictive, EvalCodec::Normal],
+        codecs: vec![EvalCodec::GV, EvalCodec::PREDICTIVE, EvalCodec::NORMAL],
         rates: Rates::Kbps(vec![200.0, 400.0]),
         surface_every: 4,
         ..Default::default()
@@ -89,11 +89,11 @@ fn bitrate_matcher_lands_within_five_percent_on_the_default_motion() {
             // Each codec's files store what its name says: only normal's a
             // normal channel, only the closed-loop ones corrections.
             let has = |s: &str| r.stream_bytes.iter().any(|(n, _)| n == s);
-            assert_eq!((has("dn"), has("dx")), (r.codec == EvalCodec::Normal, r.codec != EvalCodec::Gv), "{r:?}");
+            assert_eq!((has("dn"), has("dx")), (r.codec == EvalCodec::NORMAL, r.codec != EvalCodec::GV), "{r:?}");
             let off = r.bytes as f64 / p.target_bytes as f64 - 1.0;
             // The normal layout has no second layer: at N = 32 its QP 0
             // file is 11 % under 400 kbit/s, and it is reported unmatched.
-            let cannot_spend = r.codec == EvalCodec::Normal && !r.matched && off < 0.0 && p.target_bytes > 10_000;
+            let cannot_spend = r.codec == EvalCodec::NORMAL && !r.matched && off < 0.0 && p.target_bytes > 10_000;
             assert!(
                 (r.matched && off.abs() <= 0.05) || cannot_spend,
                 "{} at {}: {} bytes for {} ({off:+.3})",
@@ -122,7 +122,7 @@ fn bitrate_matcher_lands_within_five_percent_on_the_default_motion() {
     // surface RMS (one without a frame past eval::SPIKE times its mean
     // before one with), and report the others they measured.
     for c in
-        report.points.iter().flat_map(|p| p.results.iter().filter(|r| r.codec != EvalCodec::Gv).map(move |c| (p, c)))
+        report.points.iter().flat_map(|p| p.results.iter().filter(|r| r.codec != EvalCodec::GV).map(move |c| (p, c)))
     {
         let (p, c) = c;
         assert!(!c.passed_over.is_empty(), "{}: no variant reported", p.name);
@@ -157,7 +157,7 @@ fn a_motion_read_again_on_each_pass_gives_the_same_report() {
     // but read from its source on every pass: the figures must not change.
     let src = cgv::mesh::builtin::motion(5);
     let mut opts = EvalOptions {
-        codecs: vec![EvalCodec::Gv, EvalCodec::Predictive],
+        codecs: vec![EvalCodec::GV, EvalCodec::PREDICTIVE],
         rates: Rates::Kbps(vec![300.0]),
         surface_every: 2,
         ..Default::default()

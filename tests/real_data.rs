@@ -37,7 +37,7 @@ fn pcow_resamples_within_bounds() {
 #[test]
 fn pcow_round_trips() {
     use cgv::codec::{encode, EncodeOptions, FileDecoder};
-    use cgv::format::{self, CodecKind, CorrectionMode};
+    use cgv::format::{self, CorrectionMode, Representation};
     use cgv::mesh::InMemory;
     use cgv::solve::SolverKind;
     let dir = common::real_sequence("pcow");
@@ -54,15 +54,16 @@ fn pcow_round_trips() {
     // not trusted.
     let (scaled, motion) = (CorrectionMode::Scaled, CorrectionMode::Motion);
     let cases = [
-        (CodecKind::Gv, SolverKind::Predictive, scaled, 8, 2, 2e-3),
-        (CodecKind::Cgv, SolverKind::Predictive, scaled, 8, 2, 2e-4),
-        (CodecKind::Cgv, SolverKind::Predictive, scaled, 20, 1, 4e-3),
-        (CodecKind::Cgv, SolverKind::Predictive, motion, 20, 1, 4e-3),
-        (CodecKind::Cgv, SolverKind::Predictive, motion, 40, 1, 2.5e-2),
-        (CodecKind::Cgv, SolverKind::Paper, scaled, 8, 2, 0.2),
+        (Representation::Gv, SolverKind::Predictive, scaled, 8, 2, 2e-3),
+        (Representation::Predictive, SolverKind::Predictive, scaled, 8, 2, 2e-4),
+        (Representation::Predictive, SolverKind::Predictive, scaled, 20, 1, 4e-3),
+        (Representation::Predictive, SolverKind::Predictive, motion, 20, 1, 4e-3),
+        (Representation::Predictive, SolverKind::Predictive, motion, 40, 1, 2.5e-2),
+        (Representation::Conformal, SolverKind::Paper, scaled, 8, 2, 0.2),
     ];
     for (codec, solver, corrections, qp, layers, bound) in cases {
-        let mut opts = EncodeOptions { codec, grid: 32, layers, solver, corrections, ..Default::default() };
+        let mut opts =
+            EncodeOptions { representation: codec, grid: 32, layers, solver, corrections, ..Default::default() };
         opts.video.qp = qp;
         let (bytes, _) = encode(&src, &opts, &mut |_, _, _| {}).unwrap();
         let file = format::read(&bytes).unwrap();

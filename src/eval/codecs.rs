@@ -2,47 +2,30 @@
 //! how each sets the encoder's options.
 
 use crate::codec::EncodeOptions;
-use crate::format::{CodecKind, CorrectionMode};
+use crate::format::{CorrectionMode, Representation};
 use crate::solve::SolverKind;
 use serde::Serialize;
 
-/// A codec as `cgv eval` runs it, named for what its files store (see
-/// [`crate::format::Representation`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum EvalCodec {
-    /// Geometry video: x, y, z.
-    Gv,
-    /// The seed paper's representation (H, λ at key frames, anchors, seed),
-    /// decoded by the paper's Eq. 1 solver.
-    Conformal,
-    /// Closed-loop prediction and x, y, z corrections, each rate point
-    /// matched with scaled corrections, and with motion corrections on
-    /// every frame and on every second one ([`EvalCodec::variants`]); of
-    /// those no larger than the target allows, the one with the lower
-    /// error is kept (what an encoder that knows its own reconstruction
-    /// can do).
-    Predictive,
-    /// The same with the normal layout: the corrections along the predicted
-    /// surface's normal at full size, x, y, z coarser (format v9).
-    Normal,
-    /// [`EvalCodec::Predictive`] with scaled corrections only (format v1).
-    PredictiveScaled,
-    /// [`EvalCodec::Predictive`] with motion corrections only (format v2).
-    PredictiveMotion,
-    /// [`EvalCodec::Normal`] with scaled corrections only.
-    NormalScaled,
-    /// [`EvalCodec::Normal`] with motion corrections only.
-    NormalMotion,
+/// A codec as `cgv eval` runs it: what its files store, and for the
+/// closed-loop ones, whether the corrections are fixed to one
+/// [`CorrectionMode`] or matched at each rate point from the variants
+/// ([`EvalCodec::variants`]; of those no larger than the target allows,
+/// the one with the lower error is kept: what an encoder that knows its
+/// own reconstruction can do).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct EvalCodec {
+    representation: Representation,
+    /// `None`: the best of the variants.
+    corrections: Option<CorrectionMode>,
 }
 
 /// Names `--codecs` accepts besides the codecs' own: those of the first
 /// round, when the closed-loop codecs were all called `cgv`.
 const ALIASES: [(&str, EvalCodec); 4] = [
-    ("paper", EvalCodec::Conformal),
-    ("cgv", EvalCodec::Predictive),
-    ("cgv-scaled", EvalCodec::PredictiveScaled),
-    ("cgv-motion", EvalCodec::PredictiveMotion),
+    ("paper", EvalCodec::CONFORMAL),
+    ("cgv", EvalCodec::PREDICTIVE),
+    ("cgv-scaled", EvalCodec::PREDICTIVE_SCALED),
+    ("cgv-motion", EvalCodec::PREDICTIVE_MOTION),
 ];
 
 /// The variants' correction interval: [`EvalCodec::variants`] tries motion
@@ -66,19 +49,37 @@ const BONE_INTERVALS: [u32; 2] = [4, 8];
 pub const SPIKE: f64 = 3.0;
 
 impl EvalCodec {
+    const fn of(representation: Representation, corrections: Option<CorrectionMode>) -> EvalCodec {
+        EvalCodec { representation, corrections }
+    }
+    /// Geometry video: x, y, z.
+    pub const GV: EvalCodec = EvalCodec::of(Representation::Gv, None);
+    /// The seed paper's representation (H, λ at key frames, anchors, seed),
+    /// decoded by the paper's Eq. 1 solver.
+    pub const CONFORMAL: EvalCodec = EvalCodec::of(Representation::Conformal, None);
+    /// Closed-loop prediction and x, y, z corrections, the best of the
+    /// scaled and motion variants at each rate point.
+    pub const PREDICTIVE: EvalCodec = EvalCodec::of(Representation::Predictive, None);
+    /// The same with the normal layout (format v9).
+    pub const NORMAL: EvalCodec = EvalCodec::of(Representation::Normal, None);
+    pub const PREDICTIVE_SCALED: EvalCodec = EvalCodec::of(Representation::Predictive, Some(CorrectionMode::Scaled));
+    pub const PREDICTIVE_MOTION: EvalCodec = EvalCodec::of(Representation::Predictive, Some(CorrectionMode::Motion));
+    pub const NORMAL_SCALED: EvalCodec = EvalCodec::of(Representation::Normal, Some(CorrectionMode::Scaled));
+    pub const NORMAL_MOTION: EvalCodec = EvalCodec::of(Representation::Normal, Some(CorrectionMode::Motion));
+
     /// What `cgv eval` runs unless told otherwise.
-    pub const ALL: [EvalCodec; 4] = [EvalCodec::Gv, EvalCodec::Conformal, EvalCodec::Predictive, EvalCodec::Normal];
+    pub const ALL: [EvalCodec; 4] = [EvalCodec::GV, EvalCodec::CONFORMAL, EvalCodec::PREDICTIVE, EvalCodec::NORMAL];
 
     /// Every codec `--codecs` names, in the order reports list them.
     pub const NAMED: [EvalCodec; 8] = [
-        EvalCodec::Gv,
-        EvalCodec::Conformal,
-        EvalCodec::Predictive,
-        EvalCodec::Normal,
-        EvalCodec::PredictiveScaled,
-        EvalCodec::PredictiveMotion,
-        EvalCodec::NormalScaled,
-        EvalCodec::NormalMotion,
+        EvalCodec::GV,
+        EvalCodec::CONFORMAL,
+        EvalCodec::PREDICTIVE,
+        EvalCodec::NORMAL,
+        EvalCodec::PREDICTIVE_SCALED,
+        EvalCodec::PREDICTIVE_MOTION,
+        EvalCodec::NORMAL_SCALED,
+        EvalCodec::NORMAL_MOTION,
     ];
 
     /// The encodes a best-of entry matches at each rate point (codec,
@@ -87,11 +88,11 @@ impl EvalCodec {
     /// corrections the bones carry the motion alone, which is the lowest
     /// rates' best use of bits (a skinned mesh's size).
     pub fn variants(self, bones: bool) -> Option<Vec<(EvalCodec, u32)>> {
-        let (scaled, motion) = match self {
-            EvalCodec::Predictive => (EvalCodec::PredictiveScaled, EvalCodec::PredictiveMotion),
-            EvalCodec::Normal => (EvalCodec::NormalScaled, EvalCodec::NormalMotion),
-            _ => return None,
-        };
+        if self.corrections.is_some() || !self.closed_loop() {
+            return None;
+        }
+        let with = |c| EvalCodec::of(self.representation, Some(c));
+        let (scaled, motion) = (with(CorrectionMode::Scaled), with(CorrectionMode::Motion));
         let mut v = vec![(scaled, 1), (motion, 1), (motion, EVERY_SECOND)];
         if bones {
             v.extend(BONE_INTERVALS.map(|k| (motion, k)));
@@ -101,50 +102,50 @@ impl EvalCodec {
 
     /// Whether the codec lays its corrections out along the normal.
     pub(super) fn normal(self) -> bool {
-        matches!(self, EvalCodec::Normal | EvalCodec::NormalScaled | EvalCodec::NormalMotion)
+        self.representation == Representation::Normal
+    }
+
+    fn closed_loop(self) -> bool {
+        matches!(self.representation, Representation::Predictive | Representation::Normal)
     }
 
     pub(super) fn options(self, base: &EncodeOptions) -> EncodeOptions {
-        let (codec, solver) = match self {
-            EvalCodec::Gv => (CodecKind::Gv, SolverKind::Predictive),
-            EvalCodec::Conformal => (CodecKind::Cgv, SolverKind::Paper),
-            _ => (CodecKind::Cgv, SolverKind::Predictive),
-        };
-        let corrections = match self {
-            EvalCodec::PredictiveMotion | EvalCodec::NormalMotion => CorrectionMode::Motion,
-            _ => CorrectionMode::Scaled,
-        };
         // The grid codecs are compared as they code the motion; the source
         // mesh, the same for all, is reported once (Report::source_mesh_bytes).
         EncodeOptions {
-            codec,
-            solver,
-            corrections,
-            code_corrections: self != EvalCodec::Conformal,
-            normal_correction: self.normal(),
+            representation: self.representation,
+            solver: self.solver(),
+            corrections: self.corrections.unwrap_or(CorrectionMode::Scaled),
             source_mesh: false,
             ..base.clone()
         }
     }
 
     pub(super) fn solver(self) -> SolverKind {
-        match self {
-            EvalCodec::Conformal => SolverKind::Paper,
-            _ => SolverKind::Predictive,
+        if self.representation == Representation::Conformal {
+            SolverKind::Paper
+        } else {
+            SolverKind::Predictive
         }
     }
 
+    /// The name `--codecs` and the reports use: the representation's, and
+    /// the corrections' when fixed (`normal-motion`).
     pub fn name(self) -> &'static str {
-        match self {
-            EvalCodec::Gv => "gv",
-            EvalCodec::Conformal => "conformal",
-            EvalCodec::Predictive => "predictive",
-            EvalCodec::Normal => "normal",
-            EvalCodec::PredictiveScaled => "predictive-scaled",
-            EvalCodec::PredictiveMotion => "predictive-motion",
-            EvalCodec::NormalScaled => "normal-scaled",
-            EvalCodec::NormalMotion => "normal-motion",
+        use CorrectionMode::{Motion, Scaled};
+        match (self.representation, self.corrections) {
+            (Representation::Predictive, Some(Scaled)) => "predictive-scaled",
+            (Representation::Predictive, Some(Motion)) => "predictive-motion",
+            (Representation::Normal, Some(Scaled)) => "normal-scaled",
+            (Representation::Normal, Some(Motion)) => "normal-motion",
+            (r, _) => r.name(),
         }
+    }
+}
+
+impl Serialize for EvalCodec {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
     }
 }
 

@@ -320,7 +320,7 @@ fn bd_rates(points: &[RatePoint], codecs: &[EvalCodec]) -> Vec<BdRate> {
             .collect()
     };
     let mut bd_rates = Vec::new();
-    if !codecs.contains(&EvalCodec::Gv) {
+    if !codecs.contains(&EvalCodec::GV) {
         return bd_rates;
     }
     type Metric = (&'static str, fn(&CodecResult) -> Option<f64>);
@@ -329,9 +329,9 @@ fn bd_rates(points: &[RatePoint], codecs: &[EvalCodec]) -> Vec<BdRate> {
         ("vertex_rms", |r| Some(r.vertex_rms)),
         ("smoothness", |r| Some(r.smoothness)),
     ];
-    for &c in codecs.iter().filter(|&&c| c != EvalCodec::Gv) {
+    for &c in codecs.iter().filter(|&&c| c != EvalCodec::GV) {
         for (name, m) in metrics {
-            let (reference, test) = (curve(EvalCodec::Gv, &m), curve(c, &m));
+            let (reference, test) = (curve(EvalCodec::GV, &m), curve(c, &m));
             if reference.is_empty() {
                 continue;
             }
@@ -391,7 +391,7 @@ impl Ctx<'_> {
                     let (qp, layers) = PRESETS.iter().find(|p| p.0 == name).map(|p| (p.1, p.2)).ok_or_else(|| {
                         Error::Argument(format!("unknown rate '{name}' (expected low, medium, high, max or ultra)"))
                     })?;
-                    let size = self.encode(EvalCodec::Gv, 1, qp, layers, None)?.size;
+                    let size = self.encode(EvalCodec::GV, 1, qp, layers, None)?.size;
                     let what = if layers == 2 { format!("GV at QP {qp}, 2 layers") } else { format!("GV at QP {qp}") };
                     Ok((format!("{name} ({what})"), size))
                 })

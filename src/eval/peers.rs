@@ -180,14 +180,14 @@ impl PeerReport {
 /// The first of our codecs the report holds, best first.
 fn our_codec(r: &Report) -> Option<EvalCodec> {
     [
-        EvalCodec::Normal,
-        EvalCodec::Predictive,
-        EvalCodec::NormalMotion,
-        EvalCodec::NormalScaled,
-        EvalCodec::PredictiveMotion,
-        EvalCodec::PredictiveScaled,
-        EvalCodec::Conformal,
-        EvalCodec::Gv,
+        EvalCodec::NORMAL,
+        EvalCodec::PREDICTIVE,
+        EvalCodec::NORMAL_MOTION,
+        EvalCodec::NORMAL_SCALED,
+        EvalCodec::PREDICTIVE_MOTION,
+        EvalCodec::PREDICTIVE_SCALED,
+        EvalCodec::CONFORMAL,
+        EvalCodec::GV,
     ]
     .into_iter()
     .find(|c| r.points.iter().any(|p| p.results.iter().any(|x| x.codec == *c)))

@@ -38,14 +38,16 @@ fn register_font() -> Result<()> {
 
 fn color(c: EvalCodec) -> RGBColor {
     match c {
-        EvalCodec::Gv => RGBColor(214, 39, 40),
-        EvalCodec::Conformal => RGBColor(31, 119, 180),
-        EvalCodec::Predictive => RGBColor(44, 160, 44),
-        EvalCodec::Normal => RGBColor(23, 190, 207),
-        EvalCodec::PredictiveScaled => RGBColor(148, 103, 189),
-        EvalCodec::PredictiveMotion => RGBColor(255, 127, 14),
-        EvalCodec::NormalScaled => RGBColor(140, 86, 75),
-        EvalCodec::NormalMotion => RGBColor(227, 119, 194),
+        EvalCodec::GV => RGBColor(214, 39, 40),
+        EvalCodec::CONFORMAL => RGBColor(31, 119, 180),
+        EvalCodec::PREDICTIVE => RGBColor(44, 160, 44),
+        EvalCodec::NORMAL => RGBColor(23, 190, 207),
+        EvalCodec::PREDICTIVE_SCALED => RGBColor(148, 103, 189),
+        EvalCodec::PREDICTIVE_MOTION => RGBColor(255, 127, 14),
+        EvalCodec::NORMAL_SCALED => RGBColor(140, 86, 75),
+        EvalCodec::NORMAL_MOTION => RGBColor(227, 119, 194),
+        // The named codecs above are all there are (EvalCodec's fields are private).
+        _ => RGBColor(127, 127, 127),
     }
 }
 

@@ -147,7 +147,7 @@ fn refuse_or_keep<S: Sink>(
         if (largest as f64) < target * (1.0 - BUDGET_TOLERANCE) {
             // One 8-bit layer saturates (GV at N = 128 near 400 kbit/s on
             // samba): a second layer can spend more, where the layout has one.
-            if opts.layers == 1 && !(opts.normal_correction && opts.closed_loop()) {
+            if opts.layers == 1 && !(opts.normal_correction() && opts.closed_loop()) {
                 let two = EncodeOptions { layers: 2, ..opts.clone() };
                 drop(closest);
                 return on_budget(src, &two, image, open, &mut |_, _, _| {});

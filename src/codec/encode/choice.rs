@@ -5,25 +5,17 @@
 
 use super::{auto_corrections, auto_normal_correction, EncodeOptions};
 use crate::error::{Error, Result};
-use crate::format::{CodecKind, Representation};
+use crate::format::Representation;
 use crate::solve::SolverKind;
 
-/// A codec by name.
+/// A codec by name: one of the representations, or `auto`, which picks
+/// `normal` or `predictive`, whichever measured better for the rate, grid
+/// and layers ([`auto_normal_correction`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum CodecChoice {
-    /// `normal` or `predictive`, whichever measured better for the rate,
-    /// grid and layers ([`auto_normal_correction`]).
     #[default]
     Auto,
-    /// [`Representation::Normal`].
-    Normal,
-    /// [`Representation::Predictive`].
-    Predictive,
-    /// [`Representation::Conformal`]: the seed paper's H + λ, decoded by
-    /// the paper's solver unless another is asked for.
-    Conformal,
-    /// [`Representation::Gv`].
-    Gv,
+    Named(Representation),
 }
 
 /// Names accepted besides the codecs' own: `cgv`, the single name the
@@ -31,16 +23,18 @@ pub enum CodecChoice {
 const ALIASES: [(&str, CodecChoice); 1] = [("cgv", CodecChoice::Auto)];
 
 impl CodecChoice {
-    pub const ALL: [CodecChoice; 5] =
-        [CodecChoice::Auto, CodecChoice::Normal, CodecChoice::Predictive, CodecChoice::Conformal, CodecChoice::Gv];
+    pub const ALL: [CodecChoice; 5] = [
+        CodecChoice::Auto,
+        CodecChoice::Named(Representation::Normal),
+        CodecChoice::Named(Representation::Predictive),
+        CodecChoice::Named(Representation::Conformal),
+        CodecChoice::Named(Representation::Gv),
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
             CodecChoice::Auto => "auto",
-            CodecChoice::Normal => Representation::Normal.name(),
-            CodecChoice::Predictive => Representation::Predictive.name(),
-            CodecChoice::Conformal => Representation::Conformal.name(),
-            CodecChoice::Gv => Representation::Gv.name(),
+            CodecChoice::Named(r) => r.name(),
         }
     }
 
@@ -58,15 +52,16 @@ impl CodecChoice {
     /// intended. Only the conformal codec's files can be read by the
     /// paper's solver: the others' corrections need the predictive one.
     pub fn apply(self, mut opts: EncodeOptions, solver: Option<SolverKind>) -> Result<EncodeOptions> {
-        opts.codec = if self == CodecChoice::Gv { CodecKind::Gv } else { CodecKind::Cgv };
-        opts.code_corrections = self != CodecChoice::Conformal;
-        opts.corrections = auto_corrections(&opts.video, opts.grid, opts.video.fps);
-        opts.normal_correction = match self {
-            CodecChoice::Auto => auto_normal_correction(&opts.video, opts.grid, opts.video.fps, opts.layers),
-            _ => self == CodecChoice::Normal,
+        opts.representation = match self {
+            CodecChoice::Auto if auto_normal_correction(&opts.video, opts.grid, opts.video.fps, opts.layers) => {
+                Representation::Normal
+            }
+            CodecChoice::Auto => Representation::Predictive,
+            CodecChoice::Named(r) => r,
         };
-        opts.solver = match (self, solver) {
-            (CodecChoice::Conformal, s) => s.unwrap_or(SolverKind::Paper),
+        opts.corrections = auto_corrections(&opts.video, opts.grid, opts.video.fps);
+        opts.solver = match (opts.representation, solver) {
+            (Representation::Conformal, s) => s.unwrap_or(SolverKind::Paper),
             (_, None | Some(SolverKind::Predictive)) => SolverKind::Predictive,
             (_, Some(SolverKind::Paper)) => {
                 return Err(Error::Argument(format!(
@@ -91,6 +86,9 @@ mod tests {
     use super::*;
     use crate::codec::h264::VideoSettings;
 
+    const NORMAL: CodecChoice = CodecChoice::Named(Representation::Normal);
+    const PREDICTIVE: CodecChoice = CodecChoice::Named(Representation::Predictive);
+
     #[test]
     fn each_name_reads_back_and_cgv_is_auto() {
         for c in CodecChoice::ALL {
@@ -105,19 +103,20 @@ mod tests {
     fn each_codec_sets_what_its_files_store() {
         let base = EncodeOptions { video: VideoSettings { qp: 20, ..Default::default() }, ..Default::default() };
         let o = |c: CodecChoice| c.apply(base.clone(), None).unwrap();
-        assert!(o(CodecChoice::Normal).normal_correction && o(CodecChoice::Normal).closed_loop());
-        assert!(!o(CodecChoice::Predictive).normal_correction && o(CodecChoice::Predictive).closed_loop());
-        let conformal = o(CodecChoice::Conformal);
+        assert!(o(NORMAL).normal_correction() && o(NORMAL).closed_loop());
+        assert!(!o(PREDICTIVE).normal_correction() && o(PREDICTIVE).closed_loop());
+        let conformal = o(CodecChoice::Named(Representation::Conformal));
         assert!(!conformal.closed_loop() && conformal.solver == SolverKind::Paper);
-        assert_eq!(o(CodecChoice::Gv).codec, CodecKind::Gv);
+        assert_eq!(o(CodecChoice::Named(Representation::Gv)).codec(), crate::format::CodecKind::Gv);
         // QP 20 is inside the range where the normal layout measured better.
-        assert!(o(CodecChoice::Auto).normal_correction);
+        assert!(o(CodecChoice::Auto).normal_correction());
         let coarse = EncodeOptions { video: VideoSettings { qp: 40, ..Default::default() }, ..base.clone() };
-        assert!(!CodecChoice::Auto.apply(coarse, None).unwrap().normal_correction);
+        assert!(!CodecChoice::Auto.apply(coarse, None).unwrap().normal_correction());
         // The predictive solver on H and anchors alone: the conformal file, decoded open loop.
-        let open = CodecChoice::Conformal.apply(base.clone(), Some(SolverKind::Predictive)).unwrap();
+        let open =
+            CodecChoice::Named(Representation::Conformal).apply(base.clone(), Some(SolverKind::Predictive)).unwrap();
         assert!(!open.closed_loop() && open.solver == SolverKind::Predictive);
-        let e = CodecChoice::Normal.apply(base, Some(SolverKind::Paper)).unwrap_err().to_string();
+        let e = NORMAL.apply(base, Some(SolverKind::Paper)).unwrap_err().to_string();
         assert!(e.contains("--codec conformal"), "{e}");
     }
 }

@@ -58,7 +58,7 @@ pub(super) fn header(
         seam: format::SEAM_RULE.into(),
         frames: plan.frames as u32,
         fps: src.fps(),
-        codec: opts.codec,
+        codec: opts.codec(),
         streams: streams(plan, opts, analysis, simulation),
         key_frames: plan.key_frames.clone(),
         anchors: analysis.anchors.clone(),

@@ -34,7 +34,7 @@ pub use target::{encode_to_error, prepare_for_error, TargetReport};
 
 use super::h264::VideoSettings;
 use crate::error::{Error, Result};
-use crate::format::{self, CodecKind, CorrectionMode};
+use crate::format::{self, CodecKind, CorrectionMode, Representation};
 use crate::geometry_image::GeometryImage;
 use crate::grid::{Grid, Stencils};
 use crate::mesh::{Bounds, FrameSource};
@@ -62,7 +62,10 @@ pub const PAPER_ANCHORS: usize = 16;
 /// How to encode.
 #[derive(Debug, Clone)]
 pub struct EncodeOptions {
-    pub codec: CodecKind,
+    /// What the file stores. The three closed-loop choices besides it
+    /// (corrections or not, along the normal or not, which header codec)
+    /// all follow from it.
+    pub representation: Representation,
     pub grid: usize,
     pub video: VideoSettings,
     /// A key frame (λ) every this many frames; 0 for the first frame only.
@@ -73,9 +76,6 @@ pub struct EncodeOptions {
     /// default motion at N = 64, 16 anchors cost 10–60 % more bytes than
     /// none for the same or higher error; 192 bytes a frame is 46 kbit/s).
     pub anchors: Option<usize>,
-    /// CGV for the `cgv` decoder: code the closed-loop corrections (else the
-    /// decoder runs open loop on H and the anchors alone, and drifts).
-    pub code_corrections: bool,
     /// CGV for the `cgv` decoder: how the corrections apply (see
     /// [`CorrectionMode`]; motion needs format version 2, and
     /// leaves out H and λ, version 3).
@@ -97,10 +97,6 @@ pub struct EncodeOptions {
     /// [`Corrections`](super::Corrections)); off, every frame's is 0 (for
     /// measuring what the filter does).
     pub correction_filter: bool,
-    /// CGV with corrections: code x, y, z coarser and what they leave along
-    /// the predicted surface's normal (format version 9: `dn`; see
-    /// [`Corrections`](super::Corrections)).
-    pub normal_correction: bool,
     /// With a normal correction: how many times the x, y, z pictures' grid
     /// is halved (as far as the grid allows, down to 16 a side).
     pub correction_shrink: u8,
@@ -141,18 +137,16 @@ pub struct EncodeOptions {
 impl Default for EncodeOptions {
     fn default() -> Self {
         EncodeOptions {
-            codec: CodecKind::Cgv,
+            representation: Representation::Predictive,
             grid: 128,
             video: VideoSettings::default(),
             key_interval: 10,
             anchors: None,
-            code_corrections: true,
             corrections: CorrectionMode::Scaled,
             max_steps: 1,
             correction_interval: 1,
             max_lag: DEFAULT_MAX_LAG,
             correction_filter: true,
-            normal_correction: false,
             correction_shrink: 1,
             layers: 1,
             residual_steps: 8.0,
@@ -183,7 +177,7 @@ impl EncodeOptions {
         if self.correction_shrink > format::MAX_SHRINK {
             return bad(format!("correction_shrink {} is above {}", self.correction_shrink, format::MAX_SHRINK));
         }
-        if self.normal_correction && self.layers == 2 && self.closed_loop() {
+        if self.normal_correction() && self.layers == 2 && self.closed_loop() {
             return bad("a normal correction has no residual layer (layers 1)".into());
         }
         if let Some(b) = self.bones.filter(|&b| b > format::skin::MAX_BONES) {
@@ -198,15 +192,33 @@ impl EncodeOptions {
         if self.motion() && self.correction_interval == 0 {
             return bad("the correction interval must be at least 1".into());
         }
-        if self.codec == CodecKind::Cgv && self.anchor_count() < 4 && !self.closed_loop() {
+        if self.codec() == CodecKind::Cgv && self.anchor_count() < 4 && !self.closed_loop() {
             return bad("CGV without corrections (or for the paper's solver) needs at least 4 anchors".into());
         }
         Ok(())
     }
 
-    /// Whether the encoder runs the predictive decoder in its loop.
+    /// Whether the encoder runs the predictive decoder in its loop: the
+    /// corrections' representations, for the decoder they need.
     pub(crate) fn closed_loop(&self) -> bool {
-        self.codec == CodecKind::Cgv && self.solver == SolverKind::Predictive && self.code_corrections
+        matches!(self.representation, Representation::Predictive | Representation::Normal)
+            && self.solver == SolverKind::Predictive
+    }
+
+    /// The header's `codec` field for this representation.
+    pub fn codec(&self) -> CodecKind {
+        if self.representation == Representation::Gv {
+            CodecKind::Gv
+        } else {
+            CodecKind::Cgv
+        }
+    }
+
+    /// Whether the corrections are laid out along the predicted surface's
+    /// normal (format version 9: `dn`, x, y, z coarser; see
+    /// [`Corrections`](super::Corrections)).
+    pub fn normal_correction(&self) -> bool {
+        self.representation == Representation::Normal
     }
 
     /// Whether the corrections are coded as their running sum.

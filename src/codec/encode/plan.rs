@@ -46,7 +46,7 @@ impl Plan {
         // every `interval`-th.
         let interval = if motion { opts.correction_interval } else { opts.key_interval };
         let mut plan = Plan {
-            codec: opts.codec,
+            codec: opts.codec(),
             grid: Grid::new(opts.grid)?,
             frames,
             closed_loop,
@@ -148,7 +148,7 @@ fn random_access_interval(seconds: f32, fps: f32, frames: usize) -> Option<u32> 
 /// grid allows, down to H.264's 16 samples a side); without, x, y, z at
 /// full size.
 fn correction_layout(opts: &EncodeOptions) -> Result<Layout> {
-    if !opts.normal_correction {
+    if !opts.normal_correction() {
         return Ok(Layout::WORLD);
     }
     let grid = Grid::new(opts.grid)?;

@@ -126,7 +126,7 @@ pub fn encode_to_error(
         (o.video.qp, o.video.kbps) = (qp, None);
         let mut o = codec.apply(o, Some(opts.solver))?;
         if let Some(p) = pin {
-            (o.corrections, o.normal_correction) = (p.corrections, p.normal_correction);
+            (o.corrections, o.representation) = (p.corrections, p.representation);
         }
         let label = format!("QP {qp} for {:.4} %", 100.0 * target);
         let (bytes, report) =
@@ -166,7 +166,7 @@ struct Found {
 }
 
 fn differs(a: &EncodeOptions, b: &EncodeOptions) -> bool {
-    a.corrections != b.corrections || a.normal_correction != b.normal_correction
+    a.corrections != b.corrections || a.representation != b.representation
 }
 
 /// Bisects QPs above `floor` (known to meet the target, or 0), starting at
