@@ -6,6 +6,7 @@
 //! (`crate::solve::skinned`).
 
 use super::plan::Plan;
+use super::weights_refit::{self, FineMotion};
 use super::EncodeOptions;
 use crate::error::Result;
 use crate::format::skin::{coarse_side, INFLUENCES, MAX_SKIN_SHRINK};
@@ -13,8 +14,8 @@ use crate::format::{SkinInfo, SkinWeights};
 use crate::grid::{coarse, Grid};
 use crate::mesh::FrameSource;
 use crate::resample::SampleMap;
-use crate::skin::{decompose, SkinOptions};
-use crate::solve::skinned::SkinnedPredictor;
+use crate::skin::{decompose, Rigid, SkinOptions};
+use crate::solve::skinned::{SkinnedPredictor, FIT_STRIDE};
 use glam::Vec3;
 
 /// Bones when the options leave it to the encoder (`EncodeOptions::bones`
@@ -35,6 +36,10 @@ pub const SKIN_SIDE: usize = 32;
 /// Frames the decomposition looks at, spread over the motion: it fits
 /// weights only, which a few hundred frames pin down.
 pub const SKIN_FRAMES: usize = 256;
+/// SSDR's frames the weights' refit reads at most (`weights_refit`).
+pub const REFIT_FRAMES: usize = 48;
+/// Sweeps of the weights' refit over the coarse samples.
+pub const REFIT_SWEEPS: usize = 3;
 /// Alternations of weights and transforms (`SkinOptions::iterations`).
 pub const SKIN_ITERATIONS: usize = 10;
 /// A rotation-vector unit: 2⁻⁹ rad, which moves a point half the diagonal
@@ -78,19 +83,9 @@ pub(super) fn fit_bones(
         return Ok(None);
     }
     let shrink = skin_shrink(plan.grid.n);
-    let side = plan.grid.n >> shrink;
-    let coarse_grid = Grid::new(side)?;
-    let count = plan.frames.min(SKIN_FRAMES);
-    let mut frames = Vec::with_capacity(count);
-    for k in 0..count {
-        let f = k * plan.frames / count;
-        frames.push(shrink_positions(plan.grid, &map.apply(&src.read_frame(f)?), shrink));
-        progress("fitting bones", k + 1, count);
-    }
-    let bones = usize::from(asked).min(side * side);
-    let skin_opts = SkinOptions { bones, iterations: SKIN_ITERATIONS, rest: 0 };
-    let skin = decompose(&frames, &coarse_grid.topology().faces, &skin_opts, &mut |_, _| {})?;
-    let weights = SkinWeights { influences: skin.influences.iter().map(quantize).collect() };
+    let bones = usize::from(asked).min((plan.grid.n >> shrink).pow(2));
+    let influences = fit_weights(src, plan.grid, map, shrink, bones, REFIT_SWEEPS, progress)?;
+    let weights = SkinWeights { influences: influences.iter().map(quantize).collect() };
     let info = SkinInfo {
         bones: bones as u16,
         shrink,
@@ -99,6 +94,44 @@ pub(super) fn fit_bones(
     };
     let predictor = SkinnedPredictor::new(plan.grid, &info, &weights)?;
     Ok(Some(Bones { info, weights, predictor }))
+}
+
+/// The weights on the grid halved `shrink` times: SSDR on that grid, then
+/// refitted `sweeps` times for their expansion (`weights_refit`).
+fn fit_weights(
+    src: &dyn FrameSource,
+    grid: Grid,
+    map: &SampleMap,
+    shrink: u8,
+    bones: usize,
+    sweeps: usize,
+    progress: &mut dyn FnMut(&str, usize, usize),
+) -> Result<Vec<[(u16, f32); INFLUENCES]>> {
+    let coarse_grid = Grid::new(grid.n >> shrink)?;
+    let frames = src.frame_count();
+    let count = frames.min(SKIN_FRAMES);
+    let every = count.div_ceil(REFIT_FRAMES);
+    let stride = if grid.n >= 64 { FIT_STRIDE } else { 1 };
+    let samples: Vec<u32> = (0..grid.len() as u32)
+        .filter(|&v| (v as usize % grid.n) % stride == 0 && (v as usize / grid.n) % stride == 0)
+        .collect();
+    let (mut coarse_frames, mut fine) = (Vec::with_capacity(count), Vec::new());
+    for k in 0..count {
+        let x = map.apply(&src.read_frame(k * frames / count)?);
+        coarse_frames.push(shrink_positions(grid, &x, shrink));
+        if k % every == 0 {
+            fine.push(samples.iter().map(|&v| x[v as usize]).collect::<Vec<Vec3>>());
+        }
+        progress("fitting bones", k + 1, count);
+    }
+    let skin_opts = SkinOptions { bones, iterations: SKIN_ITERATIONS, rest: 0 };
+    let mut skin = decompose(&coarse_frames, &coarse_grid.topology().faces, &skin_opts, &mut |_, _| {})?;
+    if sweeps > 0 {
+        let transforms: Vec<Vec<Rigid>> = skin.transforms.iter().step_by(every).cloned().collect();
+        let fine = FineMotion { samples, rest: fine[0].clone(), frames: fine };
+        weights_refit::refit(coarse_grid, shrink, &mut skin.influences, &transforms, &fine, sweeps);
+    }
+    Ok(skin.influences)
 }
 
 /// A grid frame's positions on the grid halved `levels` times.
@@ -117,4 +150,53 @@ fn quantize(inf: &[(u16, f32); INFLUENCES]) -> [(u8, u8); INFLUENCES] {
         q[k].1 = 1;
     }
     q
+}
+
+#[cfg(test)]
+mod probe {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+    use crate::mesh::{open_sequence, Bounds, OpenOptions};
+
+    /// The bones alone on the full grid, with and without the weights'
+    /// refit: `CGV_PROBE=/tmp/data/samba cargo test --release --lib probe -- --ignored --nocapture`.
+    #[test]
+    #[ignore]
+    fn bones_alone_on_the_full_grid() {
+        let dir = std::env::var("CGV_PROBE").unwrap();
+        let src = open_sequence(&dir, &OpenOptions::default()).unwrap();
+        let opts = EncodeOptions { grid: 128, ..Default::default() };
+        let image = crate::codec::prepare(src.as_ref(), &opts).unwrap();
+        let grid = Grid::new(128).unwrap();
+        let diag = Bounds::of(&src.read_frame(0).unwrap()).diagonal();
+        let shrink = skin_shrink(128);
+        for sweeps in [0, REFIT_SWEEPS] {
+            let t0 = std::time::Instant::now();
+            let inf = fit_weights(src.as_ref(), grid, &image.map, shrink, 32, sweeps, &mut |_, _, _| {}).unwrap();
+            let secs = t0.elapsed().as_secs_f64();
+            let weights = SkinWeights { influences: inf.iter().map(quantize).collect() };
+            let info =
+                SkinInfo { bones: 32, shrink, rotation_step: ROTATION_STEP, translation_step: diag * TRANSLATION_STEP };
+            let mut p = SkinnedPredictor::new(grid, &info, &weights).unwrap();
+            let (mut l, mut sum, mut bytes) = (Vec::new(), 0.0, 0);
+            for f in 0..src.frame_count() {
+                let x = image.map.apply(&src.read_frame(f).unwrap());
+                bytes += p.encode(&x).len();
+                if f == 0 {
+                    l = x.clone();
+                } else {
+                    l.iter_mut().zip(p.motion().unwrap()).for_each(|(a, d)| *a += d);
+                }
+                let e: f64 = l.iter().zip(&x).map(|(a, b)| (*a - *b).length_squared() as f64).sum::<f64>();
+                sum += (e / x.len() as f64).sqrt() / diag as f64;
+                p.commit(&x);
+            }
+            let n = src.frame_count();
+            eprintln!(
+                "{dir} sweeps {sweeps}: bones alone {:.4} % vertex RMS, {} B/frame, fit {secs:.1} s",
+                100.0 * sum / n as f64,
+                bytes / n
+            );
+        }
+    }
 }

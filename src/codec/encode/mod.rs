@@ -24,6 +24,7 @@ mod plan;
 mod request;
 mod simulate;
 mod target;
+mod weights_refit;
 
 pub use bones::{DEFAULT_BONES, MIN_BONE_FRAMES};
 pub use budget::{encode_on_budget, encode_on_budget_into, BUDGET_TOLERANCE, MAX_PASSES};
