@@ -56,6 +56,47 @@ pub fn solve(g: &[f64], h: &[f64]) -> Vec<f64> {
 
 /// The unconstrained minimizer over the passive variables (the others
 /// zero), by Cholesky with a tiny ridge for a singular G.
+/// Weight of the sum-to-one row, relative to the mean diagonal of the
+/// normal equations: large enough that SSDR's weights sum to one within
+/// 1e-3 before they are normalized.
+pub const SUM_TO_ONE: f64 = 1e3;
+
+/// [`solve`] for weights: `g` and `h` (n x n and n) with a heavy row asking
+/// the unknowns to sum to one added ([`SUM_TO_ONE`]), SSDR's weight solve.
+pub fn solve_weights(mut g: Vec<f64>, mut h: Vec<f64>) -> Vec<f64> {
+    let n = h.len();
+    let mean_diag = (0..n).map(|i| g[i * n + i]).sum::<f64>() / n.max(1) as f64;
+    let mu = SUM_TO_ONE * mean_diag.max(1e-30);
+    for i in 0..n {
+        h[i] += mu;
+        for j in 0..n {
+            g[i * n + j] += mu;
+        }
+    }
+    solve(&g, &h)
+}
+
+/// A sample's influences from its candidate bones: the weights `solve`
+/// gives over `cand`, the [`INFLUENCES`](super::INFLUENCES) largest kept and
+/// solved again if any was dropped, scaled to sum to one; `None` if they
+/// sum to nothing.
+pub fn influences(cand: &[u16], solve: impl Fn(&[u16]) -> Vec<f64>) -> Option<[(u16, f32); super::INFLUENCES]> {
+    let mut ranked: Vec<(u16, f64)> = cand.iter().copied().zip(solve(cand)).filter(|x| x.1 > 0.0).collect();
+    ranked.sort_by(|a, b| b.1.total_cmp(&a.1));
+    ranked.truncate(super::INFLUENCES);
+    let kept: Vec<u16> = ranked.iter().map(|x| x.0).collect();
+    let w = if kept.len() < cand.len() { solve(&kept) } else { ranked.iter().map(|x| x.1).collect() };
+    let total: f64 = w.iter().sum();
+    if total.is_nan() || total <= 0.0 {
+        return None;
+    }
+    let mut inf = [(0u16, 0.0f32); super::INFLUENCES];
+    for (slot, (&b, &x)) in inf.iter_mut().zip(kept.iter().zip(&w)) {
+        *slot = (b, (x / total) as f32);
+    }
+    Some(inf)
+}
+
 fn solve_passive(g: &[f64], h: &[f64], passive: &[bool]) -> Vec<f64> {
     let n = h.len();
     let idx: Vec<usize> = (0..n).filter(|&i| passive[i]).collect();

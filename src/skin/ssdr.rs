@@ -43,10 +43,6 @@ impl Default for SkinOptions {
 const CLUSTER_ROUNDS: usize = 3;
 /// Frames the clustering looks at, spread over the motion (it only groups).
 const CLUSTER_FRAMES: usize = 24;
-/// Weight of the sum-to-one row, relative to the mean diagonal of a
-/// vertex's normal equations: large enough that the weights sum to one
-/// within 1e-3 before they are normalized.
-const SUM_TO_ONE: f64 = 1e3;
 
 /// The decomposition of `frames` (every frame the same vertices, `faces`
 /// over them), with `report(iteration, vertex RMS)` after each alternation.
@@ -221,25 +217,7 @@ fn update_weights(frames: &[Vec<Vec3>], skin: &Skinning, neighbours: &[Vec<u32>]
                 .collect();
             cand.sort_unstable();
             cand.dedup();
-            let w = vertex_weights(frames, skin, v, &cand);
-            let mut ranked: Vec<(u16, f64)> = cand.iter().copied().zip(w).filter(|x| x.1 > 0.0).collect();
-            ranked.sort_by(|a, b| b.1.total_cmp(&a.1));
-            ranked.truncate(INFLUENCES);
-            let kept: Vec<u16> = ranked.iter().map(|x| x.0).collect();
-            let w = if kept.len() < cand.len() {
-                vertex_weights(frames, skin, v, &kept)
-            } else {
-                ranked.iter().map(|x| x.1).collect()
-            };
-            let total: f64 = w.iter().sum();
-            let mut inf = [(0u16, 0.0f32); INFLUENCES];
-            if total <= 0.0 {
-                return skin.influences[v];
-            }
-            for (slot, (&b, &x)) in inf.iter_mut().zip(kept.iter().zip(&w)) {
-                *slot = (b, (x / total) as f32);
-            }
-            inf
+            nnls::influences(&cand, |c| vertex_weights(frames, skin, v, c)).unwrap_or(skin.influences[v])
         })
         .collect()
 }
@@ -262,16 +240,12 @@ fn vertex_weights(frames: &[Vec<Vec3>], skin: &Skinning, v: usize, cand: &[u16])
             }
         }
     }
-    let mean_diag = (0..k).map(|i| g[i * k + i]).sum::<f64>() / k.max(1) as f64;
-    let mu = SUM_TO_ONE * mean_diag.max(1e-30);
     for i in 0..k {
-        h[i] += mu;
-        for j in 0..=i {
-            g[i * k + j] += mu;
+        for j in 0..i {
             g[j * k + i] = g[i * k + j];
         }
     }
-    nnls::solve(&g, &h)
+    nnls::solve_weights(g, h)
 }
 
 /// SSDR's transform update: in each frame (in parallel), each bone in turn

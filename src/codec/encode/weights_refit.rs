@@ -14,9 +14,6 @@ use crate::grid::{coarse, Grid};
 use crate::skin::{nnls, Rigid};
 use glam::Vec3;
 
-/// Weight of the sum-to-one row against the mean diagonal of a coarse
-/// sample's normal equations (as SSDR's).
-const SUM_TO_ONE: f64 = 1e3;
 /// Expansion coefficients below this are left out of a footprint.
 const REACH: f32 = 1e-4;
 
@@ -135,25 +132,7 @@ fn solve_sample(
     if foot.is_empty() || cand.is_empty() {
         return None;
     }
-    let w = weights_over(foot, cand, old, transforms, fine, predicted);
-    let mut ranked: Vec<(u16, f64)> = cand.iter().copied().zip(w).filter(|x| x.1 > 0.0).collect();
-    ranked.sort_by(|a, b| b.1.total_cmp(&a.1));
-    ranked.truncate(INFLUENCES);
-    let kept: Vec<u16> = ranked.iter().map(|x| x.0).collect();
-    let w = if kept.len() < cand.len() {
-        weights_over(foot, &kept, old, transforms, fine, predicted)
-    } else {
-        ranked.iter().map(|x| x.1).collect()
-    };
-    let total: f64 = w.iter().sum();
-    if total.is_nan() || total <= 0.0 {
-        return None;
-    }
-    let mut inf = [(0u16, 0.0f32); INFLUENCES];
-    for (slot, (&b, &x)) in inf.iter_mut().zip(kept.iter().zip(&w)) {
-        *slot = (b, (x / total) as f32);
-    }
-    Some(inf)
+    nnls::influences(cand, |c| weights_over(foot, c, old, transforms, fine, predicted))
 }
 
 /// The non-negative weights over `cand` that best give the footprint's
@@ -186,16 +165,12 @@ fn weights_over(
             }
         }
     }
-    let mean_diag = (0..n).map(|i| g[i * n + i]).sum::<f64>() / n.max(1) as f64;
-    let mu = SUM_TO_ONE * mean_diag.max(1e-30);
     for i in 0..n {
-        h[i] += mu;
-        for j in 0..=i {
-            g[i * n + j] += mu;
+        for j in 0..i {
             g[j * n + i] = g[i * n + j];
         }
     }
-    nnls::solve(&g, &h)
+    nnls::solve_weights(g, h)
 }
 
 #[cfg(test)]
