@@ -11,11 +11,11 @@ pub enum MeshProblem {
     NoFaces,
     #[error("face {face} uses vertex {index}, but there are only {count} vertices")]
     IndexOutOfRange { face: usize, index: i64, count: usize },
-    #[error("has {found} vertices, but the first frame has {expected}")]
+    #[error("has {found} vertices, but the first frame has {expected} (a capture whose frames are each their own mesh: --unregistered)")]
     VertexCountMismatch { expected: usize, found: usize },
-    #[error("has {found} faces, but the first frame has {expected}")]
+    #[error("has {found} faces, but the first frame has {expected} (a capture whose frames are each their own mesh: --unregistered)")]
     FaceCountMismatch { expected: usize, found: usize },
-    #[error("face {face} differs from the first frame's face {face} (frames must share one connectivity)")]
+    #[error("face {face} differs from the first frame's face {face} (frames must share one connectivity, or be read with --unregistered)")]
     FacesDiffer { face: usize },
     #[error("vertex {vertex} has a non-finite coordinate")]
     NonFinite { vertex: usize },

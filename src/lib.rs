@@ -15,6 +15,8 @@ pub mod codec;
 pub mod error;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod eval;
+#[cfg(not(target_arch = "wasm32"))]
+pub mod features;
 pub mod format;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod geometry_image;

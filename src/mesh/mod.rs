@@ -11,6 +11,8 @@ pub mod obj;
 pub mod open;
 pub mod source;
 pub mod topology;
+#[cfg(not(target_arch = "wasm32"))]
+pub mod unregister;
 
 use glam::Vec3;
 

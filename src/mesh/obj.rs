@@ -127,6 +127,31 @@ pub fn frame_number(path: &Path) -> Option<u64> {
     stem[start..end].parse().ok()
 }
 
+/// The OBJ files of a folder, one per frame, in the order of the number
+/// in their names (2 before 10), then by name for files without one.
+pub fn frame_files(dir: &Path) -> Result<Vec<PathBuf>> {
+    let entries = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?;
+    let mut files = Vec::new();
+    for entry in entries {
+        let entry = entry.map_err(|e| Error::io(dir, e))?;
+        let p = entry.path();
+        if p.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("obj")) {
+            files.push(p);
+        }
+    }
+    if files.is_empty() {
+        return Err(Error::Argument(format!("{}: no .obj files in this folder", dir.display())));
+    }
+    files.sort_by(|a, b| {
+        (frame_number(a).is_none(), frame_number(a), a.file_name()).cmp(&(
+            frame_number(b).is_none(),
+            frame_number(b),
+            b.file_name(),
+        ))
+    });
+    Ok(files)
+}
+
 /// A folder of OBJ files, one per frame, in the order of the number in their
 /// names; or a single OBJ file as a one-frame sequence.
 pub struct ObjFolder {
@@ -138,27 +163,7 @@ pub struct ObjFolder {
 
 impl ObjFolder {
     pub fn open(dir: &Path, fps: f32) -> Result<ObjFolder> {
-        let entries = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?;
-        let mut files = Vec::new();
-        for entry in entries {
-            let entry = entry.map_err(|e| Error::io(dir, e))?;
-            let p = entry.path();
-            if p.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("obj")) {
-                files.push(p);
-            }
-        }
-        if files.is_empty() {
-            return Err(Error::Argument(format!("{}: no .obj files in this folder", dir.display())));
-        }
-        // Numeric order first (2 before 10), then by name for files without a number.
-        files.sort_by(|a, b| {
-            (frame_number(a).is_none(), frame_number(a), a.file_name()).cmp(&(
-                frame_number(b).is_none(),
-                frame_number(b),
-                b.file_name(),
-            ))
-        });
-        Self::from_files(dir, files, fps)
+        Self::from_files(dir, frame_files(dir)?, fps)
     }
 
     pub fn single(path: &Path, fps: f32) -> Result<ObjFolder> {

@@ -95,6 +95,14 @@ pub struct Args {
     /// give back the grid mesh; smaller by what `source mesh` reports.
     #[arg(long)]
     no_source_mesh: bool,
+    /// INPUT is a folder of OBJ frames that are each their own mesh (a
+    /// capture without correspondence): features are found on every frame
+    /// (heat kernel signature maxima), tracked, and every frame mapped onto
+    /// the grid with four tracked features as its cones, so that the grid
+    /// follows the body; what decodes is that registered grid mesh (no
+    /// source mesh). The grid is --grid's N, 128 for auto.
+    #[arg(long)]
+    unregistered: bool,
     /// Store each input vertex's place where the grid follows it best over
     /// the motion (up to a cell from its own, judged on 16 frames): the
     /// rebuilt vertices' floor falls 25-49 % on the shared sequences, which
@@ -212,7 +220,7 @@ fn request(args: &Args) -> EncodeRequest {
             loose_max_vertices: args.loose_parts,
         },
         reference: 0,
-        source_mesh: !args.no_source_mesh,
+        source_mesh: !args.no_source_mesh && !args.unregistered,
         fit_places: args.fit_places,
         random_access: args.random_access,
         bones: args.bones.0,
@@ -272,7 +280,7 @@ fn encode_one(args: &Args) -> Result<()> {
     // Every option is checked before the motion is read.
     let request = request(args);
     request.options(input.fps)?;
-    let src = input.open()?;
+    let src = if args.unregistered { registered(args)? } else { input.open()? };
     let pb = super::progress(src.frame_count(), "encoding", args.json);
     let mut progress = |stage: &str, done: usize, _| {
         if done == 1 {
@@ -292,6 +300,35 @@ fn encode_one(args: &Args) -> Result<()> {
         Made::Bytes(b) => cgv::output::write_atomic(output, &b)?,
     }
     print_report(args, src.as_ref(), &made.options, &made.report, made.target.as_ref())
+}
+
+/// Grid size an unregistered capture is registered on with `--grid auto`.
+const REGISTER_GRID: usize = 128;
+
+/// The unregistered capture `args.input` registered onto the grid, with
+/// what the registration found on stderr.
+fn registered(args: &Args) -> Result<Box<dyn cgv::mesh::FrameSource>> {
+    let dir = std::path::Path::new(&args.input.input);
+    let frames = cgv::features::register::read_capture(dir, args.input.frames)?;
+    let n = match args.grid {
+        GridChoice::Size(n) => n,
+        GridChoice::Auto => REGISTER_GRID,
+    };
+    let grid = cgv::grid::Grid::new(n)?;
+    let (src, r) = cgv::features::register::register(dir, args.input.fps, &frames, grid)
+        .with_context(|| format!("registering {}", dir.display()))?;
+    eprintln!(
+        "registered {} frames on {n}²: {:.1} features a frame, {} tracks, the cones' tracks seen in {} of the frames, \
+         {} frames mirrored; {:.1} s features, {:.1} s maps",
+        r.frames,
+        r.features_per_frame,
+        r.tracks,
+        r.cones_seen.map(|x| format!("{:.0} %", 100.0 * x)).join(" / "),
+        r.mirrored_frames,
+        r.seconds_features,
+        r.seconds_maps
+    );
+    Ok(Box::new(src))
 }
 
 /// The bytes of each part of the file.

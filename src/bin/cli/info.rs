@@ -17,6 +17,11 @@ pub struct Args {
     /// Only read the first frame (skip checking every frame's vertex count, faces and coordinates).
     #[arg(long)]
     quick: bool,
+    /// INPUT is a folder of OBJ frames that are each their own mesh (a
+    /// capture without correspondence): report each frame's size, the
+    /// features found (heat kernel signature maxima) and how well they track.
+    #[arg(long)]
+    unregistered: bool,
 }
 
 /// Reads every frame after the first (in parallel, with a progress bar
@@ -47,6 +52,9 @@ fn check_frames(src: &dyn cgv::mesh::FrameSource, first: Bounds, quiet: bool) ->
 pub fn run(args: Args) -> Result<()> {
     if args.input.input.ends_with(".cgv") {
         return cgv_info(&args);
+    }
+    if args.unregistered {
+        return unregistered_info(&args);
     }
     let src = args.input.open()?;
     let first = src.read_frame(0)?;
@@ -111,6 +119,47 @@ pub fn run(args: Args) -> Result<()> {
         }
         println!("  verdict: {}", verdict(usable, &topo, closing.as_ref()));
     }
+    Ok(())
+}
+
+/// `cgv info --unregistered`: the capture's frames, features and tracks.
+fn unregistered_info(args: &Args) -> Result<()> {
+    use cgv::features::register::{read_capture, track_capture};
+    let dir = std::path::Path::new(&args.input.input);
+    let frames = read_capture(dir, args.input.frames)?;
+    let sizes: Vec<usize> = frames.iter().map(|f| f.positions.len()).collect();
+    let (lo, hi) = (sizes.iter().min().copied().unwrap_or(0), sizes.iter().max().copied().unwrap_or(0));
+    let tracked = track_capture(dir, &frames)?;
+    let seen = tracked.cones_seen();
+    let rate = frames.len() as f64 / tracked.seconds.max(1e-9);
+    if args.json {
+        let report = serde_json::json!({
+            "input": dir,
+            "kind": "unregistered OBJ frames",
+            "frames": frames.len(),
+            "vertices_min": lo,
+            "vertices_max": hi,
+            "features_per_frame": tracked.features_per_frame(),
+            "tracks": tracked.tracks.len(),
+            "cones_seen": seen,
+            "frames_per_second": rate,
+        });
+        println!("{}", serde_json::to_string_pretty(&report)?);
+        return Ok(());
+    }
+    println!("{} (unregistered: every frame its own mesh)", dir.display());
+    println!("  frames        {} at {} fps", frames.len(), args.input.fps);
+    println!("  vertices      {lo} to {hi} a frame");
+    println!(
+        "  features      {:.1} a frame (heat kernel signature maxima), {} tracks",
+        tracked.features_per_frame(),
+        tracked.tracks.len()
+    );
+    println!(
+        "  cones         the 4 longest tracks, seen in {} of the frames",
+        seen.map(|x| format!("{:.0} %", 100.0 * x)).join(" / ")
+    );
+    println!("  speed         {rate:.1} frames/s (features and tracking)");
     Ok(())
 }
 

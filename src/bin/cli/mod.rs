@@ -12,6 +12,7 @@ mod remesh;
 mod render;
 mod serve;
 mod skin;
+mod unregister;
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -58,6 +59,9 @@ enum Command {
     /// Fit a few bones and four weights per vertex to a motion (a skinning decomposition) and write
     /// a skinned glTF that three.js and game engines play natively, with its error and size.
     Skin(skin::Args),
+    /// Make a registered motion into a capture without correspondence (each frame simplified on
+    /// its own and its vertices shuffled): test data for `encode --unregistered`.
+    Unregister(unregister::Args),
 }
 
 /// Options shared by the commands that read a mesh sequence.
@@ -170,6 +174,7 @@ pub fn main() -> ExitCode {
         Command::Render(a) => render::run(a),
         Command::Serve(a) => serve::run(a),
         Command::Skin(a) => skin::run(a),
+        Command::Unregister(a) => unregister::run(a),
     };
     report(result)
 }

@@ -1,0 +1,125 @@
+//! Feature points of one frame, as the seed paper finds them (section 4.1):
+//! the local maxima of the heat kernel signature at a short diffusion time
+//! ([`hks`](super::hks)), which sit on a body's extremities (fingertips,
+//! feet, head, tail). Each carries a descriptor, its signature at a few
+//! times, by which [`track`](super::track) matches it in the next frame.
+
+use super::hks::Spectrum;
+use crate::error::Result;
+use glam::Vec3;
+
+/// Laplacian eigenpairs the signature is built from.
+pub const EIGENPAIRS: usize = 32;
+/// Diffusion times, as fractions of the range [4 ln 10 / λ_max, 4 ln 10 /
+/// λ_1] of Sun et al. (log-spaced between its ends): the descriptor reads
+/// all of them, detection the second (a short time: sharp maxima on the
+/// extremities, few elsewhere).
+pub const TIMES: usize = 5;
+const DETECT_TIME: usize = 1;
+/// Maxima closer than this (in units of the square root of the surface
+/// area) to a stronger one are one feature.
+pub const SEPARATION: f32 = 0.15;
+
+/// A feature point.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Feature {
+    /// The vertex of the frame's mesh it lies on.
+    pub vertex: u32,
+    pub position: Vec3,
+    /// log of the signature at [`TIMES`] times, each relative to the
+    /// surface's mean signature at that time (the scaled HKS of Sun et al.).
+    pub descriptor: [f32; TIMES],
+}
+
+/// The features of a frame (`faces` over `positions`), strongest first.
+pub fn features(faces: &[[u32; 3]], positions: &[Vec3]) -> Result<Vec<Feature>> {
+    let spectrum = Spectrum::of(faces, positions, EIGENPAIRS.min(positions.len().saturating_sub(2)))?;
+    let times = diffusion_times(&spectrum.values);
+    let hks: Vec<Vec<f64>> = times.iter().map(|&t| spectrum.hks(t)).collect();
+    let detect = &hks[DETECT_TIME];
+    let neighbours = one_rings(faces, positions.len());
+    let mut maxima: Vec<u32> = (0..positions.len() as u32)
+        .filter(|&v| !neighbours[v as usize].is_empty())
+        .filter(|&v| neighbours[v as usize].iter().all(|&u| detect[v as usize] > detect[u as usize]))
+        .collect();
+    maxima.sort_by(|&a, &b| detect[b as usize].total_cmp(&detect[a as usize]));
+    let radius = SEPARATION * surface_area(faces, positions).sqrt();
+    let mut kept: Vec<u32> = Vec::new();
+    for v in maxima {
+        let p = positions[v as usize];
+        if kept.iter().all(|&k| positions[k as usize].distance(p) > radius) {
+            kept.push(v);
+        }
+    }
+    let means: Vec<f64> = hks.iter().map(|h| h.iter().sum::<f64>() / h.len().max(1) as f64).collect();
+    Ok(kept
+        .into_iter()
+        .map(|v| Feature {
+            vertex: v,
+            position: positions[v as usize],
+            descriptor: std::array::from_fn(|k| (hks[k][v as usize] / means[k].max(f64::MIN_POSITIVE)).ln() as f32),
+        })
+        .collect())
+}
+
+/// [`TIMES`] log-spaced times over Sun et al.'s range for these eigenvalues.
+fn diffusion_times(values: &[f64]) -> [f64; TIMES] {
+    let first = values.iter().copied().find(|&l| l > 1e-9).unwrap_or(1.0);
+    let last = values.last().copied().unwrap_or(first).max(first * 1.0001);
+    let (lo, hi) = ((4.0 * 10f64.ln() / last).ln(), (4.0 * 10f64.ln() / first).ln());
+    std::array::from_fn(|k| (lo + (hi - lo) * k as f64 / (TIMES - 1) as f64).exp())
+}
+
+fn one_rings(faces: &[[u32; 3]], n: usize) -> Vec<Vec<u32>> {
+    let mut rings = vec![Vec::new(); n];
+    for f in faces {
+        for k in 0..3 {
+            let (a, b) = (f[k], f[(k + 1) % 3]);
+            rings[a as usize].push(b);
+            rings[b as usize].push(a);
+        }
+    }
+    for r in &mut rings {
+        r.sort_unstable();
+        r.dedup();
+    }
+    rings
+}
+
+fn surface_area(faces: &[[u32; 3]], p: &[Vec3]) -> f32 {
+    faces
+        .iter()
+        .map(|f| {
+            let [a, b, c] = f.map(|i| p[i as usize]);
+            0.5 * (b - a).cross(c - a).length()
+        })
+        .sum()
+}
+
+#[cfg(test)]
+mod probe {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+
+    /// `CGV_PROBE=/tmp/data/samba cargo test --release --lib features::detect -- --ignored --nocapture`
+    #[test]
+    #[ignore]
+    fn features_of_a_real_frame() {
+        let dir = std::env::var("CGV_PROBE").unwrap();
+        let src = crate::mesh::open_sequence(&dir, &Default::default()).unwrap();
+        for f in [0, src.frame_count() / 2] {
+            let p = src.read_frame(f).unwrap();
+            let t0 = std::time::Instant::now();
+            let feats = features(&src.topology().faces, &p).unwrap();
+            eprintln!(
+                "{dir} frame {f}: {} vertices, {} features in {:.2} s",
+                p.len(),
+                feats.len(),
+                t0.elapsed().as_secs_f64()
+            );
+            for x in feats.iter().take(12) {
+                eprintln!("  v {} at {:?} {:?}", x.vertex, x.position, x.descriptor);
+            }
+        }
+    }
+}

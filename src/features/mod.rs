@@ -1,0 +1,15 @@
+//! Features of an unregistered capture (every frame its own mesh), as the
+//! seed paper builds its conformal geometry videos from one (section 4):
+//!
+//! - [`hks`]: the heat kernel signature, from the Laplacian's low
+//!   eigenpairs;
+//! - [`detect`]: its local maxima at a short diffusion time, the body's
+//!   extremities;
+//! - [`track`]: features matched between adjacent frames into tracks;
+//! - [`register`]: every frame mapped onto the grid with four tracked
+//!   features as the map's cones: a registered motion.
+
+pub mod detect;
+pub mod hks;
+pub mod register;
+pub mod track;

@@ -1,0 +1,168 @@
+//! Captures without correspondence (every frame its own mesh): the built-in
+//! walk remeshed frame by frame, its features found and tracked, every
+//! frame mapped with the tracked features as cones, coded, and the decoded
+//! grid measured against the registered truth.
+
+#![allow(clippy::unwrap_used)]
+
+mod common;
+
+use cgv::codec::{encode, EncodeOptions, FileDecoder};
+use cgv::features::register::{register, track_capture, CaptureFrame};
+use cgv::grid::Grid;
+use cgv::mesh::unregister::{keep_for, remesh_frame};
+use cgv::mesh::{Bounds, FrameSource, InMemory};
+use glam::Vec3;
+use std::path::Path;
+
+/// `n` frames of `src`, each simplified on its own (keeping 50 to 80 % of
+/// the faces) and shuffled.
+fn remeshed(src: &dyn FrameSource, n: usize) -> Vec<CaptureFrame> {
+    let faces = &src.topology().faces;
+    (0..n)
+        .map(|t| {
+            let (positions, faces) =
+                remesh_frame(&src.read_frame(t).unwrap(), faces, keep_for(t, 0.5, 0.8, 5), t as u64);
+            CaptureFrame { positions, faces }
+        })
+        .collect()
+}
+
+/// Surface RMS of `frames` (on `grid`'s mesh) against `truth`'s frames,
+/// relative to each frame's diagonal.
+fn surface_rms(truth: &dyn FrameSource, grid: Grid, frames: &[Vec<Vec3>]) -> Vec<f64> {
+    let faces = grid.topology().faces;
+    frames
+        .iter()
+        .enumerate()
+        .map(|(t, g)| {
+            let f = truth.read_frame(t).unwrap();
+            let d = cgv::metrics::surface::symmetric(&f, &truth.topology().faces, g, &faces).unwrap();
+            d.rms / Bounds::of(&f).diagonal() as f64
+        })
+        .collect()
+}
+
+/// Encodes a registered motion on its grid's mesh and decodes the grid.
+fn round_trip(src: &InMemory, grid: usize, qp: u8) -> (usize, Vec<Vec<Vec3>>) {
+    let mut opts = EncodeOptions { grid, source_mesh: false, ..Default::default() };
+    opts.video.qp = qp;
+    let (bytes, _) = encode(src, &opts, &mut |_, _, _| {}).unwrap();
+    let file = cgv::format::read(&bytes).unwrap();
+    let mut dec = FileDecoder::new(file, cgv::solve::SolverKind::Predictive).unwrap();
+    let frames = (0..src.frame_count()).map(|_| dec.next_frame().unwrap().0).collect();
+    (bytes.len(), frames)
+}
+
+/// The walk remeshed every frame: its features lie on the extremities
+/// (each cone's feature is the farthest point of the body in some
+/// direction, within 5 % of the diagonal), the cones' tracks run through
+/// every frame, no frame's map is mirrored, and the decoded grid is within
+/// 1 % of the diagonal of the registered truth in every frame.
+#[test]
+fn a_remeshed_walk_is_tracked_registered_and_coded() {
+    let walk = cgv::mesh::builtin::motion(12);
+    let frames = remeshed(&walk, 12);
+    assert!(frames.windows(2).all(|w| w[0].positions.len() != w[1].positions.len()));
+    let tracked = track_capture(Path::new("walk"), &frames).unwrap();
+    assert_eq!(tracked.cones_seen(), [1.0; 4], "{:?}", tracked.tracks);
+    let first = walk.read_frame(0).unwrap();
+    let diag = Bounds::of(&first).diagonal();
+    for k in tracked.cones {
+        let t = tracked.tracks[k].seen.iter().position(Option::is_some).unwrap();
+        let p = tracked.features[t][tracked.tracks[k].seen[t].unwrap() as usize].position;
+        let f = walk.read_frame(t).unwrap();
+        let extreme = [Vec3::X, Vec3::NEG_X, Vec3::Y, Vec3::NEG_Y, Vec3::Z, Vec3::NEG_Z].iter().any(|d| {
+            let reach = f.iter().map(|q| q.dot(*d)).fold(f32::MIN, f32::max);
+            reach - p.dot(*d) < 0.05 * diag
+        });
+        assert!(extreme, "feature at {p} is on no extremity");
+    }
+    let grid = Grid::new(64).unwrap();
+    let (registered, report) = register(Path::new("walk"), 30.0, &frames, grid).unwrap();
+    assert_eq!(report.mirrored_frames, 0);
+    let mapped = surface_rms(&walk, grid, &registered.frames);
+    let (bytes, decoded) = round_trip(&registered, 64, 20);
+    let coded = surface_rms(&walk, grid, &decoded);
+    eprintln!("{bytes} bytes; registration {mapped:?}; decoded {coded:?}");
+    assert!(coded.iter().all(|&e| e < 0.01), "{coded:?}");
+}
+
+/// Measures a real sequence remeshed every frame against its registered
+/// self (not a pass/fail test): `CGV_PROBE=samba cargo test --release
+/// --test unregistered -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn unregistered_against_registered() {
+    let name = std::env::var("CGV_PROBE").unwrap_or_else(|_| "samba".into());
+    let frames: usize = std::env::var("CGV_FRAMES").ok().and_then(|s| s.parse().ok()).unwrap_or(24);
+    let n: usize = std::env::var("CGV_GRID").ok().and_then(|s| s.parse().ok()).unwrap_or(128);
+    let dir = common::real_sequence(&name);
+    let full = cgv::mesh::open_sequence(dir.to_str().unwrap(), &Default::default()).unwrap();
+    let truth = InMemory {
+        label: dir.clone(),
+        fps: 30.0,
+        topology: full.topology().clone(),
+        frames: (0..frames).map(|t| full.read_frame(t).unwrap()).collect(),
+    };
+    let capture = remeshed(&truth, frames);
+    let grid = Grid::new(n).unwrap();
+    let (registered, report) = register(&dir, 30.0, &capture, grid).unwrap();
+    println!("{name}, {frames} frames, N = {n}: {report:?}");
+    let bits = |bytes: usize| bytes as f64 * 8.0 / (truth.topology.vertex_count * frames) as f64;
+    for qp in [16, 22, 28, 34] {
+        let mut opts = EncodeOptions { grid: n, source_mesh: false, ..Default::default() };
+        opts.video.qp = qp;
+        let (bytes, _) = encode(&truth, &opts, &mut |_, _, _| {}).unwrap();
+        let file = cgv::format::read(&bytes).unwrap();
+        let mut dec = FileDecoder::new(file, cgv::solve::SolverKind::Predictive).unwrap();
+        let reg: Vec<Vec<Vec3>> = (0..frames).map(|_| dec.next_frame().unwrap().0).collect();
+        let reg_err = surface_rms(&truth, grid, &reg);
+        let (ubytes, decoded) = round_trip(&registered, n, qp);
+        let un_err = surface_rms(&truth, grid, &decoded);
+        let mean = |e: &[f64]| 100.0 * e.iter().sum::<f64>() / e.len() as f64;
+        let worst = |e: &[f64]| e.iter().cloned().fold(0.0, f64::max) / (e.iter().sum::<f64>() / e.len() as f64);
+        println!(
+            "| {name} ({frames}) | {n} | {qp} | {:.3} | {:.4} | {:.3} | {:.4} | {:.2} |",
+            bits(bytes.len()),
+            mean(&reg_err),
+            bits(ubytes),
+            mean(&un_err),
+            worst(&un_err)
+        );
+    }
+}
+
+fn cgv(args: &[&str]) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_cgv")).args(args).output().unwrap()
+}
+
+/// The commands: `cgv unregister` makes a capture of the walk, `cgv info
+/// --unregistered` reports its features and tracks, a plain encode of it
+/// is refused with a pointer to the option, `cgv encode --unregistered`
+/// codes it and the file decodes.
+#[test]
+fn the_commands_make_report_and_code_a_capture() {
+    let dir = common::temp_dir("unregistered-cli");
+    let capture = dir.join("capture");
+    let capture_s = capture.to_str().unwrap();
+    let out = cgv(&["unregister", "builtin:walk", "--frames", "0..8", "-o", capture_s]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert_eq!(cgv::mesh::obj::frame_files(&capture).unwrap().len(), 8);
+    let info = cgv(&["info", capture_s, "--unregistered", "--json"]);
+    assert!(info.status.success(), "{}", String::from_utf8_lossy(&info.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    assert_eq!(report["frames"], 8);
+    assert!(report["vertices_min"].as_u64() < report["vertices_max"].as_u64(), "{report}");
+    assert!(report["cones_seen"].as_array().unwrap().iter().all(|x| x.as_f64() == Some(1.0)), "{report}");
+    let file = dir.join("capture.cgv");
+    let plain = cgv(&["encode", capture_s, "--grid", "32", "-o", file.to_str().unwrap()]);
+    assert!(!plain.status.success() && String::from_utf8_lossy(&plain.stderr).contains("--unregistered"));
+    assert!(!file.exists());
+    let coded = cgv(&["encode", capture_s, "--unregistered", "--grid", "32", "-o", file.to_str().unwrap()]);
+    assert!(coded.status.success(), "{}", String::from_utf8_lossy(&coded.stderr));
+    assert!(String::from_utf8_lossy(&coded.stderr).contains("registered 8 frames"));
+    let glb = dir.join("capture.glb");
+    let decoded = cgv(&["decode", file.to_str().unwrap(), "-o", glb.to_str().unwrap()]);
+    assert!(decoded.status.success(), "{}", String::from_utf8_lossy(&decoded.stderr));
+}
