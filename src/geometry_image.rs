@@ -72,6 +72,9 @@ impl GeometryImage {
         grid: Grid,
         opts: &ParamOptions,
     ) -> Result<GeometryImage> {
+        if topology.vertex_count == grid.len() && topology.faces == grid.topology().faces {
+            return GeometryImage::on_its_own_grid(label, topology, reference, grid, opts);
+        }
         let t = std::time::Instant::now();
         let mut carrier = Carrier::build_with(label, topology, reference, opts.loose_max_vertices)?;
         let mut param = parameterize_carrier(&carrier, topology, reference, grid, opts);
@@ -102,6 +105,49 @@ impl GeometryImage {
             loose_anchors,
             seconds_parameterize,
             seconds_locate,
+        })
+    }
+
+    /// A motion already on `grid`'s own mesh (a registered capture,
+    /// `crate::features::register`, or a grid mesh of this size) is its own
+    /// geometry image: each sample its vertex, no map to find and nothing
+    /// lost to resampling. The parameterization reported is the grid's own
+    /// layout (each vertex at its sample, the cones at the sides' middles);
+    /// it has no per-corner isometries, which only locating samples needs.
+    fn on_its_own_grid(
+        label: &Path,
+        topology: &Topology,
+        reference: &[Vec3],
+        grid: Grid,
+        opts: &ParamOptions,
+    ) -> Result<GeometryImage> {
+        let carrier = Carrier::build_with(label, topology, reference, 0)?;
+        let map = SampleMap::identity(grid);
+        let places: Vec<[u32; 2]> = (0..grid.len() as u32).map(|s| crate::resample::sample_place(grid, s)).collect();
+        let n = grid.n as u32;
+        let at = |k: usize| (k as f64 + 0.5) * 2.0 / grid.n as f64 - 1.0;
+        let param = Parameterization {
+            cones: [(n / 2, n - 1), (n - 1, n / 2), (n / 2, 0), (0, n / 2)].map(|(i, j)| j * n + i),
+            corner: 0,
+            uv: (0..grid.len()).map(|s| glam::DVec2::new(at(s % grid.n), at(s / grid.n))).collect(),
+            corner_iso: Vec::new(),
+            conformal: Default::default(),
+            distortion: Default::default(),
+            area_passes: 0,
+            score: Some(0.0),
+            options: opts.clone(),
+        };
+        let offsets = offsets_of(grid, &places, &[], reference, &map.apply(reference));
+        Ok(GeometryImage {
+            carrier,
+            param,
+            map,
+            places,
+            places_moved: 0,
+            offsets,
+            loose_anchors: Vec::new(),
+            seconds_parameterize: 0.0,
+            seconds_locate: 0.0,
         })
     }
 

@@ -90,6 +90,34 @@ impl SampleMap {
         Ok(map)
     }
 
+    /// The map of a motion already on `grid`'s own mesh ([`Grid::topology`]):
+    /// each sample is its own vertex, resampled by nothing.
+    pub fn identity(grid: Grid) -> SampleMap {
+        let faces = grid.topology().faces;
+        let mut face = vec![u32::MAX; grid.len()];
+        for (f, tri) in faces.iter().enumerate() {
+            for &v in tri {
+                if face[v as usize] == u32::MAX {
+                    face[v as usize] = f as u32;
+                }
+            }
+        }
+        SampleMap {
+            grid,
+            corners: face.iter().map(|&f| faces[f as usize]).collect(),
+            bary: face
+                .iter()
+                .enumerate()
+                .map(|(v, &f)| faces[f as usize].map(|c| if c as usize == v { 1.0 } else { 0.0 }))
+                .collect(),
+            face,
+            means: Vec::new(),
+            on_input: vec![true; grid.len()],
+            face_on_input: Vec::new(),
+            unlocated: 0,
+        }
+    }
+
     /// The grid mesh's triangles whose three samples lie on the input's
     /// faces: the decoded surface that the surface-error metrics compare
     /// with the input (all of them for a closed genus-0 input).
@@ -251,6 +279,13 @@ pub fn shifted_place(q: u32, by: i64) -> Option<u32> {
     let by = by >> PLACE_ZERO_BITS << PLACE_ZERO_BITS;
     let moved = i64::from(q) + by;
     (0..=top).contains(&moved).then_some(moved as u32)
+}
+
+/// The place of sample `s` of `grid`, as [`carrier_places`] stores places.
+pub fn sample_place(grid: Grid, s: u32) -> [u32; 2] {
+    let n = grid.n as f64;
+    let at = |k: usize| (k as f64 + 0.5) * 2.0 / n - 1.0;
+    quantized_place(DVec2::new(at(s as usize % grid.n), at(s as usize / grid.n)))
 }
 
 fn quantized_place(uv: DVec2) -> [u32; 2] {

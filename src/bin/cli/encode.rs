@@ -230,7 +230,8 @@ fn request(args: &Args) -> EncodeRequest {
         base,
         codec: args.codec,
         solver: args.solver,
-        grid: args.grid,
+        // A registered capture is coded on the grid it was registered on.
+        grid: if args.unregistered { GridChoice::Size(register_grid(args)) } else { args.grid },
         corrections: match args.corrections {
             Corrections::Auto => None,
             Corrections::Scaled => Some(CorrectionMode::Scaled),
@@ -305,15 +306,19 @@ fn encode_one(args: &Args) -> Result<()> {
 /// Grid size an unregistered capture is registered on with `--grid auto`.
 const REGISTER_GRID: usize = 128;
 
+fn register_grid(args: &Args) -> usize {
+    match args.grid {
+        GridChoice::Size(n) => n,
+        GridChoice::Auto => REGISTER_GRID,
+    }
+}
+
 /// The unregistered capture `args.input` registered onto the grid, with
 /// what the registration found on stderr.
 fn registered(args: &Args) -> Result<Box<dyn cgv::mesh::FrameSource>> {
     let dir = std::path::Path::new(&args.input.input);
     let frames = cgv::features::register::read_capture(dir, args.input.frames)?;
-    let n = match args.grid {
-        GridChoice::Size(n) => n,
-        GridChoice::Auto => REGISTER_GRID,
-    };
+    let n = register_grid(args);
     let grid = cgv::grid::Grid::new(n)?;
     let (src, r) = cgv::features::register::register(dir, args.input.fps, &frames, grid)
         .with_context(|| format!("registering {}", dir.display()))?;
