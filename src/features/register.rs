@@ -103,8 +103,9 @@ pub fn track_capture(label: &Path, frames: &[CaptureFrame]) -> Result<Tracked> {
 /// The capture `frames` (named `label`) on `grid`: each frame's grid
 /// positions, as a motion on the grid's own mesh, and the report.
 pub fn register(label: &Path, fps: f32, frames: &[CaptureFrame], grid: Grid) -> Result<(InMemory, RegisterReport)> {
-    let tracked = track_capture(label, frames)?;
+    let mut tracked = track_capture(label, frames)?;
     let t1 = std::time::Instant::now();
+    tracked.cones = best_cones(label, &frames[0], &tracked, grid)?;
     let mapped: Vec<(Vec<Vec3>, bool)> = (0..frames.len())
         .into_par_iter()
         .map(|t| {
@@ -144,6 +145,44 @@ fn cone_tracks(tracks: &[Track]) -> Option<[usize; 4]> {
     picked.try_into().ok()
 }
 
+/// Tracks seen in at least this share of the frames the longest one is
+/// seen in may be cones.
+const CONE_SEEN: f64 = 0.9;
+/// Most sets of four tracks [`best_cones`] tries.
+const CONE_SETS: usize = 15;
+
+/// Of the sets of four long tracks, the one whose map resamples the first
+/// frame best (its grid's surface RMS against the frame), as the encoder
+/// races cone placements (`crate::geometry_image`): where they sit decides
+/// how much of the grid each limb gets.
+fn best_cones(label: &Path, first: &CaptureFrame, tracked: &Tracked, grid: Grid) -> Result<[usize; 4]> {
+    let longest = tracked.tracks.iter().map(Track::frames_seen).max().unwrap_or(0) as f64;
+    let long: Vec<usize> =
+        (0..tracked.tracks.len()).filter(|&k| tracked.tracks[k].frames_seen() as f64 >= CONE_SEEN * longest).collect();
+    let mut sets: Vec<[usize; 4]> = Vec::new();
+    for a in 0..long.len() {
+        for b in a + 1..long.len() {
+            for c in b + 1..long.len() {
+                for d in c + 1..long.len() {
+                    sets.push([long[a], long[b], long[c], long[d]]);
+                }
+            }
+        }
+    }
+    if sets.len() <= 1 {
+        return Ok(tracked.cones);
+    }
+    sets.truncate(CONE_SETS);
+    let score = |set: &[usize; 4]| -> Option<f64> {
+        let at = set.map(|k| place(&tracked.tracks[k], &tracked.features, 0).unwrap_or(Vec3::ZERO));
+        let (g, _) = map_frame(label, first, &at, grid).ok()?;
+        let d = crate::metrics::surface::symmetric(&first.positions, &first.faces, &g, &grid.topology().faces).ok()?;
+        Some(d.rms)
+    };
+    let scored: Vec<(f64, [usize; 4])> = sets.par_iter().filter_map(|s| score(s).map(|e| (e, *s))).collect();
+    Ok(scored.into_iter().min_by(|a, b| a.0.total_cmp(&b.0)).map_or(tracked.cones, |x| x.1))
+}
+
 /// The carrier's map with `cones`; a carrier too coarse for the cones'
 /// paths to be cut apart is made finer, twice at most, as the encoder does
 /// (`crate::geometry_image`).
@@ -181,61 +220,4 @@ fn map_frame(label: &Path, frame: &CaptureFrame, at: &[Vec3; 4], grid: Grid) -> 
     let param = map_with_cones(&mut carrier, &frame.positions, cones)?;
     let map = SampleMap::on_carrier(grid, &carrier, &param)?;
     Ok((map.apply(&frame.positions), param.cones != cones))
-}
-
-#[cfg(test)]
-mod tests {
-    #![allow(clippy::unwrap_used)]
-    use super::*;
-    use crate::mesh::unregister::{keep_for, remesh_frame};
-    use crate::mesh::FrameSource;
-
-    /// `n` frames of a registered motion (`CGV_PROBE`, or the built-in
-    /// walk) each remeshed on its own.
-    fn remeshed(src: &dyn FrameSource, n: usize) -> Vec<CaptureFrame> {
-        let faces = &src.topology().faces;
-        (0..n)
-            .map(|t| {
-                let p = src.read_frame(t).unwrap();
-                let (positions, faces) = remesh_frame(&p, faces, keep_for(t, 0.5, 0.8, 3), t as u64 + 1);
-                CaptureFrame { positions, faces }
-            })
-            .collect()
-    }
-
-    /// The grid frames against the registered truth: each frame's surface
-    /// RMS and max, relative to the diagonal.
-    fn errors(src: &dyn FrameSource, registered: &InMemory) -> Vec<(f64, f64)> {
-        let faces = &src.topology().faces;
-        registered
-            .frames
-            .iter()
-            .enumerate()
-            .map(|(t, g)| {
-                let truth = src.read_frame(t).unwrap();
-                let d = crate::metrics::surface::symmetric(&truth, faces, g, &registered.topology.faces).unwrap();
-                let diag = Bounds::of(&truth).diagonal() as f64;
-                (d.rms / diag, d.max / diag)
-            })
-            .collect()
-    }
-
-    /// `CGV_PROBE=/tmp/data/samba cargo test --release --lib register::tests::probe -- --ignored --nocapture`
-    #[test]
-    #[ignore]
-    fn probe() {
-        let dir = std::env::var("CGV_PROBE").unwrap();
-        let src = crate::mesh::open_sequence(&dir, &Default::default()).unwrap();
-        let frames = remeshed(src.as_ref(), 24.min(src.frame_count()));
-        let (reg, report) = register(Path::new(&dir), 30.0, &frames, Grid { n: 128 }).unwrap();
-        eprintln!("{report:?}");
-        for (t, e) in errors(src.as_ref(), &reg).iter().enumerate() {
-            eprintln!(
-                "frame {t}: {} vertices, surface RMS {:.4} %, max {:.3} %",
-                frames[t].positions.len(),
-                100.0 * e.0,
-                100.0 * e.1
-            );
-        }
-    }
 }
