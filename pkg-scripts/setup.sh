@@ -5,6 +5,7 @@
 #   rustup target wasm32-unknown-unknown     the web build
 #   wasm-bindgen-cli, pinned to Cargo.lock   the web package (installed under ~/.cache/cgv)
 #   nasm                                     openh264's assembly (2-5x faster H.264)
+#   g++                                      openh264 and meshoptimizer (the `meshopt` crate) are C++
 #   chromium, chromium-driver                browser tests
 #   mesa-vulkan-drivers                      lavapipe, for rendering without a GPU
 #   nodejs, npm; tests/node (npm ci)         the Khronos glTF-Validator the tests run on our GLBs, and
@@ -36,6 +37,7 @@ fi
 
 missing=()
 command -v nasm >/dev/null || missing+=(nasm)
+command -v c++ >/dev/null || missing+=(g++)
 command -v chromium >/dev/null || missing+=(chromium)
 command -v chromedriver >/dev/null || missing+=(chromium-driver)
 command -v xz >/dev/null || missing+=(xz-utils)
