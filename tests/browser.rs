@@ -749,13 +749,13 @@ fn the_three_js_module_plays_a_motion_in_a_scene() {
 /// (after pkg-scripts/web.sh). Each prints the native reconstruction ms per
 /// frame, then per backend the time to first frame, WebCodecs and wasm
 /// reconstruction ms per frame, and the playback rate.
-fn viewer_speed(name: &str, grid: usize, qp: u8, fill_holes: bool) {
+fn viewer_speed(name: &str, grid: usize, qp: u8, fill_holes: bool, bones: Option<u16>) {
     let (dir, _server, port) = site("speed");
     let path = common::real_sequence(name);
     let open = cgv::mesh::OpenOptions { fill_holes, ..Default::default() };
     let src = cgv::mesh::open_sequence(path.to_str().unwrap(), &open).unwrap();
     let frames = src.frame_count();
-    let mut opts = cgv::codec::EncodeOptions { grid, ..Default::default() };
+    let mut opts = cgv::codec::EncodeOptions { grid, bones, ..Default::default() };
     opts.video.qp = qp;
     // The correction mode `cgv encode` picks by default.
     opts.corrections = cgv::codec::auto_corrections(&opts.video, grid, src.fps());
@@ -767,10 +767,11 @@ fn viewer_speed(name: &str, grid: usize, qp: u8, fill_holes: bool) {
     let mut dec = cgv::codec::FileDecoder::new(file, cgv::solve::SolverKind::Predictive).unwrap();
     let native: f64 = (0..frames).map(|_| dec.next_frame().unwrap().1.solve_seconds).sum::<f64>() / frames as f64;
     let label = format!(
-        "{name} N={grid} QP {qp} ({} bytes, {:?} corrections, max lag {})",
+        "{name} N={grid} QP {qp} ({} bytes, {:?} corrections, max lag {}, {} bones)",
         bytes.len(),
         header.corrections,
-        header.max_lag
+        header.max_lag,
+        header.skin.map_or(0, |s| s.bones)
     );
     println!("{label}: native reconstruction {:.2} ms/frame", native * 1e3);
     let browser = Browser::start(&dir.join("profile"));
@@ -804,14 +805,21 @@ fn viewer_speed(name: &str, grid: usize, qp: u8, fill_holes: bool) {
 #[test]
 #[ignore]
 fn viewer_speed_on_samba_at_128() {
-    viewer_speed("samba", 128, 30, false);
+    viewer_speed("samba", 128, 30, false, None);
+}
+
+/// The same file without bones, for what the skinned prediction costs.
+#[test]
+#[ignore]
+fn viewer_speed_on_samba_at_128_without_bones() {
+    viewer_speed("samba", 128, 30, false, Some(0));
 }
 
 /// A file that uses cycle predictions (format v4), at the larger grid.
 #[test]
 #[ignore]
 fn viewer_speed_on_horse_gallop_at_256() {
-    viewer_speed("horse-gallop", 256, 30, true);
+    viewer_speed("horse-gallop", 256, 30, true, None);
 }
 
 /// Page memory over a long motion (a measurement, like the speed runs):
