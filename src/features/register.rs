@@ -58,9 +58,12 @@ pub struct RegisterReport {
     /// The share of frames each cone's track was seen in (the rest placed
     /// between its sightings).
     pub cones_seen: [f64; 4],
-    /// Frames whose map came out mirrored against the first frame's (the
-    /// grid would flip there).
-    pub mirrored_frames: usize,
+    /// Frames whose cones the cut put on other sides of the square than
+    /// most frames', turned or mirrored back by a symmetry of the grid.
+    pub turned_frames: usize,
+    /// Frames whose cones no symmetry puts back (their cyclic order around
+    /// the square differs): the grid flips there.
+    pub unmatched_frames: usize,
     pub seconds_features: f64,
     pub seconds_maps: f64,
 }
@@ -106,28 +109,59 @@ pub fn register(label: &Path, fps: f32, frames: &[CaptureFrame], grid: Grid) -> 
     let mut tracked = track_capture(label, frames)?;
     let t1 = std::time::Instant::now();
     tracked.cones = best_cones(label, &frames[0], &tracked, grid)?;
-    let mapped: Vec<(Vec<Vec3>, bool)> = (0..frames.len())
+    let cones_at =
+        |t: usize| tracked.cones.map(|k| place(&tracked.tracks[k], &tracked.features, t).unwrap_or(Vec3::ZERO));
+    let mut mapped: Vec<Mapped> = (0..frames.len())
         .into_par_iter()
-        .map(|t| {
-            let at = tracked.cones.map(|k| place(&tracked.tracks[k], &tracked.features, t).unwrap_or(Vec3::ZERO));
-            map_frame(label, &frames[t], &at, grid)
-        })
+        .map(|t| map_frame(label, &frames[t], &cones_at(t), None, grid))
         .collect::<Result<_>>()?;
+    // The cut gives each cone its side by the order its path leaves the
+    // corner in, which can differ from frame to frame. The reference is the
+    // assignment most frames share up to a symmetry of the square; a frame
+    // with another order is mapped again with its corner where the nearest
+    // agreeing frame's is, and a frame whose cones sit on other sides is
+    // turned (or mirrored) back by the symmetry that puts them there.
+    let agreeing = |r: &[usize; 4]| mapped.iter().filter(|m| symmetry_between(&m.sides, r).is_some()).count();
+    let reference = mapped.iter().map(|m| m.sides).max_by_key(|r| agreeing(r)).unwrap_or([0, 1, 2, 3]);
+    let matches = |m: &Mapped| symmetry_between(&m.sides, &reference).is_some();
+    let good: Vec<usize> = (0..mapped.len()).filter(|&t| matches(&mapped[t])).collect();
+    for t in 0..mapped.len() {
+        if matches(&mapped[t]) {
+            continue;
+        }
+        if let Some(&near) = good.iter().min_by_key(|&&g| g.abs_diff(t)) {
+            let again = map_frame(label, &frames[t], &cones_at(t), Some(mapped[near].corner), grid)?;
+            if matches(&again) {
+                mapped[t] = again;
+            }
+        }
+    }
+    let (mut turned, mut unmatched) = (0, 0);
+    let mut positions = Vec::with_capacity(mapped.len());
+    for m in mapped {
+        match symmetry_between(&m.sides, &reference) {
+            Some(s) if s == IDENTITY => positions.push(m.grid),
+            Some(s) => {
+                turned += 1;
+                positions.push(apply_symmetry(grid, &m.grid, s));
+            }
+            None => {
+                unmatched += 1;
+                positions.push(m.grid);
+            }
+        }
+    }
     let report = RegisterReport {
         frames: frames.len(),
         features_per_frame: tracked.features_per_frame(),
         tracks: tracked.tracks.len(),
         cones_seen: tracked.cones_seen(),
-        mirrored_frames: mapped.iter().filter(|m| m.1 != mapped[0].1).count(),
+        turned_frames: turned,
+        unmatched_frames: unmatched,
         seconds_features: tracked.seconds,
         seconds_maps: t1.elapsed().as_secs_f64(),
     };
-    let source = InMemory {
-        label: PathBuf::from(label),
-        fps,
-        topology: grid.topology(),
-        frames: mapped.into_iter().map(|m| m.0).collect(),
-    };
+    let source = InMemory { label: PathBuf::from(label), fps, topology: grid.topology(), frames: positions };
     Ok((source, report))
 }
 
@@ -143,6 +177,55 @@ fn cone_tracks(tracks: &[Track]) -> Option<[usize; 4]> {
     order.sort_by_key(|&k| (std::cmp::Reverse(tracks[k].frames_seen()), first_index(k), strength(k)));
     let picked: Vec<usize> = order.into_iter().take(4).collect();
     picked.try_into().ok()
+}
+
+/// A symmetry of the square (and of the grid: the sides' middles, where
+/// the cones sit, go to sides' middles) as an integer 2 x 2 matrix.
+type Symmetry = [[i32; 2]; 2];
+const IDENTITY: Symmetry = [[1, 0], [0, 1]];
+/// The eight: four turns, and each mirrored.
+const SYMMETRIES: [Symmetry; 8] = [
+    [[1, 0], [0, 1]],
+    [[0, -1], [1, 0]],
+    [[-1, 0], [0, -1]],
+    [[0, 1], [-1, 0]],
+    [[-1, 0], [0, 1]],
+    [[1, 0], [0, -1]],
+    [[0, 1], [1, 0]],
+    [[0, -1], [-1, 0]],
+];
+/// The sides' middles (top, right, bottom, left), as `crate::param::cut::CONE_UV`.
+const SIDES: [[i32; 2]; 4] = [[0, 1], [1, 0], [0, -1], [-1, 0]];
+
+fn apply(m: Symmetry, p: [i32; 2]) -> [i32; 2] {
+    [m[0][0] * p[0] + m[0][1] * p[1], m[1][0] * p[0] + m[1][1] * p[1]]
+}
+
+/// The turn of the square taking each cone's side in a frame whose sides
+/// hold cones `sides` to its side in the reference's `reference`. Only
+/// turns: the frames are oriented alike, so a mirrored assignment means
+/// two tracks traded places (a cow's two hind legs), which no symmetry
+/// mends.
+fn symmetry_between(sides: &[usize; 4], reference: &[usize; 4]) -> Option<Symmetry> {
+    SYMMETRIES[..4].iter().copied().find(|&m| {
+        (0..4).all(|a| {
+            let b = SIDES.iter().position(|&q| q == apply(m, SIDES[a]));
+            b.is_some_and(|b| reference[b] == sides[a])
+        })
+    })
+}
+
+/// Grid frame `g` moved by the symmetry `m`: sample p goes to m p.
+fn apply_symmetry(grid: Grid, g: &[Vec3], m: Symmetry) -> Vec<Vec3> {
+    let n = grid.n as i32;
+    let mut out = g.to_vec();
+    for (s, &p) in g.iter().enumerate() {
+        // Centred odd coordinates: sample i at 2i + 1 - N.
+        let c = [2 * (s as i32 % n) + 1 - n, 2 * (s as i32 / n) + 1 - n];
+        let [x, y] = apply(m, c);
+        out[(((y + n - 1) / 2) * n + (x + n - 1) / 2) as usize] = p;
+    }
+    out
 }
 
 /// Tracks seen in at least this share of the frames the longest one is
@@ -175,7 +258,7 @@ fn best_cones(label: &Path, first: &CaptureFrame, tracked: &Tracked, grid: Grid)
     sets.truncate(CONE_SETS);
     let score = |set: &[usize; 4]| -> Option<f64> {
         let at = set.map(|k| place(&tracked.tracks[k], &tracked.features, 0).unwrap_or(Vec3::ZERO));
-        let (g, _) = map_frame(label, first, &at, grid).ok()?;
+        let g = map_frame(label, first, &at, None, grid).ok()?.grid;
         let d = crate::metrics::surface::symmetric(&first.positions, &first.faces, &g, &grid.topology().faces).ok()?;
         Some(d.rms)
     };
@@ -186,13 +269,21 @@ fn best_cones(label: &Path, first: &CaptureFrame, tracked: &Tracked, grid: Grid)
 /// The carrier's map with `cones`; a carrier too coarse for the cones'
 /// paths to be cut apart is made finer, twice at most, as the encoder does
 /// (`crate::geometry_image`).
-fn map_with_cones(carrier: &mut Carrier, frame: &[Vec3], cones: [u32; 4]) -> Result<Parameterization> {
+fn map_with_cones(
+    carrier: &mut Carrier,
+    frame: &[Vec3],
+    cones: [u32; 4],
+    corner_at: Option<Vec3>,
+) -> Result<Parameterization> {
     let mut tries = 0;
     loop {
         let positions = carrier.positions(frame);
         let nv = carrier.topology.vertex_count;
         let pos: Vec<DVec3> = positions.iter().map(|p| p.as_dvec3()).collect();
-        let corner = corner_for(&Graph::new(nv, &carrier.topology.faces, &pos), nv, &cones);
+        let corner = match corner_at.and_then(|p| nearest(&positions, p)).filter(|c| !cones.contains(c)) {
+            Some(c) => c,
+            None => corner_for(&Graph::new(nv, &carrier.topology.faces, &pos), nv, &cones),
+        };
         let opts = ParamOptions { cones: Some((cones, corner)), area_passes: AREA_PASSES, ..Default::default() };
         match parameterize(&carrier.topology, &positions, &opts) {
             Err(_) if tries < 2 => carrier.subdivide(),
@@ -202,22 +293,71 @@ fn map_with_cones(carrier: &mut Carrier, frame: &[Vec3], cones: [u32; 4]) -> Res
     }
 }
 
-/// One frame mapped with its cones nearest `at`: its grid positions, and
-/// whether the map came out mirrored (the cones reordered by the cut).
-fn map_frame(label: &Path, frame: &CaptureFrame, at: &[Vec3; 4], grid: Grid) -> Result<(Vec<Vec3>, bool)> {
+/// One frame mapped with its cones nearest `at` and, if given, its corner
+/// nearest `corner_at` (else the vertex farthest from the cones).
+fn map_frame(
+    label: &Path,
+    frame: &CaptureFrame,
+    at: &[Vec3; 4],
+    corner_at: Option<Vec3>,
+    grid: Grid,
+) -> Result<Mapped> {
     let topology = Topology { vertex_count: frame.positions.len(), faces: frame.faces.clone() };
     let mut carrier = Carrier::build(label, &topology, &frame.positions)?;
     let positions = carrier.positions(&frame.positions);
-    let nearest = |p: Vec3| {
-        (0..positions.len() as u32).min_by(|&a, &b| {
-            positions[a as usize].distance_squared(p).total_cmp(&positions[b as usize].distance_squared(p))
-        })
-    };
-    let mut cones = [0u32; 4];
-    for (c, &p) in cones.iter_mut().zip(at) {
-        *c = nearest(p).unwrap_or(0);
-    }
-    let param = map_with_cones(&mut carrier, &frame.positions, cones)?;
+    let cones = at.map(|p| nearest(&positions, p).unwrap_or(0));
+    let param = map_with_cones(&mut carrier, &frame.positions, cones, corner_at)?;
     let map = SampleMap::on_carrier(grid, &carrier, &param)?;
-    Ok((map.apply(&frame.positions), param.cones != cones))
+    let sides = param.cones.map(|v| cones.iter().position(|&c| c == v).unwrap_or(0));
+    let corner = carrier.positions(&frame.positions)[param.corner as usize];
+    Ok(Mapped { grid: map.apply(&frame.positions), sides, corner })
+}
+
+/// A frame's map: its grid positions, which cone (its index in the
+/// requested four) the cut put on each side (top, right, bottom, left),
+/// and where the corner vertex is.
+struct Mapped {
+    grid: Vec<Vec3>,
+    sides: [usize; 4],
+    corner: Vec3,
+}
+
+/// The vertex of `positions` nearest `p`.
+fn nearest(positions: &[Vec3], p: Vec3) -> Option<u32> {
+    (0..positions.len() as u32).min_by(|&a, &b| {
+        positions[a as usize].distance_squared(p).total_cmp(&positions[b as usize].distance_squared(p))
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Each symmetry of the square is found from where it moves the cones,
+    /// and four quarter turns of a grid frame give it back.
+    #[test]
+    fn the_squares_symmetries_are_found_and_applied() {
+        let reference = [2, 0, 3, 1];
+        for m in &SYMMETRIES[..4] {
+            let m = *m;
+            let mut sides = [0; 4];
+            for (a, s) in sides.iter_mut().enumerate() {
+                let b = SIDES.iter().position(|&q| q == apply(m, SIDES[a])).unwrap_or(0);
+                *s = reference[b];
+            }
+            assert_eq!(symmetry_between(&sides, &reference), Some(m));
+        }
+        assert_eq!(symmetry_between(&[0, 2, 1, 3], &[0, 1, 2, 3]), None);
+        // A mirrored assignment is two tracks swapped, not a turn.
+        assert_eq!(symmetry_between(&[0, 3, 2, 1], &[0, 1, 2, 3]), None);
+        let grid = Grid { n: 8 };
+        let g: Vec<Vec3> = (0..64).map(|s| Vec3::new(s as f32, 0.0, 0.0)).collect();
+        let mut h = g.clone();
+        for _ in 0..4 {
+            h = apply_symmetry(grid, &h, SYMMETRIES[1]);
+            assert_eq!(h.len(), 64);
+        }
+        assert_eq!(h, g);
+        assert_ne!(apply_symmetry(grid, &g, SYMMETRIES[1]), g);
+    }
 }
