@@ -61,6 +61,42 @@ pub fn solve(g: &[f64], h: &[f64]) -> Vec<f64> {
 /// 1e-3 before they are normalized.
 pub const SUM_TO_ONE: f64 = 1e3;
 
+/// The normal equations of a weight fit, summed one observation at a
+/// time: each a point's place under every candidate bone (`cols`) and
+/// where it should be (`target`).
+pub struct NormalEquations {
+    n: usize,
+    g: Vec<f64>,
+    h: Vec<f64>,
+}
+
+impl NormalEquations {
+    pub fn new(n: usize) -> NormalEquations {
+        NormalEquations { n, g: vec![0.0; n * n], h: vec![0.0; n] }
+    }
+
+    pub fn add(&mut self, cols: &[glam::Vec3], target: glam::Vec3) {
+        let n = self.n;
+        for i in 0..n {
+            self.h[i] += cols[i].dot(target) as f64;
+            for j in 0..=i {
+                self.g[i * n + j] += cols[i].dot(cols[j]) as f64;
+            }
+        }
+    }
+
+    /// The non-negative weights, summing to one ([`solve_weights`]).
+    pub fn solve_weights(mut self) -> Vec<f64> {
+        let n = self.n;
+        for i in 0..n {
+            for j in 0..i {
+                self.g[j * n + i] = self.g[i * n + j];
+            }
+        }
+        solve_weights(self.g, self.h)
+    }
+}
+
 /// [`solve`] for weights: `g` and `h` (n x n and n) with a heavy row asking
 /// the unknowns to sum to one added ([`SUM_TO_ONE`]), SSDR's weight solve.
 pub fn solve_weights(mut g: Vec<f64>, mut h: Vec<f64>) -> Vec<f64> {

@@ -225,27 +225,16 @@ fn update_weights(frames: &[Vec<Vec3>], skin: &Skinning, neighbours: &[Vec<u32>]
 /// The non-negative weights over bones `cand` that best give vertex `v`'s
 /// frames from its rest place, with a heavy row asking them to sum to one.
 fn vertex_weights(frames: &[Vec<Vec3>], skin: &Skinning, v: usize, cand: &[u16]) -> Vec<f64> {
-    let k = cand.len();
-    let (mut g, mut h) = (vec![0.0; k * k], vec![0.0; k]);
+    let mut eq = nnls::NormalEquations::new(cand.len());
     let r = skin.rest[v];
-    let mut cols = vec![Vec3::ZERO; k];
+    let mut cols = vec![Vec3::ZERO; cand.len()];
     for (t, f) in frames.iter().enumerate() {
         for (c, &b) in cols.iter_mut().zip(cand) {
             *c = skin.transforms[t][b as usize].apply(r);
         }
-        for i in 0..k {
-            h[i] += cols[i].dot(f[v]) as f64;
-            for j in 0..=i {
-                g[i * k + j] += cols[i].dot(cols[j]) as f64;
-            }
-        }
+        eq.add(&cols, f[v]);
     }
-    for i in 0..k {
-        for j in 0..i {
-            g[j * k + i] = g[i * k + j];
-        }
-    }
-    nnls::solve_weights(g, h)
+    eq.solve_weights()
 }
 
 /// SSDR's transform update: in each frame (in parallel), each bone in turn

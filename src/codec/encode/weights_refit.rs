@@ -146,31 +146,19 @@ fn weights_over(
     fine: &FineMotion,
     predicted: &[Vec<Vec3>],
 ) -> Vec<f64> {
-    let n = cand.len();
-    let (mut g, mut h) = (vec![0.0; n * n], vec![0.0; n]);
-    let mut cols = vec![Vec3::ZERO; n];
+    let mut eq = nnls::NormalEquations::new(cand.len());
+    let mut cols = vec![Vec3::ZERO; cand.len()];
     for (t, m) in transforms.iter().enumerate() {
         for &(k, beta) in foot {
             let (k, r) = (k as usize, fine.rest[k as usize]);
             let own: Vec3 = old.iter().map(|&(b, w)| w * m[b as usize].apply(r)).sum();
-            let target = fine.frames[t][k] - predicted[t][k] + beta * own;
             for (col, &b) in cols.iter_mut().zip(cand) {
                 *col = beta * m[b as usize].apply(r);
             }
-            for i in 0..n {
-                h[i] += cols[i].dot(target) as f64;
-                for j in 0..=i {
-                    g[i * n + j] += cols[i].dot(cols[j]) as f64;
-                }
-            }
+            eq.add(&cols, fine.frames[t][k] - predicted[t][k] + beta * own);
         }
     }
-    for i in 0..n {
-        for j in 0..i {
-            g[j * n + i] = g[i * n + j];
-        }
-    }
-    nnls::solve_weights(g, h)
+    eq.solve_weights()
 }
 
 #[cfg(test)]
