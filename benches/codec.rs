@@ -154,7 +154,7 @@ fn bench(c: &mut Criterion) {
 fn bone_predictor(grid: Grid) -> SkinnedPredictor {
     let side = 32usize.min(grid.n);
     let shrink = (grid.n / side).trailing_zeros() as u8;
-    let info = SkinInfo { bones: 32, shrink, rotation_step: 1.0 / 512.0, translation_step: 1e-3 };
+    let info = SkinInfo { bones: 32, shrink, rotation_step: 1.0 / 512.0, translation_step: 1e-3, packed: true };
     let influences = (0..side * side)
         .map(|k| {
             let b = (8 * (k % side) / side + 8 * (4 * (k / side) / side)) as u8;

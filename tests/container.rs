@@ -151,9 +151,9 @@ fn bad_magic_and_versions() {
     assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::BadMagic);
     assert_eq!(format::read(b"GIF89a").unwrap_err(), ContainerError::BadMagic);
     let mut bytes = file(&header());
-    bytes[8] = 14;
-    assert_eq!(format::VERSION, 13);
-    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 14 });
+    bytes[8] = 15;
+    assert_eq!(format::VERSION, 14);
+    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 15 });
     bytes[8] = 0;
     assert!(matches!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 0 }));
 }
@@ -1047,9 +1047,9 @@ fn a_version_ten_file_read_in_pieces_from_its_points() {
 /// A chunk as (tag, frame, payload).
 type RawChunk = ([u8; 4], u32, Vec<u8>);
 
-/// The v13 fixture's prefix and chunks.
-fn v13_chunks() -> (Vec<u8>, Vec<RawChunk>) {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/v13/walk-bones.cgv");
+/// A bones fixture's prefix and chunks.
+fn bones_chunks(fixture: &str) -> (Vec<u8>, Vec<RawChunk>) {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures").join(fixture);
     let bytes = std::fs::read(path).unwrap();
     let len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
     let prefix = bytes[..20 + len].to_vec();
@@ -1064,7 +1064,7 @@ fn v13_chunks() -> (Vec<u8>, Vec<RawChunk>) {
 
 /// The file of these chunks, its random-access index (points at 0, 3, 6)
 /// rewritten for where the frames now lie.
-fn v13_file(prefix: &[u8], chunks: &[RawChunk]) -> Vec<u8> {
+fn bones_file(prefix: &[u8], chunks: &[RawChunk]) -> Vec<u8> {
     let mut out = prefix.to_vec();
     let mut points = Vec::new();
     for (tag, frame, payload) in chunks {
@@ -1079,17 +1079,22 @@ fn v13_file(prefix: &[u8], chunks: &[RawChunk]) -> Vec<u8> {
     out
 }
 
-/// Version 13's parts, each broken on its own: the skin weights missing,
-/// truncated or naming a bone past the count, a frame's bones unit missing
-/// or overlong, and the file declared as version 12. Each is a typed
-/// error; the intact file reads.
+/// Versions 13's and 14's parts, each broken on its own: the skin weights
+/// missing, truncated or naming a bone past the count, a frame's bones
+/// unit missing or overlong, and the file declared as the version before.
+/// Each is a typed error; the intact file reads.
 #[test]
 fn broken_bones_are_errors() {
-    let (prefix, chunks) = v13_chunks();
-    assert!(format::read(&v13_file(&prefix, &chunks)).is_ok());
+    broken_bones_of("v13/walk-bones.cgv");
+    broken_bones_of("v14/walk-bones-packed.cgv");
+}
+
+fn broken_bones_of(fixture: &str) {
+    let (prefix, chunks) = bones_chunks(fixture);
+    assert!(format::read(&bones_file(&prefix, &chunks)).is_ok());
     let skin = chunks.iter().position(|c| &c.0 == b"SKIN").expect("a SKIN chunk");
     let frame1 = chunks.iter().position(|c| &c.0 == b"FRAM" && c.1 == 1).unwrap();
-    let h = format::read(&v13_file(&prefix, &chunks)).unwrap().header;
+    let h = format::read(&bones_file(&prefix, &chunks)).unwrap().header;
     let info = h.skin.unwrap();
     let side = h.grid as usize >> info.shrink;
     let weights = format::SkinWeights::parse(&chunks[skin].2, &info, h.grid, 0).unwrap();
@@ -1123,6 +1128,8 @@ fn broken_bones_are_errors() {
         }
         f.extend_from_slice(unit);
     };
+    let too_long = format::BoneMotions::max_bytes(info.bones, info.packed) + 1;
+    let too_long_says = format!("bones: a unit of {too_long}");
     type Break<'a> = Box<dyn Fn(&mut Vec<RawChunk>) + 'a>;
     let cases: Vec<(&str, &str, Break)> = vec![
         ("no skin chunk", "skin weights", Box::new(move |c| drop(c.remove(skin)))),
@@ -1134,30 +1141,31 @@ fn broken_bones_are_errors() {
                 c[skin].2.truncate(n)
             }),
         ),
-        ("a bone past the count", "names a bone past", Box::new(move |c| c[skin].2 = bad_bone.to_bytes())),
+        ("a bone past the count", "names a bone past", Box::new(move |c| c[skin].2 = bad_bone.to_bytes(&info))),
         ("no bones at frame 1", "bones: a unit of 0 bytes", Box::new(move |c| frame(&mut c[frame1].2, &[]))),
-        ("a bones unit too long", "bones: a unit of 200", Box::new(move |c| frame(&mut c[frame1].2, &[7; 200]))),
+        ("a bones unit too long", &too_long_says, Box::new(move |c| frame(&mut c[frame1].2, &vec![7; too_long]))),
     ];
     for (what, says, break_it) in cases {
         let mut c = chunks.clone();
         break_it(&mut c);
-        let Err(e) = format::read(&v13_file(&prefix, &c)) else { panic!("{what}: read") };
-        assert!(matches!(e, ContainerError::Chunk { .. }) && e.to_string().contains(says), "{what}: {e}");
+        let Err(e) = format::read(&bones_file(&prefix, &c)) else { panic!("{fixture}, {what}: read") };
+        assert!(matches!(e, ContainerError::Chunk { .. }) && e.to_string().contains(says), "{fixture}, {what}: {e}");
     }
     // Bones the reader cannot check alone (they are differences): a unit
-    // that does not inflate to the bones' numbers is the decoder's error.
+    // that does not hold the bones' numbers is the decoder's error.
     let mut c = chunks.clone();
-    frame(&mut c[frame1].2, &miniz_oxide::deflate::compress_to_vec(&[1, 2, 3], 9));
-    let file = format::read(&v13_file(&prefix, &c)).unwrap();
+    let short = if info.packed { vec![0x11, 0xff] } else { miniz_oxide::deflate::compress_to_vec(&[1, 2, 3], 9) };
+    frame(&mut c[frame1].2, &short);
+    let file = format::read(&bones_file(&prefix, &c)).unwrap();
     let mut dec = cgv::codec::FileDecoder::new(file, cgv::solve::SolverKind::Predictive).unwrap();
     dec.next_frame().unwrap();
     let e = dec.next_frame().unwrap_err().to_string();
     assert!(e.contains("frame 1") && e.contains("bone"), "{e}");
-    // Version 12 cannot hold a skin.
+    // The version before cannot hold it.
     let mut old = prefix.clone();
-    old[8] = 12;
+    old[8] -= 1;
     let crc = crc32fast::hash(&old[8..old.len() - 4]);
     let n = old.len();
     old[n - 4..].copy_from_slice(&crc.to_le_bytes());
-    assert!(format::read(&v13_file(&old, &chunks)).is_err());
+    assert!(format::read(&bones_file(&old, &chunks)).is_err());
 }

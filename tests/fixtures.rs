@@ -227,6 +227,21 @@ fn v13_bones_fixture_decodes_as_frozen() {
 }
 
 #[test]
+fn v14_packed_bones_fixture_decodes_as_frozen() {
+    // Version 13's fixture's settings, its weights and bones units packed.
+    let f = open("v14/walk-bones-packed.cgv");
+    assert_eq!(f.version, 14);
+    let skin = f.header.skin.expect("the file has bones");
+    assert!(skin.packed);
+    assert_eq!((skin.bones, f.header.random_access), (4, Some(3)));
+    let codes: Vec<u8> = f.frames.iter().map(|i| i.predictor.to_byte()).collect();
+    assert_eq!(codes, [0, 16, 17, 0, 16, 17, 0, 16]);
+    assert!(f.frames.iter().enumerate().all(|(k, i)| i.bones.as_ref().is_some_and(|b| b.is_empty() == (k % 3 == 0))));
+    check("v14/walk-bones-packed.cgv", SolverKind::Predictive, 1e-5);
+    check_source("v14/walk-bones-packed.cgv", f);
+}
+
+#[test]
 fn v7_source_offsets_fixture_decodes_as_frozen() {
     let f = open("v7/walk-cgv-offsets.cgv");
     assert_eq!(f.version, 7);

@@ -339,7 +339,8 @@ fn is_zero(v: &u8) -> bool {
 pub const SEAM_RULE: &str = "octahedral-half-turn";
 
 impl Header {
-    /// The oldest format version that can hold this header: 13 for a skin,
+    /// The oldest format version that can hold this header: 14 for a
+    /// packed skin, 13 for a skin,
     /// 12 for a
     /// source mesh coded as a walk, 11 for loose
     /// vertices, 10 for random-access points, 9 for a normal
@@ -349,7 +350,9 @@ impl Header {
     /// predictions, 3 for a CGV file without H, 2 for motion corrections,
     /// else 1.
     pub fn min_version(&self) -> u16 {
-        if self.skin.is_some() {
+        if self.skin.is_some_and(|s| s.packed) {
+            14
+        } else if self.skin.is_some() {
             13
         } else if self.source_mesh.is_some_and(|m| m.walk) {
             12

@@ -10,14 +10,14 @@
 //!   bytes arrive, or in pieces from random-access points;
 //! - [`writer`]: the prefix, chunks, frames and the index;
 //! - the payloads: [`source_mesh`] (with [`connectivity`] and [`places`]),
-//!   [`appearance`], [`loose`], [`skin`], the samples' [`quant`]izer, the
+//!   [`appearance`], [`loose`], [`skin`] (with [`bits`]), the samples' [`quant`]izer, the
 //!   [`stream`] names and the [`predictor`] codes.
 //!
 //! The prefix and the chunks:
 //!
 //! ```text
 //! magic    8 bytes   89 43 47 56 0D 0A 1A 0A   ("\x89CGV\r\n\x1a\n")
-//! version  u16 LE    1 to 13
+//! version  u16 LE    1 to 14
 //! flags    u16 LE    0
 //! length   u32 LE    header length L (at most 1 MiB)
 //! header   L bytes   UTF-8 JSON (serde), see [`Header`]
@@ -38,6 +38,7 @@
 //! file has arrived.
 
 pub mod appearance;
+pub mod bits;
 pub mod connectivity;
 pub mod header;
 mod leb128;
@@ -74,7 +75,7 @@ pub use writer::{
 
 pub const MAGIC: [u8; 8] = [0x89, b'C', b'G', b'V', b'\r', b'\n', 0x1A, b'\n'];
 /// The newest version this reader reads and this writer writes.
-pub const VERSION: u16 = 13;
+pub const VERSION: u16 = 14;
 /// Largest header accepted.
 pub const MAX_HEADER: usize = 1 << 20;
 /// Largest chunk payload accepted (an access unit of a 2160² frame at QP 0

@@ -338,7 +338,7 @@ impl StreamReader {
             let len = read_len(p, &mut at).ok_or_else(|| bad("bones: bad unit length".into()))?;
             // Every frame but a random-access point has one.
             let rap = header.is_random_access_point(frame);
-            let most = if rap { 0 } else { crate::format::BoneMotions::max_bytes(skin.bones) };
+            let most = if rap { 0 } else { crate::format::BoneMotions::max_bytes(skin.bones, skin.packed) };
             if len > p.len() - at || len > most || (!rap && len == 0) {
                 return Err(bad(format!(
                     "bones: a unit of {len} bytes (frame {frame}'s has {} to {most})",

@@ -36,8 +36,8 @@ pub fn write_appearance(look: &Appearance) -> Vec<u8> {
 
 /// Version 13: the skin weights' chunk, after the source mesh and
 /// appearance (or the header).
-pub fn write_skin(weights: &SkinWeights) -> Vec<u8> {
-    write_chunk(TAG_SKIN, 0, 0, &weights.to_bytes())
+pub fn write_skin(weights: &SkinWeights, info: &super::SkinInfo) -> Vec<u8> {
+    write_chunk(TAG_SKIN, 0, 0, &weights.to_bytes(info))
 }
 
 /// Encodes one chunk.

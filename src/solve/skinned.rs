@@ -188,7 +188,7 @@ impl SkinnedPredictor {
     pub fn encode(&mut self, truth: &[Vec3]) -> Vec<u8> {
         match self.fit(truth) {
             Some(m) => {
-                let unit = BoneMotions::to_bytes(&m, &self.expected());
+                let unit = BoneMotions::to_bytes(&m, &self.expected(), self.info.packed);
                 self.set(m);
                 unit
             }
@@ -201,7 +201,8 @@ impl SkinnedPredictor {
         match (self.rest.is_some(), unit.is_empty()) {
             (false, true) => Ok(()),
             (true, false) => {
-                let m = BoneMotions::parse(unit, &self.expected(), 0).map_err(|e| Error::Argument(e.to_string()))?;
+                let m = BoneMotions::parse(unit, &self.expected(), 0, self.info.packed)
+                    .map_err(|e| Error::Argument(e.to_string()))?;
                 self.set(m);
                 Ok(())
             }
@@ -332,7 +333,7 @@ mod tests {
     #[test]
     fn a_two_bone_motion_is_fitted_and_replayed() {
         let grid = Grid::new(16).unwrap();
-        let info = SkinInfo { bones: 2, shrink: 2, rotation_step: 1e-4, translation_step: 1e-4 };
+        let info = SkinInfo { bones: 2, shrink: 2, rotation_step: 1e-4, translation_step: 1e-4, packed: true };
         let side = 4;
         let influences = (0..side * side).map(|k| [((k % side >= 2) as u8, 255), (0, 0), (0, 0), (0, 0)]).collect();
         let weights = SkinWeights { influences };

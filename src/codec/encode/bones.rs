@@ -91,6 +91,7 @@ pub(super) fn fit_bones(
         shrink,
         rotation_step: ROTATION_STEP,
         translation_step: (diagonal * TRANSLATION_STEP).max(f32::MIN_POSITIVE),
+        packed: true,
     };
     let predictor = SkinnedPredictor::new(plan.grid, &info, &weights)?;
     Ok(Some(Bones { info, weights, predictor }))
@@ -175,8 +176,13 @@ mod probe {
             let inf = fit_weights(src.as_ref(), grid, &image.map, shrink, 32, sweeps, &mut |_, _, _| {}).unwrap();
             let secs = t0.elapsed().as_secs_f64();
             let weights = SkinWeights { influences: inf.iter().map(quantize).collect() };
-            let info =
-                SkinInfo { bones: 32, shrink, rotation_step: ROTATION_STEP, translation_step: diag * TRANSLATION_STEP };
+            let info = SkinInfo {
+                bones: 32,
+                shrink,
+                rotation_step: ROTATION_STEP,
+                translation_step: diag * TRANSLATION_STEP,
+                packed: true,
+            };
             let mut p = SkinnedPredictor::new(grid, &info, &weights).unwrap();
             let (mut l, mut sum, mut bytes) = (Vec::new(), 0.0, 0);
             for f in 0..src.frame_count() {
@@ -193,9 +199,11 @@ mod probe {
             }
             let n = src.frame_count();
             eprintln!(
-                "{dir} sweeps {sweeps}: bones alone {:.4} % vertex RMS, {} B/frame, fit {secs:.1} s",
+                "{dir} sweeps {sweeps}: bones alone {:.4} % vertex RMS, {} B/frame, weights {} B ({} B deflated as v13), fit {secs:.1} s",
                 100.0 * sum / n as f64,
-                bytes / n
+                bytes / n,
+                weights.to_bytes(&info).len(),
+                weights.to_bytes(&SkinInfo { packed: false, ..info }).len(),
             );
         }
     }

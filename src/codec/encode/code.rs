@@ -189,7 +189,10 @@ pub(super) fn code(
 fn write_prefix(out: &mut Written, src: &dyn FrameSource, header: &Header, chunks: &Chunks) -> Result<(usize, usize)> {
     out.put(&format::write_header(header).map_err(|e| Error::Container { path: src.label().into(), source: e })?)?;
     out.put(chunks.source.unwrap_or_default())?;
-    let skin = chunks.skin.map(format::write_skin).unwrap_or_default();
+    let skin = match (chunks.skin, &header.skin) {
+        (Some(w), Some(info)) => format::write_skin(w, info),
+        _ => Vec::new(),
+    };
     out.put(&skin)?;
     Ok((chunks.source.map_or(0, <[u8]>::len), skin.len()))
 }
