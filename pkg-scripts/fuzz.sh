@@ -39,8 +39,8 @@ done
 f=fuzz/corpus/read/walk-motion.cgv
 [ -e "$f" ] || "$cgv" encode builtin:walk --corrections motion --grid 16 --qp 30 --no-source-mesh -o "$f" >/dev/null
 cp "$f" fuzz/corpus/decode/
-# Version 13's bones (the fixture's source mesh is past -max_len).
-f=fuzz/corpus/read/walk-bones.cgv
+# Bones, packed since version 14 (the fixture's source mesh is past -max_len).
+f=fuzz/corpus/read/walk-bones-packed.cgv
 [ -e "$f" ] || "$cgv" encode builtin:walk --corrections motion --grid 16 --qp 30 --no-source-mesh --bones 4 -o "$f" >/dev/null
 cp "$f" fuzz/corpus/decode/
 f=fuzz/corpus/read/icosahedron-source.cgv
