@@ -802,6 +802,53 @@ fn skin_writes_a_valid_skinned_gltf_and_reports_its_error() {
     assert!(!out.status.success() && stderr(&out).contains("--bones") && !bad.exists());
 }
 
+/// `cgv skin --target-error`: the fewest bones of the ladder within the
+/// target; each count tried is reported, the errors falling; a target no
+/// count meets is reported unmet, not hidden; it cannot go with --bones.
+#[test]
+fn skin_chooses_the_fewest_bones_within_a_target_error() {
+    let dir = common::temp_dir("cli-skin-target");
+    let glb = dir.join("walk-skin.glb");
+    let run = |target: &str| {
+        let out =
+            cgv(&["skin", "builtin:walk", "--frames", "0..12", "--target-error", target, "-o", glb.to_str().unwrap()]);
+        let out = [
+            &out,
+            &cgv(&[
+                "skin",
+                "builtin:walk",
+                "--frames",
+                "0..12",
+                "--target-error",
+                target,
+                "-o",
+                glb.to_str().unwrap(),
+                "--json",
+                "--surface-every",
+                "0",
+            ]),
+        ];
+        assert!(out.iter().all(|o| o.status.success()), "{}", stderr(out[0]));
+        assert!(
+            String::from_utf8_lossy(&out[0].stdout).contains("target"),
+            "{}",
+            String::from_utf8_lossy(&out[0].stdout)
+        );
+        serde_json::from_slice::<serde_json::Value>(&out[1].stdout).unwrap()
+    };
+    let v = run("1");
+    let tried = v["target"]["tried"].as_array().unwrap();
+    assert!(v["target"]["met"] == true && v["vertex_rms"].as_f64().unwrap() <= 0.01, "{v}");
+    assert_eq!(v["bones"], tried.last().unwrap()["bones"], "{v}");
+    let v = run("0.00001");
+    let tried = v["target"]["tried"].as_array().unwrap();
+    assert!(v["target"]["met"] == false && v["bones"] == 64 && tried.len() == 7, "{v}");
+    let rms: Vec<f64> = tried.iter().map(|t| t["vertex_rms"].as_f64().unwrap()).collect();
+    assert!(rms[6] < rms[0], "{rms:?}");
+    let out = cgv(&["skin", "builtin:walk", "--bones", "8", "--target-error", "1", "-o", glb.to_str().unwrap()]);
+    assert!(!out.status.success() && stderr(&out).contains("--target-error"), "{}", stderr(&out));
+}
+
 /// Behaviour kept through refactoring: these encodes give the bytes the
 /// encoder gave before the front ends shared one `EncodeRequest` and the
 /// format was split (commit 3d0243d's `cgv`, measured 2026-12-04: length

@@ -6,11 +6,14 @@
 //!
 //! - [`ssdr`]: the fit (Le and Deng 2012, "Smooth skinning decomposition
 //!   with rigid bones"), initialised by rigid clustering;
+//! - [`count`]: the fewest bones within an error target;
 //! - [`nnls`]: the small non-negative least-squares solves its weights need;
 //! - [`procrustes`]: the weighted rigid fit its transforms need;
 //! - [`gltf`]: a skinning as a standard skinned, animated glTF;
 //! - [`errors`]: how far a skinning is from its frames.
 
+#[cfg(not(target_arch = "wasm32"))]
+pub mod count;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod errors;
 #[cfg(not(target_arch = "wasm32"))]

@@ -21,6 +21,12 @@ pub struct Args {
     /// a body, a few more a body with a face or hands.
     #[arg(long, default_value_t = SkinOptions::default().bones)]
     bones: usize,
+    /// Instead of --bones: the fewest bones (of 8, 12, 16, 24, 32, 48, 64,
+    /// each fitted in turn) whose vertex RMS is at most this percentage of
+    /// the diagonal (0.3 for 0.3 %); if none is, the 64 bones' fit is written
+    /// and the report says the target was not met.
+    #[arg(long, value_name = "PERCENT", conflicts_with = "bones")]
+    target_error: Option<f64>,
     /// Alternations of the weights' and the transforms' fits after the
     /// clustering (each lowers the error less than the one before).
     #[arg(long, default_value_t = SkinOptions::default().iterations)]
@@ -53,6 +59,16 @@ struct Report {
     glb_bytes: u64,
     glb_bits_per_vertex_frame: f64,
     seconds_decompose: f64,
+    /// With --target-error: each bone count fitted, and whether one met it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    target: Option<Target>,
+}
+
+#[derive(serde::Serialize)]
+struct Target {
+    vertex_rms: f64,
+    met: bool,
+    tried: Vec<cgv::skin::count::Tried>,
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -67,16 +83,24 @@ pub fn run(args: Args) -> Result<()> {
     let frames = (0..src.frame_count()).map(|i| src.read_frame(i)).collect::<cgv::Result<Vec<_>>>()?;
     let faces = &src.topology().faces;
     let opts = SkinOptions { bones: args.bones, iterations: args.iterations, rest: 0 };
-    let pb = super::progress(opts.iterations, "fitting bones", args.json);
     let t = std::time::Instant::now();
-    let skin = cgv::skin::decompose(&frames, faces, &opts, &mut |it, _| pb.set_position(it as u64))
-        .with_context(|| format!("decomposing {}", src.label().display()))?;
+    let (skin, target) = match args.target_error {
+        None => (
+            fit(&frames, faces, &opts, args.json).with_context(|| format!("decomposing {}", src.label().display()))?,
+            None,
+        ),
+        Some(percent) => {
+            let (skin, target) = fit_to_error(&frames, faces, &opts, percent, args.json)
+                .with_context(|| format!("decomposing {}", src.label().display()))?;
+            (skin, Some(target))
+        }
+    };
     let seconds_decompose = t.elapsed().as_secs_f64();
-    pb.finish_and_clear();
     let name = src.label().file_stem().and_then(|s| s.to_str()).unwrap_or("motion").to_string();
     cgv::skin::gltf::write_skinned_glb(&args.output, &skin, faces, src.fps(), &name)?;
     let glb_bytes = std::fs::metadata(&args.output)?.len();
-    let report = measure(&frames, faces, &skin, args.surface_every, (glb_bytes, seconds_decompose))?;
+    let mut report = measure(&frames, faces, &skin, args.surface_every, (glb_bytes, seconds_decompose))?;
+    report.target = target;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
         return Ok(());
@@ -102,8 +126,50 @@ pub fn run(args: Args) -> Result<()> {
         "  size           {:.3} bits/vertex/frame compact (16-bit matrices, 8-bit weights; rest mesh not counted), GLB {} bytes ({:.3} bits/vertex/frame)",
         report.compact_bits_per_vertex_frame, report.glb_bytes, report.glb_bits_per_vertex_frame
     );
+    if let Some(t) = &report.target {
+        let tried: Vec<String> = t.tried.iter().map(|c| format!("{} {:.4} %", c.bones, 100.0 * c.vertex_rms)).collect();
+        let verdict = if t.met { "met" } else { "NOT met: the most bones tried were written" };
+        println!(
+            "  target         vertex RMS {:.4} %: {verdict} (bones tried: {})",
+            100.0 * t.vertex_rms,
+            tried.join(", ")
+        );
+    }
     println!("  time           {:.2} s to fit", report.seconds_decompose);
     Ok(())
+}
+
+/// The decomposition with `opts.bones` bones, with a progress bar.
+fn fit(
+    frames: &[Vec<glam::Vec3>],
+    faces: &[[u32; 3]],
+    opts: &SkinOptions,
+    quiet: bool,
+) -> cgv::Result<cgv::skin::Skinning> {
+    let pb = super::progress(opts.iterations, "fitting bones", quiet);
+    let skin = cgv::skin::decompose(frames, faces, opts, &mut |it, _| pb.set_position(it as u64));
+    pb.finish_and_clear();
+    skin
+}
+
+/// The fewest bones within `percent` of the diagonal (`cgv::skin::count`),
+/// a progress bar over the counts.
+fn fit_to_error(
+    frames: &[Vec<glam::Vec3>],
+    faces: &[[u32; 3]],
+    opts: &SkinOptions,
+    percent: f64,
+    quiet: bool,
+) -> Result<(cgv::skin::Skinning, Target)> {
+    use cgv::skin::count::{fewest_bones_within, LADDER};
+    if !(percent.is_finite() && percent > 0.0) {
+        bail!("--target-error {percent}: give a positive percentage of the diagonal (0.3 for 0.3 %)");
+    }
+    let pb = super::progress(LADDER.len(), "fitting bone counts", quiet);
+    let diagonal = |t: usize| Bounds::of(&frames[t]).diagonal() as f64;
+    let (skin, tried, met) = fewest_bones_within(frames, faces, percent / 100.0, opts, &diagonal, &mut |_| pb.inc(1))?;
+    pb.finish_and_clear();
+    Ok((skin, Target { vertex_rms: percent / 100.0, met, tried }))
 }
 
 /// The skinning's errors against the frames (each frame's diagonal), and its sizes.
@@ -130,5 +196,6 @@ fn measure(
         glb_bytes,
         glb_bits_per_vertex_frame: per(glb_bytes as f64 * 8.0),
         seconds_decompose,
+        target: None,
     })
 }
