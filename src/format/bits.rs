@@ -29,9 +29,10 @@ impl BitWriter {
         }
     }
 
-    /// `z` as an Exp-Golomb code of order `k`: z + 2ᵏ in binary, after as
-    /// many zeros as that has bits past k + 1.
+    /// `z` as an Exp-Golomb code of order `k` (at most 63): z + 2ᵏ in
+    /// binary, after as many zeros as that has bits past k + 1.
     pub fn exp_golomb(&mut self, z: u64, k: u32) {
+        debug_assert!(k <= 63);
         let v = u128::from(z) + (1u128 << k);
         let len = 128 - v.leading_zeros();
         self.put(0, len - k - 1);
@@ -71,8 +72,12 @@ impl<'a> BitReader<'a> {
         Some(v)
     }
 
-    /// An Exp-Golomb code of order `k`; `None` if cut off or past 64 bits.
+    /// An Exp-Golomb code of order `k` (at most 63); `None` if cut off or
+    /// past 64 bits.
     pub fn exp_golomb(&mut self, k: u32) -> Option<u64> {
+        if k > 63 {
+            return None;
+        }
         let mut zeros = 0u32;
         while self.get(1)? == 0 {
             zeros += 1;

@@ -1,6 +1,6 @@
-//! The `.cgv` file format, versions 1 to 13 (documented in
+//! The `.cgv` file format, versions 1 to 14 (documented in
 //! `docs/FORMAT.md`, with the compatibility promise): this writer writes
-//! version 13, the reader reads all thirteen. Split as the png crate splits
+//! version 14, the reader reads all fourteen. Split as the png crate splits
 //! its decoder:
 //!
 //! - [`header`]: what a file holds, the frame chunk's side data, and which
