@@ -265,7 +265,9 @@ export class MotionStream extends EventTarget {
     const horizon = (this.window || 8) + K;
     for (let d = 0; d <= horizon; d += K) {
       let f = from + d;
-      if (f >= h.frames) { if (!this.loop) break; f -= h.frames; }
+      // Looping, the window may wrap more than once on a motion shorter
+      // than it (8 frames against a window of 8 + K).
+      if (f >= h.frames) { if (!this.loop) break; f %= h.frames; }
       const k = Math.floor(f / K);
       if (!this.fetchedPoints.has(k)) return k;
     }
@@ -278,7 +280,9 @@ export class MotionStream extends EventTarget {
     this.filling = true;
     try {
       for (let k = this._nextPoint(); k !== null && !this.closed; k = this._nextPoint()) {
-        const [a, b] = this.player.point_bytes(k, this.total);
+        const range = this.player.point_bytes(k, this.total);
+        if (range.length !== 2) throw new Error(`${this.url}: no random-access point ${k} in the index`);
+        const [a, b] = range;
         const bytes = await this._range(a, b);
         if (this.closed) return;
         if (this.player.bytes() !== a) this.player.jump(k);

@@ -59,10 +59,10 @@ pub struct RegisterReport {
     /// between its sightings).
     pub cones_seen: [f64; 4],
     /// Frames whose cones the cut put on other sides of the square than
-    /// most frames', turned or mirrored back by a symmetry of the grid.
+    /// most frames', turned back by a turn of the grid.
     pub turned_frames: usize,
-    /// Frames whose cones no symmetry puts back (their cyclic order around
-    /// the square differs): the grid flips there.
+    /// Frames whose cones no turn puts back (their cyclic order around the
+    /// square differs): the grid flips there.
     pub unmatched_frames: usize,
     pub seconds_features: f64,
     pub seconds_maps: f64,
@@ -120,7 +120,7 @@ pub fn register(label: &Path, fps: f32, frames: &[CaptureFrame], grid: Grid) -> 
     // assignment most frames share up to a symmetry of the square; a frame
     // with another order is mapped again with its corner where the nearest
     // agreeing frame's is, and a frame whose cones sit on other sides is
-    // turned (or mirrored) back by the symmetry that puts them there.
+    // turned back by the turn that puts them there.
     let agreeing = |r: &[usize; 4]| mapped.iter().filter(|m| symmetry_between(&m.sides, r).is_some()).count();
     let reference = mapped.iter().map(|m| m.sides).max_by_key(|r| agreeing(r)).unwrap_or([0, 1, 2, 3]);
     let matches = |m: &Mapped| symmetry_between(&m.sides, &reference).is_some();
@@ -183,17 +183,8 @@ fn cone_tracks(tracks: &[Track]) -> Option<[usize; 4]> {
 /// the cones sit, go to sides' middles) as an integer 2 x 2 matrix.
 type Symmetry = [[i32; 2]; 2];
 const IDENTITY: Symmetry = [[1, 0], [0, 1]];
-/// The eight: four turns, and each mirrored.
-const SYMMETRIES: [Symmetry; 8] = [
-    [[1, 0], [0, 1]],
-    [[0, -1], [1, 0]],
-    [[-1, 0], [0, -1]],
-    [[0, 1], [-1, 0]],
-    [[-1, 0], [0, 1]],
-    [[1, 0], [0, -1]],
-    [[0, 1], [1, 0]],
-    [[0, -1], [-1, 0]],
-];
+/// The square's four turns (its mirrors are no use: see [`symmetry_between`]).
+const TURNS: [Symmetry; 4] = [[[1, 0], [0, 1]], [[0, -1], [1, 0]], [[-1, 0], [0, -1]], [[0, 1], [-1, 0]]];
 /// The sides' middles (top, right, bottom, left), as `crate::param::cut::CONE_UV`.
 const SIDES: [[i32; 2]; 4] = [[0, 1], [1, 0], [0, -1], [-1, 0]];
 
@@ -207,7 +198,7 @@ fn apply(m: Symmetry, p: [i32; 2]) -> [i32; 2] {
 /// two tracks traded places (a cow's two hind legs), which no symmetry
 /// mends.
 fn symmetry_between(sides: &[usize; 4], reference: &[usize; 4]) -> Option<Symmetry> {
-    SYMMETRIES[..4].iter().copied().find(|&m| {
+    TURNS.iter().copied().find(|&m| {
         (0..4).all(|a| {
             let b = SIDES.iter().position(|&q| q == apply(m, SIDES[a]));
             b.is_some_and(|b| reference[b] == sides[a])
@@ -338,7 +329,7 @@ mod tests {
     #[test]
     fn the_squares_symmetries_are_found_and_applied() {
         let reference = [2, 0, 3, 1];
-        for m in &SYMMETRIES[..4] {
+        for m in &TURNS {
             let m = *m;
             let mut sides = [0; 4];
             for (a, s) in sides.iter_mut().enumerate() {
@@ -354,10 +345,10 @@ mod tests {
         let g: Vec<Vec3> = (0..64).map(|s| Vec3::new(s as f32, 0.0, 0.0)).collect();
         let mut h = g.clone();
         for _ in 0..4 {
-            h = apply_symmetry(grid, &h, SYMMETRIES[1]);
+            h = apply_symmetry(grid, &h, TURNS[1]);
             assert_eq!(h.len(), 64);
         }
         assert_eq!(h, g);
-        assert_ne!(apply_symmetry(grid, &g, SYMMETRIES[1]), g);
+        assert_ne!(apply_symmetry(grid, &g, TURNS[1]), g);
     }
 }
