@@ -143,6 +143,25 @@ fn unregistered_against_registered() {
         "swim per frame (% of the diagonal): {:?}",
         swim.iter().map(|x| (x * 1e4).round() / 1e2).collect::<Vec<_>>()
     );
+    // Each cone's drift: where its track puts it on the body (the nearest
+    // original vertex, read on frame 0) against where it was in frame 0. A
+    // large drift is a track that jumped to another limb; swim without
+    // drift is the map's doing.
+    let tracked = track_capture(&dir, &capture).unwrap();
+    let cone_at = |t: usize| {
+        report.cone_tracks.map(|k| {
+            let p = cgv::features::track::place(&tracked.tracks[k], &tracked.features, t).unwrap();
+            rest[nearest(t, p)]
+        })
+    };
+    let c0 = cone_at(0);
+    let drift: Vec<[f32; 4]> = (0..frames)
+        .map(|t| {
+            let c = cone_at(t);
+            std::array::from_fn(|i| (c[i].distance(c0[i]) / diag * 1e3).round() / 10.0)
+        })
+        .collect();
+    println!("cone drift per frame (% of the diagonal): {drift:?}");
     let bits = |bytes: usize| bytes as f64 * 8.0 / (truth.topology.vertex_count * frames) as f64;
     for qp in [16, 22, 28, 34] {
         let mut opts = EncodeOptions { grid: n, source_mesh: false, ..Default::default() };

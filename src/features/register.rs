@@ -55,6 +55,8 @@ pub struct RegisterReport {
     /// Features found per frame, on average.
     pub features_per_frame: f64,
     pub tracks: usize,
+    /// The tracks the cones follow (indices into [`track_capture`]'s).
+    pub cone_tracks: [usize; 4],
     /// The share of frames each cone's track was seen in (the rest placed
     /// between its sightings).
     pub cones_seen: [f64; 4],
@@ -155,6 +157,7 @@ pub fn register(label: &Path, fps: f32, frames: &[CaptureFrame], grid: Grid) -> 
         frames: frames.len(),
         features_per_frame: tracked.features_per_frame(),
         tracks: tracked.tracks.len(),
+        cone_tracks: tracked.cones,
         cones_seen: tracked.cones_seen(),
         turned_frames: turned,
         unmatched_frames: unmatched,
