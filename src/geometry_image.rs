@@ -91,11 +91,24 @@ impl GeometryImage {
         let t = std::time::Instant::now();
         let map = SampleMap::on_carrier(grid, &carrier, &param)?;
         let places = crate::resample::carrier_places(&carrier, &param);
-        let offsets = offsets_of(grid, &places, &carrier.loose, reference, &map.apply(reference));
+        let mut image = GeometryImage::assemble(grid, (carrier, param, map), places, reference);
+        (image.seconds_parameterize, image.seconds_locate) = (seconds_parameterize, t.elapsed().as_secs_f64());
+        Ok(image)
+    }
+
+    /// The image of a map: each input vertex's place and its offset from
+    /// the grid on `reference`, and each loose vertex's nearest sample there.
+    fn assemble(
+        grid: Grid,
+        (carrier, param, map): (Carrier, Parameterization, SampleMap),
+        places: Vec<[u32; 2]>,
+        reference: &[Vec3],
+    ) -> GeometryImage {
+        let on_grid = map.apply(reference);
+        let offsets = offsets_of(grid, &places, &carrier.loose, reference, &on_grid);
         let loose: Vec<Vec3> = carrier.loose.iter().map(|&v| reference[v as usize]).collect();
-        let loose_anchors = nearest_samples(&loose, &map.apply(reference));
-        let seconds_locate = t.elapsed().as_secs_f64();
-        Ok(GeometryImage {
+        let loose_anchors = nearest_samples(&loose, &on_grid);
+        GeometryImage {
             carrier,
             param,
             map,
@@ -103,9 +116,9 @@ impl GeometryImage {
             places_moved: 0,
             offsets,
             loose_anchors,
-            seconds_parameterize,
-            seconds_locate,
-        })
+            seconds_parameterize: 0.0,
+            seconds_locate: 0.0,
+        }
     }
 
     /// A motion already on `grid`'s own mesh (a registered capture,
@@ -137,18 +150,8 @@ impl GeometryImage {
             score: Some(0.0),
             options: opts.clone(),
         };
-        let offsets = offsets_of(grid, &places, &[], reference, &map.apply(reference));
-        Ok(GeometryImage {
-            carrier,
-            param,
-            map,
-            places,
-            places_moved: 0,
-            offsets,
-            loose_anchors: Vec::new(),
-            seconds_parameterize: 0.0,
-            seconds_locate: 0.0,
-        })
+        // Built with no loose parts: every vertex is on the grid.
+        Ok(GeometryImage::assemble(grid, (carrier, param, map), places, reference))
     }
 
     /// Moves input vertices' places where a nearby one rebuilds them
