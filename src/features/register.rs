@@ -119,7 +119,7 @@ pub fn register(label: &Path, fps: f32, frames: &[CaptureFrame], grid: Grid) -> 
         .collect::<Result<_>>()?;
     // The cut gives each cone its side by the order its path leaves the
     // corner in, which can differ from frame to frame. The reference is the
-    // assignment most frames share up to a symmetry of the square; a frame
+    // assignment most frames share up to a turn of the square; a frame
     // with another order is mapped again with its corner where the nearest
     // agreeing frame's is, and a frame whose cones sit on other sides is
     // turned back by the turn that puts them there.
