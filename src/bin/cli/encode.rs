@@ -157,14 +157,15 @@ pub struct Args {
     /// version 10; a motion shorter than two intervals gets none either.
     #[arg(long, value_name = "SECONDS", default_value_t = cgv::codec::DEFAULT_RANDOM_ACCESS)]
     random_access: f32,
-    /// normal and predictive: bones as a predictor (format version 13). A
-    /// skinning decomposition of the motion (rigid bones, four weights)
-    /// goes in the file, its weights on a 32 x 32 grid (about 6.5 KB for
-    /// 32 bones), and each frame may be predicted by the bones, the
+    /// normal and predictive: bones as a predictor (format versions 13 and
+    /// 14). A skinning decomposition of the motion (rigid bones, four
+    /// weights) goes in the file, its weights on a 32 x 32 grid (about 5.4 KB
+    /// for 32 bones), and each frame may be predicted by the bones, the
     /// corrections coding what they miss. `auto`: 32 bones in a motion of
     /// at least 24 frames; N: that many (1-255); 0: none. A file keeps them
     /// only where they cut the corrections 4x: articulated motion (samba,
-    /// pcow, horse-gallop: -20 % to -37 % BD-rate), not a collapsing horse.
+    /// pcow, horse-gallop: -28 % to -46 % BD-rate on vertex RMS), not a
+    /// collapsing horse.
     #[arg(long, value_name = "auto|N", default_value = "auto", value_parser = parse_bones)]
     bones: BonesArg,
     /// Frames between H.264 intra frames.

@@ -22,7 +22,7 @@ use glam::Vec3;
 /// `None`): samba's 32 fit in 0.4 s on the weights' grid.
 pub const DEFAULT_BONES: u16 = 32;
 /// Frames a motion needs before the encoder gives it bones of its own
-/// accord: the weights are a fixed cost (about 6.5 KB for 32 bones), which
+/// accord: the weights are a fixed cost (about 5.4 KB for 32 bones, packed), which
 /// a short clip does not repay. Measured (N = 128, `cgv eval`, normal
 /// codec): wolf's 6 frames and cylinder's 4 came out smallest at 3.0 and
 /// 48 bits per vertex per frame with bones, against 1.0 and 16 without,
