@@ -142,6 +142,7 @@ impl GeometryImage {
         let param = Parameterization {
             cones: [(n / 2, n - 1), (n - 1, n / 2), (n / 2, 0), (0, n / 2)].map(|(i, j)| j * n + i),
             corner: 0,
+            cut_paths: Default::default(),
             uv: (0..grid.len()).map(|s| glam::DVec2::new(at(s % grid.n), at(s / grid.n))).collect(),
             corner_iso: Vec::new(),
             conformal: Default::default(),

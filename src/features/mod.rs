@@ -7,9 +7,11 @@
 //!   extremities;
 //! - [`track`]: features matched between adjacent frames into tracks;
 //! - [`register`]: every frame mapped onto the grid with four tracked
-//!   features as the map's cones: a registered motion.
+//!   features as the map's cones: a registered motion;
+//! - [`follow`]: each frame's cut where the previous frame's ran.
 
 pub mod detect;
+pub mod follow;
 pub mod hks;
 pub mod register;
 pub mod track;

@@ -10,6 +10,7 @@
 //! other motion.
 
 use super::detect::{features, Feature};
+use super::follow::{self, CutTrace};
 use super::track::{place, track, Track};
 use crate::error::{Error, Result};
 use crate::grid::Grid;
@@ -21,6 +22,7 @@ use crate::resample::SampleMap;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Area-correction passes of every frame's map: a fixed number, so that no
 /// frame's map stops earlier than another's (pcow's best at N = 128 was
@@ -71,6 +73,7 @@ pub struct RegisterReport {
 }
 
 /// A capture's features and tracks, and the four tracks chosen as cones.
+#[derive(Debug, Clone)]
 pub struct Tracked {
     pub features: Vec<Vec<Feature>>,
     pub tracks: Vec<Track>,
@@ -98,7 +101,16 @@ pub fn track_capture(label: &Path, frames: &[CaptureFrame]) -> Result<Tracked> {
     let t0 = std::time::Instant::now();
     let features: Vec<Vec<Feature>> =
         frames.par_iter().map(|f| features(&f.faces, &f.positions)).collect::<Result<_>>()?;
-    let tracks = track(&features, Bounds::of(&frames[0].positions).diagonal());
+    let mut tracked = track_features(label, features, Bounds::of(&frames[0].positions).diagonal())?;
+    tracked.seconds = t0.elapsed().as_secs_f64();
+    Ok(tracked)
+}
+
+/// Features found on every frame (`features`, of a capture named `label`
+/// whose first frame's diagonal is `diagonal`), tracked.
+pub fn track_features(label: &Path, features: Vec<Vec<Feature>>, diagonal: f32) -> Result<Tracked> {
+    let t0 = std::time::Instant::now();
+    let tracks = track(&features, diagonal);
     let cones = cone_tracks(&tracks).ok_or_else(|| {
         Error::Argument(format!("{}: fewer than four features could be tracked through the frames", label.display()))
     })?;
@@ -108,21 +120,51 @@ pub fn track_capture(label: &Path, frames: &[CaptureFrame]) -> Result<Tracked> {
 /// The capture `frames` (named `label`) on `grid`: each frame's grid
 /// positions, as a motion on the grid's own mesh, and the report.
 pub fn register(label: &Path, fps: f32, frames: &[CaptureFrame], grid: Grid) -> Result<(InMemory, RegisterReport)> {
-    let mut tracked = track_capture(label, frames)?;
+    let tracked = track_capture(label, frames)?;
+    register_tracked(label, fps, frames, tracked, grid)
+}
+
+/// [`register`] with the features already found and tracked.
+pub fn register_tracked(
+    label: &Path,
+    fps: f32,
+    frames: &[CaptureFrame],
+    mut tracked: Tracked,
+    grid: Grid,
+) -> Result<(InMemory, RegisterReport)> {
+    if frames.is_empty() {
+        return Err(Error::Argument(format!("{}: a capture without frames", label.display())));
+    }
+    if tracked.features.len() != frames.len() {
+        return Err(Error::Argument(format!(
+            "{}: features of {} frames for a capture of {}",
+            label.display(),
+            tracked.features.len(),
+            frames.len()
+        )));
+    }
     let t1 = std::time::Instant::now();
     tracked.cones = best_cones(label, &frames[0], &tracked, grid)?;
     let cones_at =
         |t: usize| tracked.cones.map(|k| place(&tracked.tracks[k], &tracked.features, t).unwrap_or(Vec3::ZERO));
-    let mut mapped: Vec<Mapped> = (0..frames.len())
-        .into_par_iter()
-        .map(|t| map_frame(label, &frames[t], &cones_at(t), None, grid))
-        .collect::<Result<_>>()?;
+    // Each frame's cut follows the previous frame's (its corner nearest
+    // that corner, its paths pulled towards those paths), so that the
+    // paths keep going the same way round the body: shortest paths alone
+    // can take another way from one frame to the next, and the map (the
+    // grid on the body) changes with them.
+    let mut mapped: Vec<Mapped> = Vec::with_capacity(frames.len());
+    for (t, frame) in frames.iter().enumerate() {
+        let trace = mapped.last().map(|m: &Mapped| &m.trace);
+        let m = map_frame(label, frame, &cones_at(t), trace, grid)?;
+        mapped.push(m);
+    }
     // The cut gives each cone its side by the order its path leaves the
-    // corner in, which can differ from frame to frame. The reference is the
-    // assignment most frames share up to a turn of the square; a frame
-    // with another order is mapped again with its corner where the nearest
-    // agreeing frame's is, and a frame whose cones sit on other sides is
-    // turned back by the turn that puts them there.
+    // corner in, which the trace mostly keeps (the square's first side is
+    // wherever the walk round the corner starts: any turn). The reference
+    // is the assignment most frames share up to a turn of the square; a
+    // frame with another order is mapped again with its cut traced from
+    // the nearest agreeing frame's, and a frame whose cones sit on other
+    // sides is turned back by the turn that puts them there.
     let agreeing = |r: &[usize; 4]| mapped.iter().filter(|m| symmetry_between(&m.sides, r).is_some()).count();
     let reference = mapped.iter().map(|m| m.sides).max_by_key(|r| agreeing(r)).unwrap_or([0, 1, 2, 3]);
     let matches = |m: &Mapped| symmetry_between(&m.sides, &reference).is_some();
@@ -131,10 +173,16 @@ pub fn register(label: &Path, fps: f32, frames: &[CaptureFrame], grid: Grid) -> 
         if matches(&mapped[t]) {
             continue;
         }
-        if let Some(&near) = good.iter().min_by_key(|&&g| g.abs_diff(t)) {
-            let again = map_frame(label, &frames[t], &cones_at(t), Some(mapped[near].corner), grid)?;
+        // The agreeing frames nearest before and after, each trace first as
+        // it is, then pulling three times as hard.
+        let before = good.iter().rev().find(|&&g| g < t);
+        let after = good.iter().find(|&&g| g > t);
+        let tries = [1.0, RETRY_PULL].into_iter().flat_map(|pull| [before, after].map(|g| g.map(|&g| (g, pull))));
+        for (g, pull) in tries.flatten() {
+            let again = map_frame(label, &frames[t], &cones_at(t), Some(&mapped[g].trace.pulled(pull)), grid)?;
             if matches(&again) {
                 mapped[t] = again;
+                break;
             }
         }
     }
@@ -222,6 +270,9 @@ fn apply_symmetry(grid: Grid, g: &[Vec3], m: Symmetry) -> Vec<Vec3> {
     out
 }
 
+/// How much harder a frame mapped again pulls its cut to the trace.
+const RETRY_PULL: f64 = 3.0;
+
 /// Tracks seen in at least this share of the frames the longest one is
 /// seen in may be cones.
 const CONE_SEEN: f64 = 0.9;
@@ -260,60 +311,83 @@ fn best_cones(label: &Path, first: &CaptureFrame, tracked: &Tracked, grid: Grid)
     Ok(scored.into_iter().min_by(|a, b| a.0.total_cmp(&b.0)).map_or(tracked.cones, |x| x.1))
 }
 
-/// The carrier's map with `cones`; a carrier too coarse for the cones'
-/// paths to be cut apart is made finer, twice at most, as the encoder does
-/// (`crate::geometry_image`).
+/// The carrier's map with `cones` and, if `trace` is given, its cut where
+/// the trace's ran (else the corner is the vertex farthest from the cones,
+/// the paths shortest), and the new map's trace. A carrier too coarse for
+/// the cones' paths to be cut apart is made finer, twice at most, as the
+/// encoder does (`crate::geometry_image`).
 fn map_with_cones(
     carrier: &mut Carrier,
     frame: &[Vec3],
     cones: [u32; 4],
-    corner_at: Option<Vec3>,
-) -> Result<Parameterization> {
+    trace: Option<&CutTrace>,
+) -> Result<(Parameterization, CutTrace)> {
     let mut tries = 0;
     loop {
         let positions = carrier.positions(frame);
         let nv = carrier.topology.vertex_count;
         let pos: Vec<DVec3> = positions.iter().map(|p| p.as_dvec3()).collect();
-        let corner = match corner_at.and_then(|p| nearest(&positions, p)).filter(|c| !cones.contains(c)) {
+        let graph = Graph::new(nv, &carrier.topology.faces, &pos);
+        let diagonal = Bounds::of(&positions).diagonal().max(f32::MIN_POSITIVE) as f64;
+        let sig = follow::signatures(&graph, cones, diagonal);
+        let corner = match trace.and_then(|t| t.corner_in(&sig, &cones)) {
             Some(c) => c,
-            None => corner_for(&Graph::new(nv, &carrier.topology.faces, &pos), nv, &cones),
+            None => {
+                let normals = crate::mesh::vertex_normals(&positions, &carrier.topology.faces);
+                follow::open_corner(&graph, &pos, &normals, cones, diagonal)
+                    .unwrap_or_else(|| corner_for(&graph, nv, &cones))
+            }
         };
-        let opts = ParamOptions { cones: Some((cones, corner)), area_passes: AREA_PASSES, ..Default::default() };
+        let opts = ParamOptions {
+            cones: Some((cones, corner)),
+            area_passes: AREA_PASSES,
+            cut_guide: trace.map(|t| Arc::new(t.guide(&sig))),
+            ..Default::default()
+        };
         match parameterize(&carrier.topology, &positions, &opts) {
             Err(_) if tries < 2 => carrier.subdivide(),
-            done => return done,
+            Err(e) => return Err(e),
+            Ok(param) => {
+                let mut paths: [Vec<u32>; 4] = Default::default();
+                for (side, path) in param.cut_paths.iter().enumerate() {
+                    let k = cones.iter().position(|&c| c == param.cones[side]).unwrap_or(side);
+                    paths[k] = path.clone();
+                }
+                let sides = param.cones.map(|v| cones.iter().position(|&c| c == v).unwrap_or(0));
+                let traced = CutTrace::of(&sig, param.corner, &paths, sides);
+                return Ok((param, traced));
+            }
         }
         tries += 1;
     }
 }
 
-/// One frame mapped with its cones nearest `at` and, if given, its corner
-/// nearest `corner_at` (else the vertex farthest from the cones).
+/// One frame mapped with its cones nearest `at` and its cut where
+/// `trace`'s ran, if given.
 fn map_frame(
     label: &Path,
     frame: &CaptureFrame,
     at: &[Vec3; 4],
-    corner_at: Option<Vec3>,
+    trace: Option<&CutTrace>,
     grid: Grid,
 ) -> Result<Mapped> {
     let topology = Topology { vertex_count: frame.positions.len(), faces: frame.faces.clone() };
     let mut carrier = Carrier::build(label, &topology, &frame.positions)?;
     let positions = carrier.positions(&frame.positions);
     let cones = at.map(|p| nearest(&positions, p).unwrap_or(0));
-    let param = map_with_cones(&mut carrier, &frame.positions, cones, corner_at)?;
+    let (param, trace) = map_with_cones(&mut carrier, &frame.positions, cones, trace)?;
     let map = SampleMap::on_carrier(grid, &carrier, &param)?;
     let sides = param.cones.map(|v| cones.iter().position(|&c| c == v).unwrap_or(0));
-    let corner = carrier.positions(&frame.positions)[param.corner as usize];
-    Ok(Mapped { grid: map.apply(&frame.positions), sides, corner })
+    Ok(Mapped { grid: map.apply(&frame.positions), sides, trace })
 }
 
 /// A frame's map: its grid positions, which cone (its index in the
 /// requested four) the cut put on each side (top, right, bottom, left),
-/// and where the corner vertex is.
+/// and where its cut ran.
 struct Mapped {
     grid: Vec<Vec3>,
     sides: [usize; 4],
-    corner: Vec3,
+    trace: CutTrace,
 }
 
 /// The vertex of `positions` nearest `p`.

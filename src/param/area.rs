@@ -38,6 +38,9 @@ fn check_input(topology: &Topology, positions: &[Vec3], opts: &ParamOptions) -> 
     if !(opts.area_correction.is_finite() && (0.0..=2.0).contains(&opts.area_correction)) {
         return Err(Error::Argument(format!("area correction {} is not in [0, 2]", opts.area_correction)));
     }
+    if opts.cut_guide.as_ref().is_some_and(|g| g.away.iter().any(|a| a.len() != nv) || g.sides.iter().any(|&k| k > 3)) {
+        return Err(Error::Argument(format!("a cut guide that is not of the mesh's {nv} vertices")));
+    }
     if let Err(problem) = crate::mesh::analyze(topology, positions).require_sphere_topology() {
         return Err(Error::Argument(format!("cannot parameterize: the surface {problem}")));
     }
@@ -119,6 +122,7 @@ impl<'a> AreaPasses<'a> {
             Some(c) => c,
             None => cut::choose_cones(&graph, nv),
         };
+        let guide = opts.cut_guide.as_deref().map(cut::Guide::new);
         let is_real = |f: usize| real.is_none_or(|r| r.get(f).copied().unwrap_or(true));
         let weights = orbifold::cotangent_weights(faces, &adj, &pos);
         let real_index: Vec<usize> = (0..faces.len()).filter(|&f| is_real(f)).collect();
@@ -126,12 +130,13 @@ impl<'a> AreaPasses<'a> {
         // The cones' order around the square decides the map's orientation;
         // the mirrored order is tried when the first one comes out reversed.
         for mirror in [false, true] {
-            let cut = Cut::new(faces, &adj, &graph, nv, cones, corner, mirror)?;
+            let cut = Cut::new(faces, &adj, &graph, cones, corner, mirror, guide.as_ref())?;
             let mut system = OrbifoldSystem::new(faces, nv, &cut);
             let uv = system.solve_symmetric(&weights)?;
             let mut p = Parameterization {
                 cones: cut.cones,
                 corner,
+                cut_paths: cut.paths,
                 uv,
                 corner_iso: cut.corner_iso,
                 conformal: distortion::Distortion::default(),

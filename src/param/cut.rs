@@ -65,6 +65,11 @@ pub struct Graph {
 }
 
 impl Graph {
+    /// The number of vertices.
+    pub fn vertex_count(&self) -> usize {
+        self.start.len().saturating_sub(1)
+    }
+
     /// The number of neighbours of `v`.
     pub fn degree(&self, v: u32) -> usize {
         self.start.get(v as usize + 1).zip(self.start.get(v as usize)).map_or(0, |(b, a)| b - a)
@@ -99,6 +104,12 @@ impl Graph {
     /// Shortest-path distances from `source` over edges, never entering a
     /// `blocked` vertex; returns distances and predecessors.
     pub fn dijkstra(&self, source: u32, blocked: &[bool]) -> (Vec<f64>, Vec<u32>) {
+        self.dijkstra_scaled(source, blocked, None)
+    }
+
+    /// [`dijkstra`](Self::dijkstra) with each edge's length times the mean
+    /// of its ends' `scale` (a [`Guide`]'s pull), where given.
+    pub fn dijkstra_scaled(&self, source: u32, blocked: &[bool], scale: Option<&[f64]>) -> (Vec<f64>, Vec<u32>) {
         #[derive(PartialEq)]
         struct Item(f64, u32);
         impl Eq for Item {}
@@ -126,6 +137,7 @@ impl Graph {
                 if blocked[w as usize] {
                     continue;
                 }
+                let len = scale.map_or(len, |f| len * 0.5 * (f[v as usize] + f[w as usize]));
                 let nd = d + len;
                 if nd < dist[w as usize] {
                     dist[w as usize] = nd;
@@ -201,31 +213,57 @@ fn check_cone_vertices(nv: usize, cones: [u32; 4], corner: u32) -> Result<()> {
     Ok(())
 }
 
-/// Shortest paths from `corner` to each cone, both ends included, in the
-/// order of `cones`. The paths are found one after the other, so an early
-/// one can wall a later cone off (on coarse meshes); then the other orders
-/// are tried, and last any four vertex-disjoint paths ([`disjoint_paths`]),
-/// which exist whenever a cut does.
-fn cut_paths(graph: &Graph, nv: usize, cones: [u32; 4], corner: u32) -> Result<Vec<Vec<u32>>> {
-    let mut first_error = None;
-    for order in ORDERS {
-        match cut_paths_in_order(graph, nv, order.map(|k| cones[k]), corner) {
-            Ok(paths) => {
-                let mut out = vec![Vec::new(); 4];
-                for (k, p) in order.iter().zip(paths) {
-                    out[*k] = p;
-                }
-                return Ok(out);
-            }
-            Err(e) => {
-                first_error.get_or_insert(e);
-            }
-        }
+/// Where each cone's cut path should run: near an earlier cut's (the
+/// previous frame's, in a capture without correspondence). Two shortest
+/// paths between the same cones can go different ways round a body, and
+/// the map changes with them (another homotopy class of the cut gives
+/// another orbifold map), so a path pays for leaving its guide, and the
+/// cones keep their order round the corner.
+#[derive(Debug, Clone)]
+pub struct CutGuide {
+    /// Per cone (in the order the cut is asked for), each vertex's
+    /// distance from that cone's earlier path, in diagonals (how far is
+    /// the caller's measure).
+    pub away: [Vec<f64>; 4],
+    /// The cones (by that order) on the square's sides (top, right,
+    /// bottom, left) in the earlier cut: the order a cut keeps, up to a turn.
+    pub sides: [usize; 4],
+}
+
+/// A [`CutGuide`] as the cut uses it.
+pub struct Guide {
+    /// Per cone, each vertex's factor on the lengths of its edges.
+    scale: [Vec<f64>; 4],
+    sides: [usize; 4],
+}
+
+/// A path [`Guide`]d `GUIDE_WIDTH` of the diagonal away from its guide pays
+/// `1 + GUIDE_PULL` times an edge's length, four widths away and beyond
+/// `1 + 16 GUIDE_PULL`: enough to keep it on its side of a limb or torso
+/// (a few widths across), not so much that it follows every kink of the
+/// earlier path.
+pub const GUIDE_WIDTH: f64 = 0.03;
+const GUIDE_PULL: f64 = 1.0;
+
+impl Guide {
+    pub fn new(guide: &CutGuide) -> Guide {
+        let scale = guide.away.each_ref().map(|a| {
+            a.iter()
+                .map(|d| {
+                    let r = (d / GUIDE_WIDTH).min(4.0);
+                    1.0 + GUIDE_PULL * if r.is_nan() { 16.0 } else { r * r }
+                })
+                .collect()
+        });
+        Guide { scale, sides: guide.sides }
     }
-    if let Some(paths) = disjoint_paths(graph, nv, cones, corner) {
-        return Ok(paths);
+
+    /// Whether `cut` (asked for with `cones`) puts the cones on the sides
+    /// in the guide's order, up to a turn.
+    fn kept_by(&self, cut: &Cut, cones: &[u32; 4]) -> bool {
+        let at = cut.cones.map(|v| cones.iter().position(|&c| c == v));
+        (0..4).any(|r| (0..4).all(|i| at[(i + r) % 4] == Some(self.sides[i])))
     }
-    Err(first_error.unwrap_or_else(|| Error::Numerical("no cut".into())))
 }
 
 /// Four paths from `corner` to the `cones` (in their order) that share no
@@ -353,17 +391,28 @@ const ORDERS: [[usize; 4]; 24] = {
     out
 };
 
-/// [`cut_paths`] in the order of `cones`, or the error of the first cone walled off.
-fn cut_paths_in_order(graph: &Graph, nv: usize, cones: [u32; 4], corner: u32) -> Result<Vec<Vec<u32>>> {
+/// Shortest paths from `corner` to each of `cones` (each pulled towards
+/// its `guide`'s path, if given), both ends included, in the order of
+/// `cones`; found one after the other in the order `order`, each avoiding
+/// those found before. Errs with the first cone walled off.
+fn cut_paths_in_order(
+    graph: &Graph,
+    nv: usize,
+    cones: [u32; 4],
+    order: [usize; 4],
+    corner: u32,
+    guide: Option<&Guide>,
+) -> Result<Vec<Vec<u32>>> {
     // Four disjoint paths from the corner, each avoiding the others and the other cones.
     let mut blocked = vec![false; nv];
     for &c in &cones {
         blocked[c as usize] = true;
     }
-    let mut paths: Vec<Vec<u32>> = Vec::new();
-    for &cone in &cones {
+    let mut paths: Vec<Vec<u32>> = vec![Vec::new(); 4];
+    for k in order {
+        let cone = cones[k];
         blocked[cone as usize] = false;
-        let (dist, pred) = graph.dijkstra(corner, &blocked);
+        let (dist, pred) = graph.dijkstra_scaled(corner, &blocked, guide.map(|g| &g.scale[k][..]));
         if !dist[cone as usize].is_finite() {
             return Err(Error::Numerical(format!(
                 "cannot cut the surface: no path from vertex {corner} to cone {cone} avoids the other cuts"
@@ -377,7 +426,7 @@ fn cut_paths_in_order(graph: &Graph, nv: usize, cones: [u32; 4], corner: u32) ->
         for &v in &path[1..] {
             blocked[v as usize] = true;
         }
-        paths.push(path);
+        paths[k] = path;
     }
     Ok(paths)
 }
@@ -497,18 +546,56 @@ impl<'a> CutFans<'a> {
 impl Cut {
     /// Builds the cut for the given cones and corner vertex. `mirror` assigns
     /// the cones to the square's sides in the opposite rotational order (for
-    /// meshes whose faces turn clockwise seen from outside).
+    /// meshes whose faces turn clockwise seen from outside); `guide` pulls
+    /// the paths towards an earlier cut's and keeps its cones' order.
+    ///
+    /// The paths are found one after the other, so an early one can wall a
+    /// later cone off (on coarse meshes), or leave the corner on the wrong
+    /// side of another; then the other orders are tried, and last any four
+    /// vertex-disjoint paths ([`disjoint_paths`]), which exist whenever a
+    /// cut does. A guide's order that no order of the paths keeps is let go.
     pub fn new(
         faces: &[[u32; 3]],
         adj: &Adjacency,
         graph: &Graph,
+        cones: [u32; 4],
+        corner: u32,
+        mirror: bool,
+        guide: Option<&Guide>,
+    ) -> Result<Cut> {
+        let nv = graph.vertex_count();
+        check_cone_vertices(nv, cones, corner)?;
+        let mut first: Option<Result<Cut>> = None;
+        for order in ORDERS {
+            let cut = cut_paths_in_order(graph, nv, cones, order, corner, guide)
+                .and_then(|paths| Cut::along(faces, adj, nv, cones, corner, mirror, paths));
+            let kept = |c: &Result<Cut>| c.as_ref().is_ok_and(|c| guide.is_none_or(|g| g.kept_by(c, &cones)));
+            if kept(&cut) {
+                return cut;
+            }
+            if first.as_ref().is_none_or(|f| f.is_err() && cut.is_ok()) {
+                first = Some(cut);
+            }
+        }
+        match first {
+            Some(Ok(cut)) => Ok(cut),
+            first => match disjoint_paths(graph, nv, cones, corner) {
+                Some(paths) => Cut::along(faces, adj, nv, cones, corner, mirror, paths),
+                None => first.unwrap_or_else(|| Err(Error::Numerical("no cut".into()))),
+            },
+        }
+    }
+
+    /// The cut along `paths` (from `corner` to each of `cones`).
+    fn along(
+        faces: &[[u32; 3]],
+        adj: &Adjacency,
         nv: usize,
         cones: [u32; 4],
         corner: u32,
         mirror: bool,
+        paths: Vec<Vec<u32>>,
     ) -> Result<Cut> {
-        check_cone_vertices(nv, cones, corner)?;
-        let paths = cut_paths(graph, nv, cones, corner)?;
         let fans = CutFans::new(faces, adj, nv, &paths);
         let mut corner_iso = vec![[Iso::IDENTITY; 3]; faces.len()];
         let cone_uv = fans.around_corner(corner, mirror, &mut corner_iso)?;

@@ -57,6 +57,10 @@ pub struct ParamOptions {
     /// coded as their own vertices, not on the grid (0: none are;
     /// `crate::mesh::carrier::LOOSE_MAX_VERTICES` by default).
     pub loose_max_vertices: usize,
+    /// Where the cut should run, per cone of `cones` (an earlier frame's
+    /// cut, [`cut::CutGuide`]); shortest paths when absent.
+    #[serde(skip)]
+    pub cut_guide: Option<std::sync::Arc<cut::CutGuide>>,
 }
 
 impl Default for ParamOptions {
@@ -66,6 +70,7 @@ impl Default for ParamOptions {
             area_passes: 200,
             cones: None,
             loose_max_vertices: crate::mesh::carrier::LOOSE_MAX_VERTICES,
+            cut_guide: None,
         }
     }
 }
@@ -81,6 +86,9 @@ pub struct Parameterization {
     pub cones: [u32; 4],
     /// The vertex at the square's corners.
     pub corner: u32,
+    /// The cut: the path from `corner` to each of `cones`, both ends included.
+    #[serde(skip)]
+    pub cut_paths: [Vec<u32>; 4],
     /// Position of each vertex's canonical copy in the plane.
     #[serde(skip)]
     pub uv: Vec<DVec2>,

@@ -251,7 +251,7 @@ mod tests {
         let adj = Adjacency::build(&faces);
         let graph = Graph::new(nv, &faces, &pos);
         let (cones, corner) = cut::choose_cones(&graph, nv);
-        let cut = Cut::new(&faces, &adj, &graph, nv, cones, corner, false).unwrap();
+        let cut = Cut::new(&faces, &adj, &graph, cones, corner, false, None).unwrap();
         let mut system = OrbifoldSystem::new(&faces, nv, &cut);
         let w0 = cotangent_weights(&faces, &adj, &pos);
         // Factors from 0.05 to 20, as many stretch passes leave them.

@@ -217,8 +217,8 @@ fn request(args: &Args) -> EncodeRequest {
         param: ParamOptions {
             area_correction: args.area_correction,
             area_passes: args.area_passes,
-            cones: None,
             loose_max_vertices: args.loose_parts,
+            ..Default::default()
         },
         reference: 0,
         source_mesh: !args.no_source_mesh && !args.unregistered,

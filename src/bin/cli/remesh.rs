@@ -171,8 +171,8 @@ pub fn run(args: Args) -> Result<()> {
     let opts = ParamOptions {
         area_correction: args.area_correction,
         area_passes: args.area_passes,
-        cones: None,
         loose_max_vertices: args.loose_parts,
+        ..Default::default()
     };
     let mut image = GeometryImage::build(src.label(), &topology, &reference, grid, &opts)
         .context("parameterizing the reference frame")?;
