@@ -229,11 +229,12 @@ fn encode_info_and_decode_motion_corrections() {
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     let info = cgv(&["info", f.to_str().unwrap()]);
     let text = String::from_utf8_lossy(&info.stdout);
-    assert!(text.contains("format version 14") && text.contains("corrections   motion"), "{text}");
+    let version = format!("format version {}", cgv::format::VERSION);
+    assert!(text.contains(&version) && text.contains("corrections   motion"), "{text}");
     assert!(text.contains("random access frame 0 only"), "{text}");
     let info = cgv(&["info", f.to_str().unwrap(), "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
-    assert_eq!((v["version"].as_u64(), v["header"]["corrections"].as_str()), (Some(14), Some("motion")));
+    assert_eq!((v["version"].as_u64(), v["header"]["corrections"].as_str()), (Some(cgv::format::VERSION as u64), Some("motion")));
     assert_eq!(v["filters"].as_array().map(Vec::len), Some(8));
     // At a coarse QP the encoder filters corrections, and info says so;
     // --no-correction-filter leaves every frame's filter at 0.
@@ -465,6 +466,7 @@ fn greedy_file() -> Vec<u8> {
         appearance: None,
         random_access: None,
         skin: None,
+        segments: Vec::new(),
     };
     let mut bytes = format::write_header(&header).unwrap();
     bytes.extend(format::write_frame(0, &FrameInfo::default(), &[&[1u8][..]; 6]));
@@ -551,7 +553,8 @@ fn a_textured_gltf_comes_back_with_its_uvs_and_texture() {
     let out = cgv(&["encode", fox_arg, "--frames", "0..3", "--grid", "32", "-o", cgv_file.to_str().unwrap()]);
     assert!(out.status.success(), "{}", stderr(&out));
     let info = String::from_utf8_lossy(&cgv(&["info", cgv_file.to_str().unwrap()]).stdout).to_string();
-    assert!(info.contains("format version 14") && info.contains("1728 vertices"), "{info}");
+    let version = format!("format version {}", cgv::format::VERSION);
+    assert!(info.contains(&version) && info.contains("1728 vertices"), "{info}");
     let out = cgv(&["decode", cgv_file.to_str().unwrap(), "-o", glb.to_str().unwrap()]);
     assert!(out.status.success(), "{}", stderr(&out));
     assert_eq!(validate_gltf(&[glb.as_path()])[0]["errors"], 0);

@@ -56,6 +56,7 @@ fn header() -> Header {
         appearance: None,
         random_access: None,
         skin: None,
+        segments: Vec::new(),
     }
 }
 
@@ -151,9 +152,9 @@ fn bad_magic_and_versions() {
     assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::BadMagic);
     assert_eq!(format::read(b"GIF89a").unwrap_err(), ContainerError::BadMagic);
     let mut bytes = file(&header());
-    bytes[8] = 15;
-    assert_eq!(format::VERSION, 14);
-    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 15 });
+    bytes[8] = 16;
+    assert_eq!(format::VERSION, 15);
+    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 16 });
     bytes[8] = 0;
     assert!(matches!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 0 }));
 }
@@ -986,6 +987,21 @@ fn a_wrong_or_missing_index_and_bad_points_are_refused() {
     assert!(matches!(&e, ContainerError::Header(m) if m.contains("point 3 is not a key frame")), "{e}");
     bad.random_access = Some(0);
     assert!(format::write_header(&bad).is_err());
+    // Segments (version 15): increasing frames past 0, each a key frame,
+    // in a file with points.
+    for (segments, points) in [(vec![0], Some(3)), (vec![5, 4], Some(3)), (vec![2], Some(3)), (vec![4], None)] {
+        let mut bad = h.clone();
+        bad.key_frames = vec![0, 3, 4, 5, 6];
+        (bad.segments, bad.random_access) = (segments, points);
+        assert!(format::write_header(&bad).is_err(), "{:?} {:?}", bad.segments, bad.random_access);
+    }
+    // A segment at 4 between the points 3 and 6: four offsets, and the
+    // reader finds each (a lie about the new one is caught).
+    let mut seg = h.clone();
+    (seg.key_frames, seg.segments) = (vec![0, 2, 3, 4, 6], vec![4]);
+    let f = format::read(&file_with_points(&seg, |_| code(1, 0), |_| {})).unwrap();
+    assert_eq!((f.version, f.index.len(), f.header.point_frame(2)), (15, 4, Some(4)));
+    assert!(format::read(&file_with_points(&seg, |_| code(1, 0), |i| i[2] += 1)).is_err());
     // A cycle prediction may not reach back past the last point: at frame
     // 5 (point 3) lag 2 would read frame 2's velocity.
     let lagged = |at: u32, lag: u8| move |f: u32| if f == at { code(3, lag) } else { code(1, 0) };
@@ -997,6 +1013,30 @@ fn a_wrong_or_missing_index_and_bad_points_are_refused() {
     let mut plain = h.clone();
     plain.random_access = None;
     assert!(format::read(&file_with_points(&plain, lagged(5, 2), |_| {})).is_ok());
+}
+
+#[test]
+fn a_file_with_a_segment_read_in_pieces_from_its_points() {
+    // Points 0, 3, 4 (the segment) and 6: the segment's point is fetched
+    // first, then the rest, as a page seeking there would.
+    let mut h = random_access_header();
+    (h.key_frames, h.segments) = (vec![0, 2, 3, 4, 6], vec![4]);
+    let bytes = file_with_points(&h, |_| code(1, 0), |_| {});
+    let whole = format::read(&bytes).unwrap();
+    let idx: Vec<usize> = whole.index.iter().map(|&o| o as usize).collect();
+    let tail = &bytes[bytes.len() - format::index_tail_bytes(&h) as usize..];
+    let mut r = format::StreamReader::default();
+    r.push(&bytes[..idx[0]]).unwrap();
+    r.set_index(format::parse_index_tail(&h, tail).unwrap()).unwrap();
+    r.jump(2).unwrap();
+    r.push(&bytes[idx[2]..idx[3]]).unwrap();
+    assert_eq!((0..7).map(|f| r.frame_arrived(f)).collect::<Vec<_>>(), [0, 0, 0, 0, 1, 1, 0].map(|b| b == 1));
+    r.jump(0).unwrap();
+    r.push(&bytes[idx[0]..idx[2]]).unwrap();
+    r.jump(3).unwrap();
+    r.push(&bytes[idx[3]..]).unwrap();
+    assert!(r.is_complete() && r.complete_frames() == 7);
+    assert_eq!(r.finish().unwrap().frames, whole.frames);
 }
 
 #[test]

@@ -306,6 +306,27 @@ fn v10_random_access_fixture_decodes_as_frozen_from_every_point() {
     }
 }
 
+#[test]
+fn v15_segments_fixture_decodes_as_frozen_from_every_point() {
+    // Points every 6 frames and where the segment at frame 9 starts.
+    let f = open("v15/walk-cgv-segments.cgv");
+    assert_eq!((f.version, f.header.random_access, &f.header.segments[..]), (15, Some(6), &[9][..]));
+    assert_eq!((f.index.len(), f.header.point_index(11), f.header.point_frame(2)), (4, 2, Some(9)));
+    check("v15/walk-cgv-segments.cgv", SolverKind::Predictive, 1e-5);
+    let expected = std::fs::read(fixture("v15/walk-cgv-segments.cgv.cgv.positions")).unwrap();
+    let n = (f.header.grid * f.header.grid) as usize * 3;
+    let (frames, diag) = (f.header.frames as usize, f.header.source.diagonal as f64);
+    let mut dec = FileDecoder::new(f, SolverKind::Predictive).unwrap();
+    for start in [12, 9, 6] {
+        assert_eq!(dec.seek(start as u32).unwrap(), 0, "frame {start} is a point");
+        let got: Vec<f32> =
+            (start..frames).flat_map(|_| dec.next_frame().unwrap().0).flat_map(|p| p.to_array()).collect();
+        let want = expected[4 * start * n..].chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]));
+        let worst = got.iter().zip(want).map(|(a, b)| (a - b).abs() as f64).fold(0.0, f64::max);
+        assert!(worst <= 1e-5 * diag, "from frame {start}: differs by {worst}");
+    }
+}
+
 /// 14 frames of a ball (an icosphere of 642 vertices) bouncing and
 /// squashing, with a hat: a tetrahedron of four vertices riding above it
 /// and turning, a part of its own.

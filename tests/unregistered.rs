@@ -8,7 +8,9 @@
 mod common;
 
 use cgv::codec::{encode, EncodeOptions, FileDecoder};
-use cgv::features::register::{register, register_tracked, track_capture, track_features, CaptureFrame};
+use cgv::features::register::{
+    register, register_tracked, segment_starts, track_capture, track_features, CaptureFrame,
+};
 use cgv::grid::Grid;
 use cgv::mesh::unregister::{keep_for, remesh_frame};
 use cgv::mesh::{Bounds, FrameSource, InMemory};
@@ -142,6 +144,37 @@ fn a_frame_with_a_feature_missing_still_maps_consistently() {
     assert_eq!(report.unmatched_frames, 0, "{report:?}");
     let swum = swim(&walk, &registered);
     assert!(swum.iter().all(|&s| s < SWIM_BOUND), "swim {swum:?}");
+}
+
+/// The walk remeshed, with a hole opened in frames 4 to 7 (one face
+/// gone): two segments, each registered on its own, and a file with a
+/// random-access point where the second starts, which decodes from there
+/// as from the start.
+#[test]
+fn a_clip_whose_topology_changes_halfway_gets_two_segments() {
+    let walk = cgv::mesh::builtin::motion(8);
+    let mut frames = remeshed(&walk, 8);
+    for f in &mut frames[4..] {
+        f.faces.swap_remove(0);
+    }
+    assert_eq!(segment_starts(&frames), [0, 4]);
+    let grid = Grid::new(32).unwrap();
+    let (registered, report) = register(Path::new("walk"), 30.0, &frames, grid).unwrap();
+    assert_eq!((report.frames, &report.segments[..], report.unmatched_frames), (8, &[4][..], 0), "{report:?}");
+    let opts = EncodeOptions { grid: 32, source_mesh: false, segments: report.segments.clone(), ..Default::default() };
+    let (bytes, _) = encode(&registered, &opts, &mut |_, _, _| {}).unwrap();
+    let file = cgv::format::read(&bytes).unwrap();
+    assert_eq!((file.version, &file.header.segments[..]), (15, &[4][..]));
+    assert!(file.header.is_random_access_point(4) && file.index.len() == 2, "{:?}", file.index);
+    let mut dec = FileDecoder::new(file.clone(), cgv::solve::SolverKind::Predictive).unwrap();
+    let all: Vec<Vec<Vec3>> = (0..8).map(|_| dec.next_frame().unwrap().0).collect();
+    let mut from4 = FileDecoder::new(file, cgv::solve::SolverKind::Predictive).unwrap();
+    assert_eq!(from4.seek(4).unwrap(), 0, "frame 4 is a point: nothing decoded before it");
+    for (t, frame) in all.iter().enumerate().skip(4) {
+        assert_eq!(&from4.next_frame().unwrap().0, frame, "frame {t}");
+    }
+    let truth: Vec<f64> = surface_rms(&walk, grid, &all);
+    assert!(truth.iter().all(|&e| e < 0.02), "{truth:?}");
 }
 
 /// Measures a real sequence remeshed every frame against its registered

@@ -263,12 +263,16 @@ export class MotionStream extends EventTarget {
     const h = this.header, K = h.random_access;
     const from = this.seekTo ?? this.current;
     const horizon = (this.window || 8) + K;
-    for (let d = 0; d <= horizon; d += K) {
+    // Points lie every K frames and where segments start (format version
+    // 15), so each frame's point is asked of the file; a step of one
+    // frame past a segment's start finds the point there too.
+    const steps = h.segments && h.segments.length ? 1 : K;
+    for (let d = 0; d <= horizon; d += steps) {
       let f = from + d;
       // Looping, the window may wrap more than once on a motion shorter
       // than it (8 frames against a window of 8 + K).
       if (f >= h.frames) { if (!this.loop) break; f %= h.frames; }
-      const k = Math.floor(f / K);
+      const k = this.player.point_of(f);
       if (!this.fetchedPoints.has(k)) return k;
     }
     return null;

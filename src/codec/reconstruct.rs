@@ -329,8 +329,9 @@ impl SequenceDecoder {
     pub fn seek(&mut self, f: u32) -> Result<()> {
         let h = &self.header;
         if f >= h.frames || !h.is_random_access_point(f) {
+            let segments = if h.segments.is_empty() { String::new() } else { format!(" and at {:?}", h.segments) };
             return Err(Error::Argument(format!(
-                "frame {f} is not a random-access point (the file has one every {} frames)",
+                "frame {f} is not a random-access point (the file has one every {} frames{segments})",
                 h.random_access.unwrap_or(h.frames)
             )));
         }

@@ -15,7 +15,7 @@ use super::track::{place, track, Track};
 use crate::error::{Error, Result};
 use crate::grid::Grid;
 use crate::mesh::carrier::Carrier;
-use crate::mesh::{Bounds, FrameSelection, InMemory, Topology};
+use crate::mesh::{analyze, Bounds, FrameSelection, InMemory, Topology};
 use crate::param::cut::{corner_for, Graph};
 use crate::param::{parameterize, ParamOptions, Parameterization};
 use crate::resample::SampleMap;
@@ -70,6 +70,27 @@ pub struct RegisterReport {
     pub unmatched_frames: usize,
     pub seconds_features: f64,
     pub seconds_maps: f64,
+    /// Frames where a segment (after the first) starts: the topology
+    /// changed there ([`segment_starts`]).
+    pub segments: Vec<u32>,
+}
+
+impl RegisterReport {
+    /// Adds the report of the segment starting at frame `start`: counts
+    /// add up, shares are weighted by frames, cones' shares are the worst
+    /// segment's (the cones are each segment's own).
+    fn join(&mut self, start: usize, next: &RegisterReport) {
+        let (a, b) = (self.frames as f64, next.frames as f64);
+        self.features_per_frame = (self.features_per_frame * a + next.features_per_frame * b) / (a + b).max(1.0);
+        self.frames += next.frames;
+        self.tracks += next.tracks;
+        self.cones_seen = std::array::from_fn(|k| self.cones_seen[k].min(next.cones_seen[k]));
+        self.turned_frames += next.turned_frames;
+        self.unmatched_frames += next.unmatched_frames;
+        self.seconds_features += next.seconds_features;
+        self.seconds_maps += next.seconds_maps;
+        self.segments.push(start as u32);
+    }
 }
 
 /// A capture's features and tracks, and the four tracks chosen as cones.
@@ -117,11 +138,45 @@ pub fn track_features(label: &Path, features: Vec<Vec<Feature>>, diagonal: f32) 
     Ok(Tracked { features, tracks, cones, seconds: t0.elapsed().as_secs_f64() })
 }
 
+/// Where a capture's segments start: frame 0, and each frame whose
+/// topology (Euler characteristic, parts, holes) differs from the frame
+/// before (an arm that touches the body, a part that appears). No map
+/// carries over such a change, so each segment is registered on its own.
+pub fn segment_starts(frames: &[CaptureFrame]) -> Vec<usize> {
+    let class = |f: &CaptureFrame| {
+        let r = analyze(&Topology { vertex_count: f.positions.len(), faces: f.faces.clone() }, &f.positions);
+        (r.euler_characteristic, r.components, r.boundary_loops)
+    };
+    let classes: Vec<_> = frames.par_iter().map(class).collect();
+    (0..frames.len()).filter(|&t| t == 0 || classes[t] != classes[t - 1]).collect()
+}
+
 /// The capture `frames` (named `label`) on `grid`: each frame's grid
-/// positions, as a motion on the grid's own mesh, and the report.
+/// positions, as a motion on the grid's own mesh, and the report. A
+/// capture whose topology changes is registered segment by segment
+/// ([`segment_starts`]), each with its own tracks and map.
 pub fn register(label: &Path, fps: f32, frames: &[CaptureFrame], grid: Grid) -> Result<(InMemory, RegisterReport)> {
-    let tracked = track_capture(label, frames)?;
-    register_tracked(label, fps, frames, tracked, grid)
+    let starts = segment_starts(frames);
+    let mut out: Option<(InMemory, RegisterReport)> = None;
+    for (i, &a) in starts.iter().enumerate() {
+        let b = starts.get(i + 1).copied().unwrap_or(frames.len());
+        let part = &frames[a..b];
+        let in_segment = |e: Error| match starts.len() {
+            1 => e,
+            _ => Error::Argument(format!("the segment of frames {a}..{b}: {e}")),
+        };
+        let tracked = track_capture(label, part).map_err(in_segment)?;
+        let (src, report) = register_tracked(label, fps, part, tracked, grid).map_err(in_segment)?;
+        out = Some(match out {
+            None => (src, report),
+            Some((mut all, mut so_far)) => {
+                all.frames.extend(src.frames);
+                so_far.join(a, &report);
+                (all, so_far)
+            }
+        });
+    }
+    out.ok_or_else(|| Error::Argument(format!("{}: a capture without frames", label.display())))
 }
 
 /// [`register`] with the features already found and tracked.
@@ -211,6 +266,7 @@ pub fn register_tracked(
         unmatched_frames: unmatched,
         seconds_features: tracked.seconds,
         seconds_maps: t1.elapsed().as_secs_f64(),
+        segments: Vec::new(),
     };
     let source = InMemory { label: PathBuf::from(label), fps, topology: grid.topology(), frames: positions };
     Ok((source, report))

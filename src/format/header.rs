@@ -325,6 +325,11 @@ pub struct Header {
     /// and each frame's motions in its bones unit (absent: none).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub skin: Option<SkinInfo>,
+    /// Version 15: frames where a segment starts (a capture whose
+    /// topology changes there gets a new map), sorted, each a random-access
+    /// point besides the interval's (absent: none). Needs `random_access`.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub segments: Vec<u32>,
 }
 
 fn is_scaled(m: &CorrectionMode) -> bool {
@@ -339,8 +344,8 @@ fn is_zero(v: &u8) -> bool {
 pub const SEAM_RULE: &str = "octahedral-half-turn";
 
 impl Header {
-    /// The oldest format version that can hold this header: 14 for a
-    /// packed skin, 13 for a skin,
+    /// The oldest format version that can hold this header: 15 for
+    /// segments, 14 for a packed skin, 13 for a skin,
     /// 12 for a
     /// source mesh coded as a walk, 11 for loose
     /// vertices, 10 for random-access points, 9 for a normal
@@ -350,7 +355,9 @@ impl Header {
     /// predictions, 3 for a CGV file without H, 2 for motion corrections,
     /// else 1.
     pub fn min_version(&self) -> u16 {
-        if self.skin.is_some_and(|s| s.packed) {
+        if !self.segments.is_empty() {
+            15
+        } else if self.skin.is_some_and(|s| s.packed) {
             14
         } else if self.skin.is_some() {
             13
@@ -416,18 +423,46 @@ impl Header {
 
     /// Whether frame `f` is a random-access point (frame 0 always is).
     pub fn is_random_access_point(&self, f: u32) -> bool {
-        f == 0 || self.random_access.is_some_and(|k| f % k == 0)
+        f == 0 || self.random_access.is_some_and(|k| f % k == 0) || self.segments.binary_search(&f).is_ok()
     }
 
     /// The last random-access point at or before frame `f`: where a decoder
     /// that wants frame `f` starts.
     pub fn random_access_point(&self, f: u32) -> u32 {
-        random_access_point(self.random_access, f)
+        random_access_point(self.random_access, &self.segments, f)
     }
 
     /// The random-access points' count (the `RIDX` chunk's entries).
     pub fn random_access_points(&self) -> u32 {
-        self.random_access.map_or(1, |k| self.frames.div_ceil(k))
+        self.random_access.map_or(1, |k| self.frames.div_ceil(k)) + self.segments_off_interval(self.frames)
+    }
+
+    /// The index (in the `RIDX` chunk) of the random-access point at or
+    /// before frame `f`.
+    pub fn point_index(&self, f: u32) -> u32 {
+        let f = self.random_access_point(f);
+        self.random_access.map_or(0, |k| f.div_ceil(k)) + self.segments_off_interval(f)
+    }
+
+    /// The frame of random-access point `k` (by its index), if there is one.
+    pub fn point_frame(&self, k: u32) -> Option<u32> {
+        let (mut lo, mut hi) = (0, self.frames);
+        // The last frame whose point has index k: point_index rises with f.
+        while lo < hi {
+            let mid = lo + (hi - lo) / 2;
+            if self.point_index(mid) <= k {
+                lo = mid + 1;
+            } else {
+                hi = mid;
+            }
+        }
+        (lo > 0 && self.point_index(lo - 1) == k).then(|| self.random_access_point(lo - 1))
+    }
+
+    /// Segment starts before frame `f` that are not on the interval.
+    fn segments_off_interval(&self, f: u32) -> u32 {
+        let on = |s: u32| self.random_access.is_some_and(|k| s % k == 0);
+        self.segments.iter().filter(|&&s| s < f && !on(s)).count() as u32
     }
 
     /// Whether stream `s` has an access unit at frame `f`.
@@ -477,10 +512,13 @@ impl Header {
 }
 
 /// The last random-access point at or before frame `f` with a point every
-/// `interval` frames (none but frame 0 without one): the one rule the
-/// encoder's plan and [`Header::random_access_point`] share.
-pub fn random_access_point(interval: Option<u32>, f: u32) -> u32 {
-    interval.map_or(0, |k| f - f % k)
+/// `interval` frames (none but frame 0 without one) and at each of
+/// `segments` (sorted): the one rule the encoder's plan and
+/// [`Header::random_access_point`] share.
+pub fn random_access_point(interval: Option<u32>, segments: &[u32], f: u32) -> u32 {
+    let on_interval = interval.map_or(0, |k| f - f % k);
+    let segment = segments.partition_point(|&s| s <= f).checked_sub(1).map_or(0, |i| segments[i]);
+    on_interval.max(segment)
 }
 
 /// The decoder a file was made for (the header's `solver`).

@@ -102,9 +102,8 @@ impl StreamReader {
             return Err(bad("a jump needs the header, the source mesh, the skin and the index first".into()));
         }
         let offset = *file.index.get(point as usize).ok_or_else(|| bad(format!("no random-access point {point}")))?;
-        // An index was given, so the header has an interval.
-        let interval = h.random_access.ok_or_else(|| bad("a jump in a file without random-access points".into()))?;
-        self.frame = point * interval;
+        // An index was given, so the header has random-access points.
+        self.frame = h.point_frame(point).ok_or_else(|| bad(format!("no random-access point {point}")))?;
         (self.slot, self.indexed, self.ended) = (0, false, false);
         self.pending.clear();
         self.consumed = usize::try_from(offset).map_err(|_| bad("an offset past memory".into()))?;
@@ -242,7 +241,7 @@ impl StreamReader {
         }
         let frame = self.frame;
         if self.slot == 0 && chunk.tag == TAG_FRAME && chunk.frame == frame && header.is_random_access_point(frame) {
-            let point = header.random_access.map_or(0, |k| frame / k) as usize;
+            let point = header.point_index(frame) as usize;
             match (self.index_given, file.index.get(point)) {
                 (false, _) => file.index.push(offset as u64),
                 (true, Some(&o)) if o == offset as u64 => {}

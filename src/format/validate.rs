@@ -113,12 +113,26 @@ impl Header {
     /// Random-access points: an interval of at least 1 frame, and each
     /// point a key frame (the key-frame streams restart there too).
     fn validate_random_access(&self) -> Result<(), ContainerError> {
-        let Some(k) = self.random_access else { return Ok(()) };
+        let bad = |m: String| Err(ContainerError::Header(m));
+        let Some(k) = self.random_access else {
+            return match self.segments.is_empty() {
+                true => Ok(()),
+                false => bad("segments in a file without random-access points".into()),
+            };
+        };
         if k == 0 || k > MAX_FRAMES {
-            return Err(ContainerError::Header(format!("random_access {k} is not in 1..={MAX_FRAMES}")));
+            return bad(format!("random_access {k} is not in 1..={MAX_FRAMES}"));
         }
-        if let Some(r) = (0..self.frames).step_by(k as usize).find(|&r| !self.is_key_frame(r)) {
-            return Err(ContainerError::Header(format!("random-access point {r} is not a key frame")));
+        if self.segments.len() > self.frames as usize
+            || self.segments.windows(2).any(|w| w[1] <= w[0])
+            || self.segments.iter().any(|&s| s == 0 || s >= self.frames)
+        {
+            return bad(format!("segments must be increasing frames in 1..{}", self.frames));
+        }
+        let points = (0..self.frames).step_by(k as usize).chain(self.segments.iter().copied());
+        let mut points = points;
+        if let Some(r) = points.find(|&r| !self.is_key_frame(r)) {
+            return bad(format!("random-access point {r} is not a key frame"));
         }
         Ok(())
     }

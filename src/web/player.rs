@@ -228,6 +228,14 @@ impl Player {
         self.reader.header().map_or(0, |h| h.random_access_point(frame.min(h.frames.saturating_sub(1))))
     }
 
+    /// The index of the random-access point at or before `frame` (what
+    /// [`point_bytes`](Self::point_bytes) and [`jump`](Self::jump) take):
+    /// points every `random_access` frames and at each segment's start
+    /// (format version 15).
+    pub fn point_of(&self, frame: u32) -> u32 {
+        self.reader.header().map_or(0, |h| h.point_index(frame.min(h.frames.saturating_sub(1))))
+    }
+
     /// Makes random-access point `frame` the next frame to rebuild, from the
     /// bytes already here: a seek. The page starts its H.264 decoders
     /// again too, since the point's pictures are IDR pictures.

@@ -157,6 +157,13 @@ pub struct Args {
     /// version 10; a motion shorter than two intervals gets none either.
     #[arg(long, value_name = "SECONDS", default_value_t = cgv::codec::DEFAULT_RANDOM_ACCESS)]
     random_access: f32,
+    /// Frames where a new segment starts (format version 15), each a
+    /// random-access point besides those of --random-access: where a
+    /// capture's grid jumps (a new map), the closed loop restarts rather
+    /// than code the jump. `--unregistered` finds them itself where the
+    /// capture's topology changes; give more as `--segments 40,95`.
+    #[arg(long, value_name = "FRAMES", value_delimiter = ',')]
+    segments: Vec<u32>,
     /// normal and predictive: bones as a predictor (format versions 13 and
     /// 14). A skinning decomposition of the motion (rigid bones, four
     /// weights) goes in the file, its weights on a 32 x 32 grid (about 5.4 KB
@@ -225,6 +232,7 @@ fn request(args: &Args) -> EncodeRequest {
         fit_places: args.fit_places,
         random_access: args.random_access,
         bones: args.bones.0,
+        segments: args.segments.clone(),
         ..EncodeOptions::default()
     };
     EncodeRequest {
@@ -280,9 +288,19 @@ fn encode_one(args: &Args) -> Result<()> {
     }
     cgv::output::check_output_folder(output)?;
     // Every option is checked before the motion is read.
-    let request = request(args);
+    let mut request = request(args);
     request.options(input.fps)?;
-    let src = if args.unregistered { registered(args)? } else { input.open()? };
+    let src = match args.unregistered {
+        true => {
+            let (src, found) = registered(args)?;
+            let segments = &mut request.base.segments;
+            segments.extend(found);
+            segments.sort_unstable();
+            segments.dedup();
+            src
+        }
+        false => input.open()?,
+    };
     let pb = super::progress(src.frame_count(), "encoding", args.json);
     let mut progress = |stage: &str, done: usize, _| {
         if done == 1 {
@@ -314,9 +332,10 @@ fn register_grid(args: &Args) -> usize {
     }
 }
 
-/// The unregistered capture `args.input` registered onto the grid, with
-/// what the registration found on stderr.
-fn registered(args: &Args) -> Result<Box<dyn cgv::mesh::FrameSource>> {
+/// The unregistered capture `args.input` registered onto the grid, and
+/// where its segments start (after frame 0), with what the registration
+/// found on stderr.
+fn registered(args: &Args) -> Result<(Box<dyn cgv::mesh::FrameSource>, Vec<u32>)> {
     let dir = std::path::Path::new(&args.input.input);
     let frames = cgv::features::register::read_capture(dir, args.input.frames)?;
     let n = register_grid(args);
@@ -335,7 +354,10 @@ fn registered(args: &Args) -> Result<Box<dyn cgv::mesh::FrameSource>> {
         r.seconds_features,
         r.seconds_maps
     );
-    Ok(Box::new(src))
+    if !r.segments.is_empty() {
+        eprintln!("the topology changes: segments start at frames 0, {}", join(&r.segments));
+    }
+    Ok((Box::new(src), r.segments))
 }
 
 /// The bytes of each part of the file.
@@ -449,4 +471,9 @@ pub(crate) fn parse_bones(s: &str) -> Result<BonesArg, String> {
             .map(|n| BonesArg(Some(n)))
             .map_err(|_| format!("give auto or a count of 0 to 255, not {n}")),
     }
+}
+
+/// Frame numbers as `a, b, c`.
+fn join(frames: &[u32]) -> String {
+    frames.iter().map(u32::to_string).collect::<Vec<_>>().join(", ")
 }

@@ -1,7 +1,7 @@
 //! `cgv info`: what a sequence is and whether it can become a geometry video.
 
 use super::InputArgs;
-use anyhow::Result;
+use anyhow::{Context, Result};
 use cgv::format::StreamName;
 use cgv::mesh::carrier::CarrierReport;
 use cgv::mesh::{analyze, Bounds};
@@ -124,14 +124,24 @@ pub fn run(args: Args) -> Result<()> {
 
 /// `cgv info --unregistered`: the capture's frames, features and tracks.
 fn unregistered_info(args: &Args) -> Result<()> {
-    use cgv::features::register::{read_capture, track_capture};
+    use cgv::features::register::{read_capture, segment_starts, track_capture};
     let dir = std::path::Path::new(&args.input.input);
     let frames = read_capture(dir, args.input.frames)?;
     let sizes: Vec<usize> = frames.iter().map(|f| f.positions.len()).collect();
     let (lo, hi) = (sizes.iter().min().copied().unwrap_or(0), sizes.iter().max().copied().unwrap_or(0));
-    let tracked = track_capture(dir, &frames)?;
-    let seen = tracked.cones_seen();
-    let rate = frames.len() as f64 / tracked.seconds.max(1e-9);
+    // Each segment (of one topology) is tracked on its own, as encode does.
+    let starts = segment_starts(&frames);
+    let ends = starts.iter().skip(1).copied().chain([frames.len()]);
+    let segments: Vec<_> = starts
+        .iter()
+        .zip(ends)
+        .map(|(&a, b)| track_capture(dir, &frames[a..b]).with_context(|| format!("the segment of frames {a}..{b}")))
+        .collect::<Result<_>>()?;
+    let features = segments.iter().map(|t| t.features_per_frame() * t.features.len() as f64).sum::<f64>();
+    let features_per_frame = features / frames.len().max(1) as f64;
+    let tracks: usize = segments.iter().map(|t| t.tracks.len()).sum();
+    let seen: [f64; 4] = std::array::from_fn(|k| segments.iter().map(|t| t.cones_seen()[k]).fold(1.0, f64::min));
+    let rate = frames.len() as f64 / segments.iter().map(|t| t.seconds).sum::<f64>().max(1e-9);
     if args.json {
         let report = serde_json::json!({
             "input": dir,
@@ -139,9 +149,10 @@ fn unregistered_info(args: &Args) -> Result<()> {
             "frames": frames.len(),
             "vertices_min": lo,
             "vertices_max": hi,
-            "features_per_frame": tracked.features_per_frame(),
-            "tracks": tracked.tracks.len(),
+            "features_per_frame": features_per_frame,
+            "tracks": tracks,
             "cones_seen": seen,
+            "segments": starts,
             "frames_per_second": rate,
         });
         println!("{}", serde_json::to_string_pretty(&report)?);
@@ -150,13 +161,17 @@ fn unregistered_info(args: &Args) -> Result<()> {
     println!("{} (unregistered: every frame its own mesh)", dir.display());
     println!("  frames        {} at {} fps", frames.len(), args.input.fps);
     println!("  vertices      {lo} to {hi} a frame");
+    match starts.len() {
+        1 => println!("  segments      1 (the topology never changes)"),
+        n => println!(
+            "  segments      {n}, from frames {} (where the topology changes; each its own map)",
+            starts.iter().map(usize::to_string).collect::<Vec<_>>().join(", ")
+        ),
+    }
+    println!("  features      {features_per_frame:.1} a frame (heat kernel signature maxima), {tracks} tracks");
     println!(
-        "  features      {:.1} a frame (heat kernel signature maxima), {} tracks",
-        tracked.features_per_frame(),
-        tracked.tracks.len()
-    );
-    println!(
-        "  cones         the 4 longest tracks, seen in {} of the frames",
+        "  cones         the 4 longest tracks{}, seen in {} of the frames",
+        if starts.len() > 1 { " of each segment" } else { "" },
         seen.map(|x| format!("{:.0} %", 100.0 * x)).join(" / ")
     );
     println!("  speed         {rate:.1} frames/s (features and tracking)");
@@ -226,6 +241,14 @@ fn cgv_info(args: &Args) -> Result<()> {
             k - 1
         ),
         None => println!("  random access frame 0 only (a seek decodes from the start)"),
+    }
+    if !h.segments.is_empty() {
+        let starts: Vec<String> = h.segments.iter().map(u32::to_string).collect();
+        println!(
+            "  segments      {}, from frames 0, {} (each a random-access point)",
+            starts.len() + 1,
+            starts.join(", ")
+        );
     }
     println!("  anchors       {:?}", h.anchors);
     if let Some(skin) = &h.skin {

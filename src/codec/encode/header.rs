@@ -83,5 +83,6 @@ pub(super) fn header(
         appearance: None,
         random_access: plan.random_access,
         skin: None,
+        segments: plan.segments.clone(),
     }
 }

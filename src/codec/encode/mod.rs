@@ -133,6 +133,11 @@ pub struct EncodeOptions {
     /// at least [`MIN_BONE_FRAMES`] frames. Either way a file keeps them
     /// only where they cut the corrections 4x (`BONE_GAIN`).
     pub bones: Option<u16>,
+    /// Frames where a new segment starts (format version 15): an
+    /// unregistered capture's topology changes there and its grid with
+    /// it, so each is a random-access point (the closed loop restarts
+    /// rather than code the jump). Increasing, in 1..frames.
+    pub segments: Vec<u32>,
 }
 
 impl Default for EncodeOptions {
@@ -158,6 +163,7 @@ impl Default for EncodeOptions {
             fit_places: false,
             random_access: DEFAULT_RANDOM_ACCESS,
             bones: None,
+            segments: Vec::new(),
         }
     }
 }

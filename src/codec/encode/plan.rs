@@ -5,7 +5,7 @@
 
 use super::EncodeOptions;
 use crate::codec::corrections::Layout;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::format::stream::{CORRECTION, POSITION, SEED};
 use crate::format::{self, CodecKind, Coverage, StreamName};
 use crate::grid::{coarse, Grid};
@@ -34,6 +34,8 @@ pub(super) struct Plan {
     /// A random-access point every this many frames (none but frame 0
     /// when absent).
     pub random_access: Option<u32>,
+    /// Random-access points besides the interval's, where segments start.
+    pub segments: Vec<u32>,
 }
 
 impl Plan {
@@ -58,7 +60,19 @@ impl Plan {
             allowed: if motion { MOTION_EXTRAPOLATIONS } else { &ALL_EXTRAPOLATIONS },
             layout: correction_layout(opts)?,
             random_access: random_access_interval(opts.random_access, fps, frames),
+            segments: opts.segments.clone(),
         };
+        let bad_segment = opts.segments.windows(2).any(|w| w[1] <= w[0]);
+        if bad_segment || opts.segments.iter().any(|&s| s == 0 || s as usize >= frames) {
+            return Err(Error::Argument(format!(
+                "segments {:?} must be increasing frames in 1..{frames}",
+                opts.segments
+            )));
+        }
+        // Segments need the index of points: one at frame 0 at least.
+        if !plan.segments.is_empty() && plan.random_access.is_none() {
+            plan.random_access = Some(frames as u32);
+        }
         // Every random-access point is a key frame, and the key frames'
         // rhythm starts again at each.
         plan.key_frames = match (interval, motion) {
@@ -107,7 +121,7 @@ impl Plan {
 
     /// The last random-access point at or before frame `f`.
     pub fn rap(&self, f: usize) -> usize {
-        format::random_access_point(self.random_access, f as u32) as usize
+        format::random_access_point(self.random_access, &self.segments, f as u32) as usize
     }
 
     /// Whether frame `f` is a random-access point.
