@@ -234,7 +234,10 @@ fn encode_info_and_decode_motion_corrections() {
     assert!(text.contains("random access frame 0 only"), "{text}");
     let info = cgv(&["info", f.to_str().unwrap(), "--json"]);
     let v: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
-    assert_eq!((v["version"].as_u64(), v["header"]["corrections"].as_str()), (Some(cgv::format::VERSION as u64), Some("motion")));
+    assert_eq!(
+        (v["version"].as_u64(), v["header"]["corrections"].as_str()),
+        (Some(cgv::format::VERSION as u64), Some("motion"))
+    );
     assert_eq!(v["filters"].as_array().map(Vec::len), Some(8));
     // At a coarse QP the encoder filters corrections, and info says so;
     // --no-correction-filter leaves every frame's filter at 0.

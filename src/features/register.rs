@@ -139,17 +139,34 @@ pub fn track_features(label: &Path, features: Vec<Vec<Feature>>, diagonal: f32) 
 }
 
 /// Where a capture's segments start: frame 0, and each frame whose
-/// topology (Euler characteristic, parts, holes) differs from the frame
-/// before (an arm that touches the body, a part that appears). No map
-/// carries over such a change, so each segment is registered on its own.
+/// topology (Euler characteristic, parts, holes) differs from the
+/// segment's and stays so for [`SEGMENT_FRAMES`] frames (an arm that
+/// touches the body, a part that appears). No map carries over such a
+/// change, so each segment is registered on its own. A frame that is not
+/// a manifold (a simplifier's pinched edge) has no say: its counts mean
+/// nothing.
 pub fn segment_starts(frames: &[CaptureFrame]) -> Vec<usize> {
     let class = |f: &CaptureFrame| {
         let r = analyze(&Topology { vertex_count: f.positions.len(), faces: f.faces.clone() }, &f.positions);
-        (r.euler_characteristic, r.components, r.boundary_loops)
+        let manifold = r.non_manifold_edges == 0 && r.non_manifold_vertices == 0;
+        manifold.then_some((r.euler_characteristic, r.components, r.boundary_loops))
     };
     let classes: Vec<_> = frames.par_iter().map(class).collect();
-    (0..frames.len()).filter(|&t| t == 0 || classes[t] != classes[t - 1]).collect()
+    let mut starts = vec![0];
+    let mut current = classes.iter().flatten().next().copied();
+    for t in 1..frames.len() {
+        let Some(c) = classes[t] else { continue };
+        let lasting = classes[t..frames.len().min(t + SEGMENT_FRAMES)].iter().all(|k| k.is_none_or(|k| k == c));
+        if current.is_some_and(|cur| cur != c) && lasting {
+            starts.push(t);
+            current = Some(c);
+        }
+    }
+    starts
 }
+
+/// Frames a new topology must last to start a segment.
+pub const SEGMENT_FRAMES: usize = 3;
 
 /// The capture `frames` (named `label`) on `grid`: each frame's grid
 /// positions, as a motion on the grid's own mesh, and the report. A
