@@ -502,9 +502,24 @@ fn page_frame_error(browser: &Browser, f: usize, native: &[Vec<glam::Vec3>]) -> 
 /// point every 10 frames, written to `path`: its bytes, the native decoder's
 /// frames, and the diagonal.
 fn motion_file(path: &Path, frames: usize, n: usize) -> (Vec<u8>, Vec<Vec<glam::Vec3>>, f64) {
+    motion_file_with_segments(path, frames, n, &[])
+}
+
+/// [`motion_file`] with segments starting at `segments` (format version 15).
+fn motion_file_with_segments(
+    path: &Path,
+    frames: usize,
+    n: usize,
+    segments: &[u32],
+) -> (Vec<u8>, Vec<Vec<glam::Vec3>>, f64) {
     let src = cgv::mesh::builtin::motion(frames);
-    let opts =
-        cgv::codec::EncodeOptions { grid: n, source_mesh: false, random_access: 10.0 / 30.0, ..Default::default() };
+    let opts = cgv::codec::EncodeOptions {
+        grid: n,
+        source_mesh: false,
+        random_access: 10.0 / 30.0,
+        segments: segments.to_vec(),
+        ..Default::default()
+    };
     let (bytes, _) = cgv::codec::encode(&src, &opts, &mut |_, _, _| {}).unwrap();
     std::fs::write(path, &bytes).unwrap();
     let file = cgv::format::read(&bytes).unwrap();
@@ -626,9 +641,11 @@ fn the_player_fetches_only_the_points_it_needs_by_range_requests() {
     // Issue 19: from a server that answers range requests (cgv serve), a
     // version-10 file is fetched in pieces: header, index, the first
     // point's frames, then the points a seek needs; from one that does not
-    // (Python's http.server), whole. Both land on the native frames.
+    // (Python's http.server), whole. Both land on the native frames. The
+    // file has a segment from frame 53 (version 15): points 0, 10, ..., 50
+    // and 53, so a seek to 55 needs point 6.
     let (dir, _server, port) = site("ranged");
-    let (bytes, native, diag) = motion_file(&dir.join("ranged.cgv"), 60, 32);
+    let (bytes, native, diag) = motion_file_with_segments(&dir.join("ranged.cgv"), 60, 32, &[53]);
     std::fs::write(dir.join("ranged.html"), RANGE_PAGE).unwrap();
     let py_port = free_port();
     let _python = Command::new("python3")
@@ -654,7 +671,7 @@ fn the_player_fetches_only_the_points_it_needs_by_range_requests() {
     let first = state(&browser);
     assert_eq!(first[0], json!(true), "range requests were not used: {first}");
     assert!(first[1].as_u64().unwrap() < bytes.len() as u64 / 2, "{first} of {} bytes", bytes.len());
-    for (f, fetched, not) in [(55usize, 5u64, 3u64), (25, 2, 4)] {
+    for (f, fetched, not) in [(55usize, 6u64, 3u64), (25, 2, 4)] {
         browser.js(&format!("{p} p.pause(); window.log = []; p.currentTime = {f} / 30; return true;"), json!([]));
         browser.wait(&format!("the seek to frame {f}"), "return window.log.includes('seeked');", 60);
         assert!(page_frame_error(&browser, f, &native) <= 1e-4 * diag, "frame {f}");

@@ -262,12 +262,11 @@ export class MotionStream extends EventTarget {
   _nextPoint() {
     const h = this.header, K = h.random_access;
     const from = this.seekTo ?? this.current;
-    const horizon = (this.window || 8) + K;
-    // Points lie every K frames and where segments start (format version
-    // 15), so each frame's point is asked of the file; a step of one
-    // frame past a segment's start finds the point there too.
-    const steps = h.segments && h.segments.length ? 1 : K;
-    for (let d = 0; d <= horizon; d += steps) {
+    // Points lie every K frames, and (format version 15) where segments
+    // start: there every frame of the window is asked for its point.
+    const segments = h.segments && h.segments.length > 0;
+    const horizon = (this.window || 8) + (segments ? 0 : K), step = segments ? 1 : K;
+    for (let d = 0; d <= horizon; d += step) {
       let f = from + d;
       // Looping, the window may wrap more than once on a motion shorter
       // than it (8 frames against a window of 8 + K).
