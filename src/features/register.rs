@@ -204,10 +204,7 @@ pub fn register_tracked(
     mut tracked: Tracked,
     grid: Grid,
 ) -> Result<(InMemory, RegisterReport)> {
-    if frames.is_empty() {
-        return Err(Error::Argument(format!("{}: a capture without frames", label.display())));
-    }
-    if tracked.features.len() != frames.len() {
+    if frames.is_empty() || tracked.features.len() != frames.len() {
         return Err(Error::Argument(format!(
             "{}: features of {} frames for a capture of {}",
             label.display(),
@@ -258,21 +255,7 @@ pub fn register_tracked(
             }
         }
     }
-    let (mut turned, mut unmatched) = (0, 0);
-    let mut positions = Vec::with_capacity(mapped.len());
-    for m in mapped {
-        match symmetry_between(&m.sides, &reference) {
-            Some(s) if s == IDENTITY => positions.push(m.grid),
-            Some(s) => {
-                turned += 1;
-                positions.push(apply_symmetry(grid, &m.grid, s));
-            }
-            None => {
-                unmatched += 1;
-                positions.push(m.grid);
-            }
-        }
-    }
+    let (positions, turned, unmatched) = turned_back(grid, mapped, &reference);
     let report = RegisterReport {
         frames: frames.len(),
         features_per_frame: tracked.features_per_frame(),
@@ -287,6 +270,28 @@ pub fn register_tracked(
     };
     let source = InMemory { label: PathBuf::from(label), fps, topology: grid.topology(), frames: positions };
     Ok((source, report))
+}
+
+/// Each frame's grid turned so that its cones sit on `reference`'s sides,
+/// and how many frames were turned and how many no turn matches (left as
+/// they are).
+fn turned_back(grid: Grid, mapped: Vec<Mapped>, reference: &[usize; 4]) -> (Vec<Vec<Vec3>>, usize, usize) {
+    let (mut turned, mut unmatched) = (0, 0);
+    let mut positions = Vec::with_capacity(mapped.len());
+    for m in mapped {
+        match symmetry_between(&m.sides, reference) {
+            Some(s) if s == IDENTITY => positions.push(m.grid),
+            Some(s) => {
+                turned += 1;
+                positions.push(apply_symmetry(grid, &m.grid, s));
+            }
+            None => {
+                unmatched += 1;
+                positions.push(m.grid);
+            }
+        }
+    }
+    (positions, turned, unmatched)
 }
 
 /// The four tracks seen in the most frames (among equals, the earliest,
