@@ -98,9 +98,11 @@ pub struct Args {
     /// INPUT is a folder of OBJ frames that are each their own mesh (a
     /// capture without correspondence): features are found on every frame
     /// (heat kernel signature maxima), tracked, and every frame mapped onto
-    /// the grid with four tracked features as its cones, so that the grid
-    /// follows the body; what decodes is that registered grid mesh (no
-    /// source mesh). The grid is --grid's N, 128 for auto.
+    /// the grid with four tracked features as its cones and its cut where
+    /// the last frame's ran, so that the grid follows the body; what
+    /// decodes is that registered grid mesh (no source mesh). Where the
+    /// topology changes, a new segment starts (see --segments). The grid is
+    /// --grid's N, 128 for auto.
     #[arg(long)]
     unregistered: bool,
     /// Store each input vertex's place where the grid follows it best over
