@@ -240,6 +240,11 @@ fn unregistered_against_registered() {
     // large drift is a track that jumped to another limb; swim without
     // drift is the map's doing.
     let tracked = track_capture(&dir, &capture).unwrap();
+    let gaps = report.cone_tracks.map(|k| {
+        let seen = &tracked.tracks[k].seen;
+        (0..seen.len()).filter(|&t| seen[t].is_none()).collect::<Vec<_>>()
+    });
+    println!("frames each cone's track misses: {gaps:?}");
     let cone_at = |t: usize| {
         report.cone_tracks.map(|k| {
             let p = cgv::features::track::place(&tracked.tracks[k], &tracked.features, t).unwrap();

@@ -95,6 +95,30 @@ impl CutTrace {
         CutTrace { pull: self.pull * pull, ..self.clone() }
     }
 
+    /// `cones` with each one not `seen` (its track missed this frame, so
+    /// it sits where the sightings around it were, in space: off the body
+    /// when a limb swings) moved to the vertex whose geodesic distances to
+    /// the seen cones are nearest the traced cone's. Needs two seen cones.
+    pub fn cones_in(&self, graph: &Graph, cones: [u32; 4], seen: [bool; 4], diagonal: f64) -> [u32; 4] {
+        if seen.iter().filter(|&&s| s).count() < 2 || seen.iter().all(|&s| s) {
+            return cones;
+        }
+        let free = vec![false; graph.vertex_count()];
+        let seen_from: Vec<(usize, Vec<f64>)> =
+            (0..4).filter(|&j| seen[j]).map(|j| (j, graph.dijkstra(cones[j], &free).0)).collect();
+        let mut out = cones;
+        for k in (0..4).filter(|&k| !seen[k]) {
+            let Some(was) = self.paths[k].last() else { continue };
+            let miss = |v: usize| seen_from.iter().map(|(j, d)| (d[v] / diagonal - was[*j]).powi(2)).sum::<f64>();
+            let free_vertex = |v: &usize| !out.contains(&(*v as u32));
+            if let Some(v) = (0..graph.vertex_count()).filter(free_vertex).min_by(|&a, &b| miss(a).total_cmp(&miss(b)))
+            {
+                out[k] = v as u32;
+            }
+        }
+        out
+    }
+
     /// The vertex (not one of `cones`) nearest the traced corner.
     pub fn corner_in(&self, sig: &[Signature], cones: &[u32; 4]) -> Option<u32> {
         (0..sig.len() as u32)
@@ -133,7 +157,7 @@ mod tests {
     use super::*;
 
     /// On a strip of squares, signatures are distances along it, and a
-    /// trace of one vertex finds the same vertex again on a copy.
+    /// trace finds its corner and a missed cone again.
     #[test]
     fn a_traced_corner_is_found_again() {
         // A 6 x 2 ladder of vertices: v = 2 i + j at (i, j).
@@ -144,11 +168,14 @@ mod tests {
         let cones = [0, 1, 10, 11];
         let sig = signatures(&graph, cones, 1.0);
         assert_eq!(sig[4][0], 2.0);
-        let paths = [vec![5, 3, 1], vec![5, 4, 2, 0], vec![5, 7, 9, 11], vec![5, 6, 8, 10]];
+        let paths = [vec![5, 4, 2, 0], vec![5, 3, 1], vec![5, 6, 8, 10], vec![5, 7, 9, 11]];
         let trace = CutTrace::of(&sig, 5, &paths, [0, 1, 2, 3]);
         assert_eq!(trace.corner_in(&sig, &cones), Some(5));
+        // A cone its track missed, put at vertex 4, goes back where the
+        // trace's was (10) by its distances to the three seen.
+        assert_eq!(trace.cones_in(&graph, [0, 1, 4, 11], [true, true, false, true], 1.0), cones);
         let away = trace.guide(&sig).away;
-        assert_eq!(away[0][3], 0.0);
-        assert!(away[0][8] > away[0][4]);
+        assert_eq!(away[0][2], 0.0);
+        assert!(away[0][9] > away[0][3]);
     }
 }

@@ -214,8 +214,12 @@ pub fn register_tracked(
     }
     let t1 = std::time::Instant::now();
     tracked.cones = best_cones(label, &frames[0], &tracked, grid)?;
-    let cones_at =
-        |t: usize| tracked.cones.map(|k| place(&tracked.tracks[k], &tracked.features, t).unwrap_or(Vec3::ZERO));
+    let cones_at = |t: usize| {
+        tracked.cones.map(|k| {
+            let track = &tracked.tracks[k];
+            (place(track, &tracked.features, t).unwrap_or(Vec3::ZERO), track.seen[t].is_some())
+        })
+    };
     // Each frame's cut follows the previous frame's (its corner nearest
     // that corner, its paths pulled towards those paths), so that the
     // paths keep going the same way round the body: shortest paths alone
@@ -380,7 +384,7 @@ fn best_cones(label: &Path, first: &CaptureFrame, tracked: &Tracked, grid: Grid)
     }
     sets.truncate(CONE_SETS);
     let score = |set: &[usize; 4]| -> Option<f64> {
-        let at = set.map(|k| place(&tracked.tracks[k], &tracked.features, 0).unwrap_or(Vec3::ZERO));
+        let at = set.map(|k| (place(&tracked.tracks[k], &tracked.features, 0).unwrap_or(Vec3::ZERO), true));
         let g = map_frame(label, first, &at, None, grid).ok()?.grid;
         let d = crate::metrics::surface::symmetric(&first.positions, &first.faces, &g, &grid.topology().faces).ok()?;
         Some(d.rms)
@@ -398,8 +402,9 @@ fn map_with_cones(
     carrier: &mut Carrier,
     frame: &[Vec3],
     cones: [u32; 4],
+    seen: [bool; 4],
     trace: Option<&CutTrace>,
-) -> Result<(Parameterization, CutTrace)> {
+) -> Result<(Parameterization, CutTrace, [u32; 4])> {
     let mut tries = 0;
     loop {
         let positions = carrier.positions(frame);
@@ -407,6 +412,7 @@ fn map_with_cones(
         let pos: Vec<DVec3> = positions.iter().map(|p| p.as_dvec3()).collect();
         let graph = Graph::new(nv, &carrier.topology.faces, &pos);
         let diagonal = Bounds::of(&positions).diagonal().max(f32::MIN_POSITIVE) as f64;
+        let cones = trace.map_or(cones, |t| t.cones_in(&graph, cones, seen, diagonal));
         let sig = follow::signatures(&graph, cones, diagonal);
         let corner = match trace.and_then(|t| t.corner_in(&sig, &cones)) {
             Some(c) => c,
@@ -433,27 +439,28 @@ fn map_with_cones(
                 }
                 let sides = param.cones.map(|v| cones.iter().position(|&c| c == v).unwrap_or(0));
                 let traced = CutTrace::of(&sig, param.corner, &paths, sides);
-                return Ok((param, traced));
+                return Ok((param, traced, cones));
             }
         }
         tries += 1;
     }
 }
 
-/// One frame mapped with its cones nearest `at` and its cut where
-/// `trace`'s ran, if given.
+/// One frame mapped with its cones nearest `at` (each place, and whether
+/// its track saw the cone there) and its cut where `trace`'s ran, if given.
 fn map_frame(
     label: &Path,
     frame: &CaptureFrame,
-    at: &[Vec3; 4],
+    at: &[(Vec3, bool); 4],
     trace: Option<&CutTrace>,
     grid: Grid,
 ) -> Result<Mapped> {
     let topology = Topology { vertex_count: frame.positions.len(), faces: frame.faces.clone() };
     let mut carrier = Carrier::build(label, &topology, &frame.positions)?;
     let positions = carrier.positions(&frame.positions);
-    let cones = at.map(|p| nearest(&positions, p).unwrap_or(0));
-    let (param, trace) = map_with_cones(&mut carrier, &frame.positions, cones, trace)?;
+    let cones = at.map(|(p, _)| nearest(&positions, p).unwrap_or(0));
+    let seen = at.map(|(_, seen)| seen);
+    let (param, trace, cones) = map_with_cones(&mut carrier, &frame.positions, cones, seen, trace)?;
     let map = SampleMap::on_carrier(grid, &carrier, &param)?;
     let sides = param.cones.map(|v| cones.iter().position(|&c| c == v).unwrap_or(0));
     Ok(Mapped { grid: map.apply(&frame.positions), sides, trace })
