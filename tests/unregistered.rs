@@ -305,13 +305,22 @@ fn the_commands_make_report_and_code_a_capture() {
     assert_eq!(report["frames"], 8);
     assert!(report["vertices_min"].as_u64() < report["vertices_max"].as_u64(), "{report}");
     assert!(report["cones_seen"].as_array().unwrap().iter().all(|x| x.as_f64() == Some(1.0)), "{report}");
+    assert_eq!(report["segments"], serde_json::json!([0]), "one topology: one segment");
     let file = dir.join("capture.cgv");
     let plain = cgv(&["encode", capture_s, "--grid", "32", "-o", file.to_str().unwrap()]);
     assert!(!plain.status.success() && String::from_utf8_lossy(&plain.stderr).contains("--unregistered"));
     assert!(!file.exists());
-    let coded = cgv(&["encode", capture_s, "--unregistered", "--grid", "32", "-o", file.to_str().unwrap()]);
+    let past =
+        cgv(&["encode", capture_s, "--unregistered", "--grid", "32", "--segments", "8", "-o", file.to_str().unwrap()]);
+    assert!(!past.status.success() && String::from_utf8_lossy(&past.stderr).contains("segments"));
+    assert!(!file.exists());
+    // A segment asked for at frame 4: a random-access point there.
+    let args = ["encode", capture_s, "--unregistered", "--grid", "32", "--segments", "4", "-o", file.to_str().unwrap()];
+    let coded = cgv(&args);
     assert!(coded.status.success(), "{}", String::from_utf8_lossy(&coded.stderr));
     assert!(String::from_utf8_lossy(&coded.stderr).contains("registered 8 frames"));
+    let info = String::from_utf8_lossy(&cgv(&["info", file.to_str().unwrap()]).stdout).to_string();
+    assert!(info.contains("segments      2, from frames 0, 4"), "{info}");
     let glb = dir.join("capture.glb");
     let decoded = cgv(&["decode", file.to_str().unwrap(), "-o", glb.to_str().unwrap()]);
     assert!(decoded.status.success(), "{}", String::from_utf8_lossy(&decoded.stderr));
