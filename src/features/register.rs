@@ -165,6 +165,13 @@ pub fn segment_starts(frames: &[CaptureFrame]) -> Vec<usize> {
     starts
 }
 
+/// The frames of each segment ([`segment_starts`]), in order.
+pub fn segment_ranges(frames: &[CaptureFrame]) -> Vec<std::ops::Range<usize>> {
+    let starts = segment_starts(frames);
+    let ends = starts.iter().skip(1).copied().chain([frames.len()]);
+    starts.iter().zip(ends).map(|(&a, b)| a..b).collect()
+}
+
 /// Frames a new topology must last to start a segment.
 pub const SEGMENT_FRAMES: usize = 3;
 
@@ -173,12 +180,11 @@ pub const SEGMENT_FRAMES: usize = 3;
 /// capture whose topology changes is registered segment by segment
 /// ([`segment_starts`]), each with its own tracks and map.
 pub fn register(label: &Path, fps: f32, frames: &[CaptureFrame], grid: Grid) -> Result<(InMemory, RegisterReport)> {
-    let starts = segment_starts(frames);
+    let segments = segment_ranges(frames);
     let mut out: Option<(InMemory, RegisterReport)> = None;
-    for (i, &a) in starts.iter().enumerate() {
-        let b = starts.get(i + 1).copied().unwrap_or(frames.len());
+    for (a, b) in segments.iter().map(|r| (r.start, r.end)) {
         let part = &frames[a..b];
-        let in_segment = |e: Error| match starts.len() {
+        let in_segment = |e: Error| match segments.len() {
             1 => e,
             _ => Error::Argument(format!("the segment of frames {a}..{b}: {e}")),
         };
@@ -394,8 +400,10 @@ fn best_cones(label: &Path, first: &CaptureFrame, tracked: &Tracked, grid: Grid)
 }
 
 /// The carrier's map with `cones` and, if `trace` is given, its cut where
-/// the trace's ran (else the corner is the vertex farthest from the cones,
-/// the paths shortest), and the new map's trace. A carrier too coarse for
+/// the trace's ran and its missed cones where the trace had them (else the
+/// corner is where the paths leave furthest apart, [`follow::open_corner`],
+/// the paths shortest), the new map's trace and the cones it used. A
+/// carrier too coarse for
 /// the cones' paths to be cut apart is made finer, twice at most, as the
 /// encoder does (`crate::geometry_image`).
 fn map_with_cones(

@@ -521,6 +521,16 @@ pub fn random_access_point(interval: Option<u32>, segments: &[u32], f: u32) -> u
     on_interval.max(segment)
 }
 
+/// Checks segment starts against a motion of `frames` frames: increasing,
+/// each in 1..frames (the header's rule, which the encoder's plan asks
+/// first).
+pub fn check_segments(segments: &[u32], frames: u32) -> Result<(), String> {
+    if segments.windows(2).any(|w| w[1] <= w[0]) || segments.iter().any(|&s| s == 0 || s >= frames) {
+        return Err(format!("segments {segments:?} must be increasing frames in 1..{frames}"));
+    }
+    Ok(())
+}
+
 /// The decoder a file was made for (the header's `solver`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
 pub enum SolverKind {

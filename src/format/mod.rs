@@ -56,8 +56,8 @@ pub mod writer;
 
 pub use appearance::{Appearance, AppearanceInfo, TextureInfo};
 pub use header::{
-    random_access_point, CodecKind, CorrectionMode, Coverage, FrameInfo, Header, Representation, Settings, SolverKind,
-    SourceInfo, StreamInfo, MAX_FILTER, MAX_RELAX, MAX_SHRINK, SEAM_RULE,
+    check_segments, random_access_point, CodecKind, CorrectionMode, Coverage, FrameInfo, Header, Representation,
+    Settings, SolverKind, SourceInfo, StreamInfo, MAX_FILTER, MAX_RELAX, MAX_SHRINK, SEAM_RULE,
 };
 pub use loose::LooseFrame;
 pub use predictor::{Extrapolation, PredictorCode, MAX_PREDICTOR, MAX_STEPS};

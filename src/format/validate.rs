@@ -123,14 +123,8 @@ impl Header {
         if k == 0 || k > MAX_FRAMES {
             return bad(format!("random_access {k} is not in 1..={MAX_FRAMES}"));
         }
-        if self.segments.len() > self.frames as usize
-            || self.segments.windows(2).any(|w| w[1] <= w[0])
-            || self.segments.iter().any(|&s| s == 0 || s >= self.frames)
-        {
-            return bad(format!("segments must be increasing frames in 1..{}", self.frames));
-        }
-        let points = (0..self.frames).step_by(k as usize).chain(self.segments.iter().copied());
-        let mut points = points;
+        super::check_segments(&self.segments, self.frames).map_err(ContainerError::Header)?;
+        let mut points = (0..self.frames).step_by(k as usize).chain(self.segments.iter().copied());
         if let Some(r) = points.find(|&r| !self.is_key_frame(r)) {
             return bad(format!("random-access point {r} is not a key frame"));
         }

@@ -124,18 +124,17 @@ pub fn run(args: Args) -> Result<()> {
 
 /// `cgv info --unregistered`: the capture's frames, features and tracks.
 fn unregistered_info(args: &Args) -> Result<()> {
-    use cgv::features::register::{read_capture, segment_starts, track_capture};
+    use cgv::features::register::{read_capture, segment_ranges, track_capture};
     let dir = std::path::Path::new(&args.input.input);
     let frames = read_capture(dir, args.input.frames)?;
     let sizes: Vec<usize> = frames.iter().map(|f| f.positions.len()).collect();
     let (lo, hi) = (sizes.iter().min().copied().unwrap_or(0), sizes.iter().max().copied().unwrap_or(0));
     // Each segment (of one topology) is tracked on its own, as encode does.
-    let starts = segment_starts(&frames);
-    let ends = starts.iter().skip(1).copied().chain([frames.len()]);
-    let segments: Vec<_> = starts
+    let ranges = segment_ranges(&frames);
+    let starts: Vec<usize> = ranges.iter().map(|r| r.start).collect();
+    let segments: Vec<_> = ranges
         .iter()
-        .zip(ends)
-        .map(|(&a, b)| track_capture(dir, &frames[a..b]).with_context(|| format!("the segment of frames {a}..{b}")))
+        .map(|r| track_capture(dir, &frames[r.clone()]).with_context(|| format!("the segment of frames {r:?}")))
         .collect::<Result<_>>()?;
     let features = segments.iter().map(|t| t.features_per_frame() * t.features.len() as f64).sum::<f64>();
     let features_per_frame = features / frames.len().max(1) as f64;

@@ -62,13 +62,8 @@ impl Plan {
             random_access: random_access_interval(opts.random_access, fps, frames),
             segments: opts.segments.clone(),
         };
-        let bad_segment = opts.segments.windows(2).any(|w| w[1] <= w[0]);
-        if bad_segment || opts.segments.iter().any(|&s| s == 0 || s as usize >= frames) {
-            return Err(Error::Argument(format!(
-                "segments {:?} must be increasing frames in 1..{frames}",
-                opts.segments
-            )));
-        }
+        let frame_count = u32::try_from(frames).unwrap_or(u32::MAX);
+        format::check_segments(&opts.segments, frame_count).map_err(Error::Argument)?;
         // Segments need the index of points: one at frame 0 at least.
         if !plan.segments.is_empty() && plan.random_access.is_none() {
             plan.random_access = Some(frames as u32);
