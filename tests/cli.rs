@@ -808,6 +808,28 @@ fn skin_writes_a_valid_skinned_gltf_and_reports_its_error() {
     assert!(!out.status.success() && stderr(&out).contains("--bones") && !bad.exists());
 }
 
+/// `cgv skin --affine`: affine bones are reported (error and compact size,
+/// below the rigid fit's error on the same bones) but written nowhere,
+/// since glTF joints cannot shear: asking for a GLB with them is refused.
+#[test]
+fn skin_affine_reports_without_a_gltf() {
+    let dir = common::temp_dir("cli-skin-affine");
+    let args = ["skin", "builtin:walk", "--frames", "0..24", "--bones", "12", "--json", "--surface-every", "0"];
+    let glb = dir.join("rigid.glb");
+    let rigid = cgv(&[&args[..], &["-o", glb.to_str().unwrap()]].concat());
+    let affine = cgv(&[&args[..], &["--affine"]].concat());
+    assert!(rigid.status.success() && affine.status.success(), "{}", stderr(&affine));
+    let (r, a): (serde_json::Value, serde_json::Value) =
+        (serde_json::from_slice(&rigid.stdout).unwrap(), serde_json::from_slice(&affine.stdout).unwrap());
+    eprintln!("walk, 12 bones, vertex RMS of the diagonal: rigid {}, affine {}", r["vertex_rms"], a["vertex_rms"]);
+    assert!(a["affine"] == true && a["glb_bytes"].is_null(), "{a}");
+    assert!(a["vertex_rms"].as_f64().unwrap() < r["vertex_rms"].as_f64().unwrap(), "{a} against {r}");
+    assert_eq!(a["compact_bits_per_vertex_frame"], r["compact_bits_per_vertex_frame"]);
+    let bad = dir.join("affine.glb");
+    let out = cgv(&["skin", "builtin:walk", "--affine", "-o", bad.to_str().unwrap()]);
+    assert!(!out.status.success() && stderr(&out).contains("--affine") && !bad.exists(), "{}", stderr(&out));
+}
+
 /// `cgv skin --target-error`: the fewest bones of the ladder within the
 /// target; each count tried is reported, the errors falling; a target no
 /// count meets is reported unmet, not hidden; it cannot go with --bones.

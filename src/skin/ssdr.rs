@@ -31,11 +31,15 @@ pub struct SkinOptions {
     pub iterations: usize,
     /// The frame that is the rest pose.
     pub rest: usize,
+    /// Affine bones (any 3 x 3 matrix and a translation a frame) instead of
+    /// rigid ones: less error for the same count, but glTF's joints cannot
+    /// play them (they shear).
+    pub affine: bool,
 }
 
 impl Default for SkinOptions {
     fn default() -> Self {
-        SkinOptions { bones: 32, iterations: 20, rest: 0 }
+        SkinOptions { bones: 32, iterations: 20, rest: 0, affine: false }
     }
 }
 
@@ -66,7 +70,7 @@ pub fn decompose(
     let mut skin = cluster(frames, rest, opts.bones);
     for it in 0..opts.iterations {
         skin.influences = update_weights(frames, &skin, &neighbours);
-        skin.transforms = update_transforms(frames, &skin);
+        skin.transforms = update_transforms(frames, &skin, opts.affine);
         report(it + 1, rms(frames, &skin));
     }
     Ok(skin)
@@ -122,7 +126,7 @@ fn cluster(frames: &[Vec<Vec3>], rest: &[Vec3], bones: usize) -> Skinning {
         reseed_empty(&mut label, bones, rest);
     }
     let mut skin = single(rest, &label, bones, frames);
-    skin.transforms = update_transforms(frames, &skin);
+    skin.transforms = update_transforms(frames, &skin, false);
     skin
 }
 
@@ -239,7 +243,7 @@ fn vertex_weights(frames: &[Vec<Vec3>], skin: &Skinning, v: usize, cand: &[u16])
 
 /// SSDR's transform update: in each frame (in parallel), each bone in turn
 /// fitted rigidly to what the other bones leave of its vertices.
-fn update_transforms(frames: &[Vec<Vec3>], skin: &Skinning) -> Vec<Vec<Rigid>> {
+fn update_transforms(frames: &[Vec<Vec3>], skin: &Skinning, affine: bool) -> Vec<Vec<Rigid>> {
     let mut members: Vec<Vec<(usize, f32)>> = vec![Vec::new(); skin.bones];
     for (v, inf) in skin.influences.iter().enumerate() {
         for &(b, w) in inf.iter().filter(|i| i.1 > 0.0) {
@@ -256,7 +260,11 @@ fn update_transforms(frames: &[Vec<Vec3>], skin: &Skinning) -> Vec<Vec<Rigid>> {
             for (b, group) in members.iter().enumerate().filter(|(_, g)| !g.is_empty()) {
                 let old = m[b];
                 let q = |&(v, w): &(usize, f32)| (rest[v], residual[v] + w * old.apply(rest[v]), w);
-                m[b] = procrustes::fit(group.iter().map(q));
+                m[b] = if affine {
+                    procrustes::fit_affine(group.iter().map(q))
+                } else {
+                    procrustes::fit(group.iter().map(q))
+                };
                 for &(v, w) in group {
                     residual[v] += w * (old.apply(rest[v]) - m[b].apply(rest[v]));
                 }

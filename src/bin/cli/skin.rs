@@ -15,8 +15,14 @@ pub struct Args {
     input: InputArgs,
     /// Output skinned glTF (.glb): the first frame as the rest mesh, one
     /// joint per bone animated by translation and rotation tracks.
-    #[arg(short, long)]
-    output: PathBuf,
+    #[arg(short, long, required_unless_present = "affine", conflicts_with = "affine")]
+    output: Option<PathBuf>,
+    /// Fit affine bones (any 3 x 3 matrix a bone a frame, as the skinning
+    /// literature's published decompositions are) and report their error
+    /// and compact size only: glTF joints cannot shear, so no GLB is
+    /// written.
+    #[arg(long)]
+    affine: bool,
     /// Bones (4 to 255). More bones, less error, more bits: 16 to 32 suit
     /// a body, a few more a body with a face or hands.
     #[arg(long, default_value_t = SkinOptions::default().bones)]
@@ -57,8 +63,11 @@ struct Report {
     /// Bits per vertex per frame: the compact form (16-bit 3 x 4 matrices,
     /// 8-bit bone and weight pairs; rest mesh not counted), and the GLB.
     compact_bits_per_vertex_frame: f64,
-    glb_bytes: u64,
-    glb_bits_per_vertex_frame: f64,
+    /// The GLB's size (none with --affine: no GLB).
+    glb_bytes: Option<u64>,
+    glb_bits_per_vertex_frame: Option<f64>,
+    /// Affine bones instead of rigid ones.
+    affine: bool,
     seconds_decompose: f64,
     /// With --target-error: each bone count fitted, and whether one met it.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -74,17 +83,19 @@ struct Target {
 }
 
 pub fn run(args: Args) -> Result<()> {
-    if !super::is_glb(&args.output) {
-        bail!("{}: the output should end in .glb", args.output.display());
+    if let Some(output) = &args.output {
+        if !super::is_glb(output) {
+            bail!("{}: the output should end in .glb", output.display());
+        }
+        cgv::output::check_output_folder(output)?;
     }
-    cgv::output::check_output_folder(&args.output)?;
     if !(4..=255).contains(&args.bones) {
         bail!("--bones {}: a skinned glTF needs 4 to 255 bones", args.bones);
     }
     let src = args.input.open()?;
     let frames = (0..src.frame_count()).map(|i| src.read_frame(i)).collect::<cgv::Result<Vec<_>>>()?;
     let faces = &src.topology().faces;
-    let opts = SkinOptions { bones: args.bones, iterations: args.iterations, rest: 0 };
+    let opts = SkinOptions { bones: args.bones, iterations: args.iterations, rest: 0, affine: args.affine };
     let t = std::time::Instant::now();
     let (skin, target) = match args.target_error {
         None => (
@@ -99,18 +110,25 @@ pub fn run(args: Args) -> Result<()> {
     };
     let seconds_decompose = t.elapsed().as_secs_f64();
     let name = src.label().file_stem().and_then(|s| s.to_str()).unwrap_or("motion").to_string();
-    cgv::skin::gltf::write_skinned_glb(&args.output, &skin, faces, src.fps(), &name)?;
-    let glb_bytes = std::fs::metadata(&args.output)?.len();
+    let glb_bytes = match &args.output {
+        Some(output) => {
+            cgv::skin::gltf::write_skinned_glb(output, &skin, faces, src.fps(), &name)?;
+            Some(std::fs::metadata(output)?.len())
+        }
+        None => None,
+    };
     let mut report = measure(&frames, faces, &skin, args.surface_every, (glb_bytes, seconds_decompose))?;
+    report.affine = args.affine;
     report.target = target;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
         return Ok(());
     }
+    let to = args.output.as_ref().map_or("no GLB: affine bones".into(), |o| o.display().to_string());
+    let kind = if args.affine { "affine" } else { "rigid" };
     println!(
-        "{} -> {} ({} frames, {} vertices, {} bones)",
+        "{} -> {to} ({} frames, {} vertices, {} {kind} bones)",
         src.label().display(),
-        args.output.display(),
         report.frames,
         report.vertices,
         report.bones
@@ -124,9 +142,13 @@ pub fn run(args: Args) -> Result<()> {
     if let Some(s) = report.surface_rms {
         println!("  surface RMS    {:.4} % of the diagonal (every {} frames)", 100.0 * s, args.surface_every);
     }
+    let glb = match (report.glb_bytes, report.glb_bits_per_vertex_frame) {
+        (Some(b), Some(bits)) => format!(", GLB {b} bytes ({bits:.3} bits/vertex/frame)"),
+        _ => String::new(),
+    };
     println!(
-        "  size           {:.3} bits/vertex/frame compact (16-bit matrices, 8-bit weights; rest mesh not counted), GLB {} bytes ({:.3} bits/vertex/frame)",
-        report.compact_bits_per_vertex_frame, report.glb_bytes, report.glb_bits_per_vertex_frame
+        "  size           {:.3} bits/vertex/frame compact (16-bit matrices, 8-bit weights; rest mesh not counted){glb}",
+        report.compact_bits_per_vertex_frame
     );
     if let Some(t) = &report.target {
         let tried: Vec<String> = t.tried.iter().map(|c| format!("{} {:.4} %", c.bones, 100.0 * c.vertex_rms)).collect();
@@ -182,7 +204,7 @@ fn measure(
     faces: &[[u32; 3]],
     skin: &cgv::skin::Skinning,
     surface_every: usize,
-    (glb_bytes, seconds_decompose): (u64, f64),
+    (glb_bytes, seconds_decompose): (Option<u64>, f64),
 ) -> Result<Report> {
     let diagonal = |t: usize| Bounds::of(&frames[t]).diagonal() as f64;
     let e = cgv::skin::errors::measure(frames, faces, skin, surface_every, &diagonal)?;
@@ -198,7 +220,8 @@ fn measure(
         kg: e.kg,
         compact_bits_per_vertex_frame: per(skin.compact_bits() as f64),
         glb_bytes,
-        glb_bits_per_vertex_frame: per(glb_bytes as f64 * 8.0),
+        glb_bits_per_vertex_frame: glb_bytes.map(|b| per(b as f64 * 8.0)),
+        affine: false,
         seconds_decompose,
         target: None,
     })

@@ -125,7 +125,7 @@ fn fit_weights(
         }
         progress("fitting bones", k + 1, count);
     }
-    let skin_opts = SkinOptions { bones, iterations: SKIN_ITERATIONS, rest: 0 };
+    let skin_opts = SkinOptions { bones, iterations: SKIN_ITERATIONS, rest: 0, affine: false };
     let mut skin = decompose(&coarse_frames, &coarse_grid.topology().faces, &skin_opts, &mut |_, _| {})?;
     if sweeps > 0 {
         let transforms: Vec<Vec<Rigid>> = skin.transforms.iter().step_by(every).cloned().collect();
