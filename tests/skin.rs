@@ -5,7 +5,7 @@
 
 mod common;
 
-use cgv::skin::{decompose, gltf::write_skinned_glb, Rigid, SkinOptions, Skinning};
+use cgv::skin::{decompose, gltf::write_skinned_glb, BoneTransform, SkinOptions, Skinning};
 use glam::{Mat3, Vec3};
 
 /// A tube along x (radius 0.3, length 4) in four segments, each a bone
@@ -38,17 +38,17 @@ fn bending_arm(frames: usize) -> (Skinning, Vec<[u32; 3]>) {
     let transforms = (0..frames)
         .map(|t| {
             // Each joint bends by its own wave; the chain composes them.
-            let mut chain = Rigid::default();
+            let mut chain = BoneTransform::default();
             (0..bones)
                 .map(|b| {
                     let angle = 0.5 * ((t as f32) * 0.4 + b as f32).sin();
                     let joint = Vec3::new(b as f32, 0.0, 0.0);
                     let rot = Mat3::from_rotation_z(angle);
                     // Rotate about the joint, after the parent's motion.
-                    let local = Rigid { rotation: rot, translation: joint - rot * joint };
-                    chain = Rigid {
-                        rotation: chain.rotation * local.rotation,
-                        translation: chain.rotation * local.translation + chain.translation,
+                    let local = BoneTransform { linear: rot, translation: joint - rot * joint };
+                    chain = BoneTransform {
+                        linear: chain.linear * local.linear,
+                        translation: chain.linear * local.translation + chain.translation,
                     };
                     chain
                 })
@@ -93,9 +93,9 @@ fn stretching_arm(frames: usize) -> (Skinning, Vec<[u32; 3]>) {
             let shear = Mat3::from_cols(Vec3::new(s, 0.1 * (t as f32 * 0.2).sin(), 0.0), Vec3::Y, Vec3::Z);
             let joint = Vec3::new(b as f32, 0.0, 0.0);
             // Stretch about the bone's joint, then move as before.
-            *bone = Rigid {
-                rotation: bone.rotation * shear,
-                translation: bone.rotation * (joint - shear * joint) + bone.translation,
+            *bone = BoneTransform {
+                linear: bone.linear * shear,
+                translation: bone.linear * (joint - shear * joint) + bone.translation,
             };
         }
     }
@@ -118,6 +118,12 @@ fn affine_bones_recover_a_stretching_motion_that_rigid_ones_cannot() {
     // rigid bones cannot stretch, and are several times further off.
     assert!(affine < 0.002, "affine vertex RMS {affine}");
     assert!(rigid > 3.0 * affine, "rigid {rigid} against affine {affine}");
+    // glTF joints cannot shear: the writer refuses affine bones, no file.
+    let opts = SkinOptions { bones: 4, iterations: 4, rest: 0, affine: true };
+    let skin = decompose(&frames, &faces, &opts, &mut |_, _| {}).unwrap();
+    let path = common::temp_dir("skin-affine").join("affine.glb");
+    let err = write_skinned_glb(&path, &skin, &faces, 30.0, "arm").unwrap_err();
+    assert!(err.to_string().contains("shear") && !path.exists(), "{err}");
 }
 
 #[test]

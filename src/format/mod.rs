@@ -1,6 +1,6 @@
-//! The `.cgv` file format, versions 1 to 14 (documented in
+//! The `.cgv` file format, versions 1 to 15 (documented in
 //! `docs/FORMAT.md`, with the compatibility promise): this writer writes
-//! version 14, the reader reads all fourteen. Split as the png crate splits
+//! version 15, the reader reads all fifteen. Split as the png crate splits
 //! its decoder:
 //!
 //! - [`header`]: what a file holds, the frame chunk's side data, and which
@@ -17,7 +17,7 @@
 //!
 //! ```text
 //! magic    8 bytes   89 43 47 56 0D 0A 1A 0A   ("\x89CGV\r\n\x1a\n")
-//! version  u16 LE    1 to 14
+//! version  u16 LE    1 to 15
 //! flags    u16 LE    0
 //! length   u32 LE    header length L (at most 1 MiB)
 //! header   L bytes   UTF-8 JSON (serde), see [`Header`]

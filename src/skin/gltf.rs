@@ -96,6 +96,10 @@ pub fn write_skinned_glb(path: &Path, skin: &Skinning, faces: &[[u32; 3]], fps: 
             skin.frames()
         )));
     }
+    let sheared = |m: &glam::Mat3| !(m.transpose() * *m).abs_diff_eq(glam::Mat3::IDENTITY, 1e-3);
+    if skin.transforms.iter().flatten().any(|t| sheared(&t.linear)) {
+        return Err(Error::Argument("affine bones: glTF joints rotate and translate, they cannot shear".into()));
+    }
     crate::output::check_output_folder(path)?;
     let mut bin = Bin::default();
     let nv = skin.rest.len();
@@ -152,7 +156,7 @@ fn joints_animated(bin: &mut Bin, skin: &Skinning, fps: f32) -> (Vec<serde_json:
         let mut prev = Quat::IDENTITY;
         let (mut tr, mut rot) = (Vec::new(), Vec::new());
         for m in skin.transforms.iter().map(|f| f[b]) {
-            let mut q = Quat::from_mat3(&m.rotation).normalize();
+            let mut q = Quat::from_mat3(&m.linear).normalize();
             // The same hemisphere as the frame before: no spin the long way.
             if q.dot(prev) < 0.0 {
                 q = -q;

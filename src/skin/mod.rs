@@ -23,7 +23,7 @@ pub mod procrustes;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod ssdr;
 
-pub use procrustes::Rigid;
+pub use procrustes::BoneTransform;
 #[cfg(not(target_arch = "wasm32"))]
 pub use ssdr::{decompose, SkinOptions};
 
@@ -44,7 +44,7 @@ pub struct Skinning {
     /// the weights sum to one.
     pub influences: Vec<[(u16, f32); INFLUENCES]>,
     /// Each frame's transform of each bone.
-    pub transforms: Vec<Vec<Rigid>>,
+    pub transforms: Vec<Vec<BoneTransform>>,
 }
 
 impl Skinning {

@@ -7,28 +7,29 @@
 
 use glam::{DMat3, DVec3, Mat3, Vec3};
 
-/// A rigid transform: x ↦ R x + T.
+/// A bone's transform in a frame: x ↦ M x + T, M a rotation for rigid
+/// bones ([`fit`]), any linear map for affine ones ([`fit_affine`]).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Rigid {
-    pub rotation: Mat3,
+pub struct BoneTransform {
+    pub linear: Mat3,
     pub translation: Vec3,
 }
 
-impl Default for Rigid {
+impl Default for BoneTransform {
     fn default() -> Self {
-        Rigid { rotation: Mat3::IDENTITY, translation: Vec3::ZERO }
+        BoneTransform { linear: Mat3::IDENTITY, translation: Vec3::ZERO }
     }
 }
 
-impl Rigid {
+impl BoneTransform {
     pub fn apply(&self, x: Vec3) -> Vec3 {
-        self.rotation * x + self.translation
+        self.linear * x + self.translation
     }
 }
 
 /// The rigid transform minimizing `Σ ‖q − w (R r + T)‖²` over the triples
 /// `(r, q, w)`; the identity where the weights are all zero.
-pub fn fit(points: impl Iterator<Item = (Vec3, Vec3, f32)> + Clone) -> Rigid {
+pub fn fit(points: impl Iterator<Item = (Vec3, Vec3, f32)> + Clone) -> BoneTransform {
     let (mut w2, mut wr, mut wq) = (0.0, DVec3::ZERO, DVec3::ZERO);
     for (r, q, w) in points.clone() {
         let w = w as f64;
@@ -37,7 +38,7 @@ pub fn fit(points: impl Iterator<Item = (Vec3, Vec3, f32)> + Clone) -> Rigid {
         wq += w * q.as_dvec3();
     }
     if !(w2 > 1e-300 && wr.is_finite() && wq.is_finite()) {
-        return Rigid::default();
+        return BoneTransform::default();
     }
     let (p_bar, q_bar) = (wr / w2, wq / w2);
     // H = Σ (q − w q̄)(w (r − p̄))ᵀ: R maximizes tr(Rᵀ H).
@@ -50,7 +51,7 @@ pub fn fit(points: impl Iterator<Item = (Vec3, Vec3, f32)> + Clone) -> Rigid {
     }
     let rotation = nearest_rotation(h);
     let translation = q_bar - rotation * p_bar;
-    Rigid { rotation: rotation.as_mat3(), translation: translation.as_vec3() }
+    BoneTransform { linear: rotation.as_mat3(), translation: translation.as_vec3() }
 }
 
 /// The affine transform (any 3 x 3 M, and T) minimizing
@@ -59,7 +60,7 @@ pub fn fit(points: impl Iterator<Item = (Vec3, Vec3, f32)> + Clone) -> Rigid {
 /// points' weighted scatter. μ (a thousandth of S's mean eigenvalue) keeps
 /// a bone whose points lie near a plane or a line from folding space; M is
 /// the rigid fit where the system is singular anyway.
-pub fn fit_affine(points: impl Iterator<Item = (Vec3, Vec3, f32)> + Clone) -> Rigid {
+pub fn fit_affine(points: impl Iterator<Item = (Vec3, Vec3, f32)> + Clone) -> BoneTransform {
     let (mut w2, mut wr, mut wq) = (0.0, DVec3::ZERO, DVec3::ZERO);
     for (r, q, w) in points.clone() {
         let w = w as f64;
@@ -68,7 +69,7 @@ pub fn fit_affine(points: impl Iterator<Item = (Vec3, Vec3, f32)> + Clone) -> Ri
         wq += w * q.as_dvec3();
     }
     if !(w2 > 1e-300 && wr.is_finite() && wq.is_finite()) {
-        return Rigid::default();
+        return BoneTransform::default();
     }
     let (p_bar, q_bar) = (wr / w2, wq / w2);
     let (mut h, mut s) = (DMat3::ZERO, DMat3::ZERO);
@@ -85,7 +86,7 @@ pub fn fit_affine(points: impl Iterator<Item = (Vec3, Vec3, f32)> + Clone) -> Ri
     let m = if a.determinant().abs() > 1e-300 { (h + rotation * mu) * a.inverse() } else { rotation };
     let m = if m.is_finite() { m } else { rotation };
     let translation = q_bar - m * p_bar;
-    Rigid { rotation: m.as_mat3(), translation: translation.as_vec3() }
+    BoneTransform { linear: m.as_mat3(), translation: translation.as_vec3() }
 }
 
 /// The rotation R maximizing tr(Rᵀ H): U diag(1, 1, det(U Vᵀ)) Vᵀ of H's SVD.
@@ -116,12 +117,12 @@ mod tests {
             })
             .collect();
         let m = fit(pts.iter().copied());
-        assert!((m.rotation - rot).abs_diff_eq(Mat3::ZERO, 1e-4), "{:?}", m.rotation);
+        assert!((m.linear - rot).abs_diff_eq(Mat3::ZERO, 1e-4), "{:?}", m.linear);
         assert!(m.translation.abs_diff_eq(t, 1e-4), "{:?}", m.translation);
         // A mirror image is not a rotation: the fit stays proper.
         let mirrored: Vec<(Vec3, Vec3, f32)> =
             pts.iter().map(|&(r, q, w)| (r, q * Vec3::new(-1.0, 1.0, 1.0), w)).collect();
-        assert!(fit(mirrored.into_iter()).rotation.determinant() > 0.99);
+        assert!(fit(mirrored.into_iter()).linear.determinant() > 0.99);
     }
 
     #[test]
@@ -137,11 +138,11 @@ mod tests {
             .collect();
         let a = fit_affine(pts.iter().copied());
         // μ pulls M a thousandth of the way towards the rotation.
-        assert!((a.rotation - m).abs_diff_eq(Mat3::ZERO, 5e-3), "{:?}", a.rotation);
+        assert!((a.linear - m).abs_diff_eq(Mat3::ZERO, 5e-3), "{:?}", a.linear);
         assert!(a.translation.abs_diff_eq(t, 5e-3), "{:?}", a.translation);
         // Points on a line: the affine part across it is the rotation's, finite.
         let line: Vec<(Vec3, Vec3, f32)> = (0..10).map(|i| (Vec3::X * i as f32, Vec3::X * i as f32, 1.0)).collect();
         let a = fit_affine(line.into_iter());
-        assert!(a.rotation.is_finite() && a.rotation.abs_diff_eq(Mat3::IDENTITY, 1e-3), "{:?}", a.rotation);
+        assert!(a.linear.is_finite() && a.linear.abs_diff_eq(Mat3::IDENTITY, 1e-3), "{:?}", a.linear);
     }
 }

@@ -17,7 +17,7 @@
 //! unknowns instead of B. (SSDR's Laplacian smoothing of the weights is not
 //! done: the weights fit the motion alone.)
 
-use super::{nnls, procrustes, Rigid, Skinning, INFLUENCES};
+use super::{nnls, procrustes, BoneTransform, Skinning, INFLUENCES};
 use crate::error::{Error, Result};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -243,7 +243,7 @@ fn vertex_weights(frames: &[Vec<Vec3>], skin: &Skinning, v: usize, cand: &[u16])
 
 /// SSDR's transform update: in each frame (in parallel), each bone in turn
 /// fitted rigidly to what the other bones leave of its vertices.
-fn update_transforms(frames: &[Vec<Vec3>], skin: &Skinning, affine: bool) -> Vec<Vec<Rigid>> {
+fn update_transforms(frames: &[Vec<Vec3>], skin: &Skinning, affine: bool) -> Vec<Vec<BoneTransform>> {
     let mut members: Vec<Vec<(usize, f32)>> = vec![Vec::new(); skin.bones];
     for (v, inf) in skin.influences.iter().enumerate() {
         for &(b, w) in inf.iter().filter(|i| i.1 > 0.0) {

@@ -26,7 +26,7 @@ use crate::error::{Error, Result};
 use crate::format::skin::{coarse_side, Motion, INFLUENCES, MOTION_PARAMS};
 use crate::format::{BoneMotions, SkinInfo, SkinWeights};
 use crate::grid::{coarse, Grid};
-use crate::skin::{procrustes, Rigid};
+use crate::skin::{procrustes, BoneTransform};
 use glam::{Mat3, Quat, Vec3};
 
 /// Sweeps of the encoder's transform fit over the bones. On samba (N =
@@ -126,15 +126,15 @@ impl SkinnedPredictor {
     fn fit(&self, truth: &[Vec3]) -> Option<Vec<Motion>> {
         let (rest, c) = self.rest.as_ref()?;
         // Each bone's transform as x ↦ R (x − c) + T, from the last frame's.
-        let mut m: Vec<Rigid> = self.history[0]
+        let mut m: Vec<BoneTransform> = self.history[0]
             .iter()
             .zip(c)
             .map(|(q, &cb)| {
                 let (r, t) = self.dequantize(q);
-                Rigid { rotation: r, translation: cb + t }
+                BoneTransform { linear: r, translation: cb + t }
             })
             .collect();
-        let apply = |m: &Rigid, v: usize, b: usize| m.apply(rest[v] - c[b]);
+        let apply = |m: &BoneTransform, v: usize, b: usize| m.apply(rest[v] - c[b]);
         // Only the fitted samples' residuals are read.
         let mut residual: Vec<Vec3> = truth.to_vec();
         for &v in &self.fitted {
@@ -157,17 +157,16 @@ impl SkinnedPredictor {
                 }
             }
         }
+        Some(m.iter().zip(c).map(|(m, &cb)| self.quantize(m, cb)).collect())
+    }
+
+    /// A transform about centroid `cb` in the header's steps: rotation
+    /// vector and translation.
+    fn quantize(&self, m: &BoneTransform, cb: Vec3) -> Motion {
         let q = |v: f32| v.round().clamp(-1e9, 1e9) as i32;
-        Some(
-            m.iter()
-                .zip(c)
-                .map(|(m, &cb)| {
-                    let r = Quat::from_mat3(&m.rotation).to_scaled_axis() / self.info.rotation_step;
-                    let t = (m.translation - cb) / self.info.translation_step;
-                    [q(r.x), q(r.y), q(r.z), q(t.x), q(t.y), q(t.z)]
-                })
-                .collect(),
-        )
+        let r = Quat::from_mat3(&m.linear).to_scaled_axis() / self.info.rotation_step;
+        let t = (m.translation - cb) / self.info.translation_step;
+        [q(r.x), q(r.y), q(r.z), q(t.x), q(t.y), q(t.z)]
     }
 
     /// A transform's rotation and translation (about the bone's centroid).
@@ -237,6 +236,33 @@ impl SkinnedPredictor {
         }
         self.history.swap(0, 1);
         self.history[0] = m;
+    }
+
+    /// This frame's transforms as maps of space (x ↦ M (x − c) + c + t),
+    /// once known.
+    pub fn transforms(&self) -> Option<Vec<BoneTransform>> {
+        let (_, c) = self.rest.as_ref()?;
+        self.skinned.as_ref()?;
+        Some(
+            self.history[0]
+                .iter()
+                .zip(c)
+                .map(|(m, &cb)| {
+                    let (linear, t) = self.dequantize(m);
+                    BoneTransform { linear, translation: cb + t - linear * cb }
+                })
+                .collect(),
+        )
+    }
+
+    /// Each grid sample's bones and weights.
+    pub fn influences(&self) -> &[[(u16, f32); INFLUENCES]] {
+        &self.influences
+    }
+
+    /// This frame's skinning L_t on the grid, once its transforms are known.
+    pub fn skinned(&self) -> Option<&[Vec3]> {
+        self.skinned.as_deref()
     }
 
     /// Whether this frame's transforms are known (not at a random-access
@@ -352,6 +378,12 @@ mod tests {
         }
         let unit = enc.encode(&truth);
         dec.decode(&unit).unwrap();
+        // The transforms as maps of space give the skinning back.
+        let (t, l) = (enc.transforms().unwrap(), enc.skinned().unwrap());
+        for (v, inf) in enc.influences().iter().enumerate() {
+            let p: Vec3 = inf.iter().map(|&(b, w)| w * t[b as usize].apply(rest[v])).sum();
+            assert!(p.distance(l[v]) < 1e-5, "{p} against {}", l[v]);
+        }
         let (m, n) = (enc.motion().unwrap(), dec.motion().unwrap());
         assert_eq!(m, n);
         let x: Vec<Vec3> = rest.iter().zip(&m).map(|(p, d)| *p + *d).collect();

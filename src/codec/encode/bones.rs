@@ -14,7 +14,7 @@ use crate::format::{SkinInfo, SkinWeights};
 use crate::grid::{coarse, Grid};
 use crate::mesh::FrameSource;
 use crate::resample::SampleMap;
-use crate::skin::{decompose, Rigid, SkinOptions};
+use crate::skin::{decompose, BoneTransform, SkinOptions};
 use crate::solve::skinned::{SkinnedPredictor, FIT_STRIDE};
 use glam::Vec3;
 
@@ -128,7 +128,7 @@ fn fit_weights(
     let skin_opts = SkinOptions { bones, iterations: SKIN_ITERATIONS, rest: 0, affine: false };
     let mut skin = decompose(&coarse_frames, &coarse_grid.topology().faces, &skin_opts, &mut |_, _| {})?;
     if sweeps > 0 {
-        let transforms: Vec<Vec<Rigid>> = skin.transforms.iter().step_by(every).cloned().collect();
+        let transforms: Vec<Vec<BoneTransform>> = skin.transforms.iter().step_by(every).cloned().collect();
         let fine = FineMotion { samples, rest: fine[0].clone(), frames: fine };
         weights_refit::refit(coarse_grid, shrink, &mut skin.influences, &transforms, &fine, sweeps);
     }
@@ -205,6 +205,106 @@ mod probe {
                 weights.to_bytes(&info).len(),
                 weights.to_bytes(&SkinInfo { packed: false, ..info }).len(),
             );
+        }
+    }
+
+    /// What bones fitted on the source vertices would give there, against
+    /// today's rebuild from the grid, with the grid uncorrected (X = L),
+    /// corrected along its normals (X = L + n n·(T − L)) and exact (X = T):
+    /// `CGV_PROBE=/tmp/data/pcow cargo test --release --lib source_vertices -- --ignored --nocapture`.
+    #[test]
+    #[ignore]
+    fn bones_on_the_source_vertices() {
+        use crate::resample::triangle_frame;
+        let dir = std::env::var("CGV_PROBE").unwrap();
+        let src = open_sequence(&dir, &OpenOptions::default()).unwrap();
+        let opts = EncodeOptions { grid: 128, ..Default::default() };
+        let image = crate::codec::prepare(src.as_ref(), &opts).unwrap();
+        let grid = Grid::new(128).unwrap();
+        let diag = Bounds::of(&src.read_frame(0).unwrap()).diagonal();
+        let shrink = skin_shrink(128);
+        let inf = fit_weights(src.as_ref(), grid, &image.map, shrink, 32, REFIT_SWEEPS, &mut |_, _, _| {}).unwrap();
+        let weights = SkinWeights { influences: inf.iter().map(quantize).collect() };
+        let info = SkinInfo {
+            bones: 32,
+            shrink,
+            rotation_step: ROTATION_STEP,
+            translation_step: diag * TRANSLATION_STEP,
+            packed: true,
+        };
+        let mut p = SkinnedPredictor::new(grid, &info, &weights).unwrap();
+        let points = image.source_points();
+        let faces = grid.topology().faces;
+        let n = src.frame_count();
+        let x0 = image.map.apply(&src.read_frame(0).unwrap());
+        p.commit(&x0);
+        let rest = points.apply(&x0);
+        let (mut truth_grid, mut skinned, mut moves, mut truth) = (vec![], vec![], vec![], vec![]);
+        for f in 1..n {
+            let x = image.map.apply(&src.read_frame(f).unwrap());
+            p.encode(&x);
+            skinned.push(p.skinned().unwrap().to_vec());
+            moves.push(p.transforms().unwrap());
+            p.commit(&x);
+            truth_grid.push(x);
+            truth.push(src.read_frame(f).unwrap());
+        }
+        // Each source vertex's weights over the bones of its grid corners,
+        // by SSDR's weight solve with the file's transforms.
+        let full = p.influences().to_vec();
+        let src_inf: Vec<[(u16, f32); INFLUENCES]> = (0..rest.len())
+            .map(|v| {
+                let mut cand: Vec<u16> = points.corners[v]
+                    .iter()
+                    .flat_map(|&c| full[c as usize].iter().filter(|i| i.1 > 0.0).map(|i| i.0))
+                    .collect();
+                cand.sort_unstable();
+                cand.dedup();
+                crate::skin::nnls::influences(&cand, |c| {
+                    let mut eq = crate::skin::nnls::NormalEquations::new(c.len());
+                    let mut cols = vec![Vec3::ZERO; c.len()];
+                    for (m, t) in moves.iter().zip(&truth) {
+                        for (col, &b) in cols.iter_mut().zip(c) {
+                            *col = m[b as usize].apply(rest[v]);
+                        }
+                        eq.add(&cols, t[v]);
+                    }
+                    eq.solve_weights()
+                })
+                .unwrap_or(full[points.corners[v][0] as usize])
+            })
+            .collect();
+        let rms = |a: &[Vec3], b: &[Vec3]| {
+            (a.iter().zip(b).map(|(p, q)| p.distance_squared(*q) as f64).sum::<f64>() / a.len() as f64).sqrt()
+                / diag as f64
+        };
+        let mut sums = std::collections::BTreeMap::<&str, f64>::new();
+        for k in 0..n - 1 {
+            let (l, tg, m) = (&skinned[k], &truth_grid[k], &moves[k]);
+            let s: Vec<Vec3> = rest
+                .iter()
+                .zip(&src_inf)
+                .map(|(&r, inf)| inf.iter().map(|&(b, w)| w * m[b as usize].apply(r)).sum())
+                .collect();
+            let normals = crate::mesh::vertex_normals(l, &faces);
+            let xn: Vec<Vec3> = l.iter().zip(tg).zip(&normals).map(|((a, t), n)| *a + *n * n.dot(*t - *a)).collect();
+            let gl = points.apply(l);
+            for (name, x) in [("L", l), ("N", &xn), ("T", tg)] {
+                let gx = points.apply(x);
+                let tan = |v: usize, d: Vec3| {
+                    let nrm = triangle_frame(points.corners[v].map(|i| x[i as usize]))[2];
+                    d - nrm * nrm.dot(d)
+                };
+                let b: Vec<Vec3> = (0..gx.len()).map(|v| s[v] + gx[v] - gl[v]).collect();
+                let c: Vec<Vec3> = (0..gx.len()).map(|v| gx[v] + tan(v, s[v] - gl[v])).collect();
+                *sums.entry(["today ", name].concat().leak()).or_default() += rms(&gx, &truth[k]);
+                *sums.entry(["B ", name].concat().leak()).or_default() += rms(&b, &truth[k]);
+                *sums.entry(["C ", name].concat().leak()).or_default() += rms(&c, &truth[k]);
+            }
+            *sums.entry("A (source skinning alone)").or_default() += rms(&s, &truth[k]);
+        }
+        for (k, v) in sums {
+            eprintln!("{dir}: {k}: {:.4} % vertex RMS", 100.0 * v / (n - 1) as f64);
         }
     }
 }

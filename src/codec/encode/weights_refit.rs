@@ -11,7 +11,7 @@
 
 use crate::format::skin::INFLUENCES;
 use crate::grid::{coarse, Grid};
-use crate::skin::{nnls, Rigid};
+use crate::skin::{nnls, BoneTransform};
 use glam::Vec3;
 
 /// Expansion coefficients below this are left out of a footprint.
@@ -34,7 +34,7 @@ pub(super) fn refit(
     coarse_grid: Grid,
     shrink: u8,
     weights: &mut [Influences],
-    transforms: &[Vec<Rigid>],
+    transforms: &[Vec<BoneTransform>],
     fine: &FineMotion,
     sweeps: usize,
 ) {
@@ -86,7 +86,7 @@ fn footprints(coarse_grid: Grid, shrink: u8, samples: &[u32]) -> Vec<Vec<(u32, f
 /// (before the decoder's four-largest truncation).
 fn predict(
     weights: &[Influences],
-    transforms: &[Vec<Rigid>],
+    transforms: &[Vec<BoneTransform>],
     fine: &FineMotion,
     reach: &[Vec<(u32, f32)>],
 ) -> Vec<Vec<Vec3>> {
@@ -125,7 +125,7 @@ fn solve_sample(
     foot: &[(u32, f32)],
     cand: &[u16],
     old: &Influences,
-    transforms: &[Vec<Rigid>],
+    transforms: &[Vec<BoneTransform>],
     fine: &FineMotion,
     predicted: &[Vec<Vec3>],
 ) -> Option<Influences> {
@@ -142,7 +142,7 @@ fn weights_over(
     foot: &[(u32, f32)],
     cand: &[u16],
     old: &Influences,
-    transforms: &[Vec<Rigid>],
+    transforms: &[Vec<BoneTransform>],
     fine: &FineMotion,
     predicted: &[Vec<Vec3>],
 ) -> Vec<f64> {
@@ -178,11 +178,11 @@ mod tests {
         let rest: Vec<Vec3> =
             samples.iter().map(|&s| Vec3::new((s % 32) as f32 / 32.0, (s / 32) as f32 / 32.0, 0.0)).collect();
         let joint = |x: f32| ((x - 0.47) / 0.06).clamp(0.0, 1.0);
-        let transforms: Vec<Vec<Rigid>> = (0..6)
+        let transforms: Vec<Vec<BoneTransform>> = (0..6)
             .map(|t| {
                 let r = Mat3::from_rotation_y(0.15 * t as f32);
                 let pivot = Vec3::new(0.5, 0.0, 0.0);
-                vec![Rigid::default(), Rigid { rotation: r, translation: pivot - r * pivot }]
+                vec![BoneTransform::default(), BoneTransform { linear: r, translation: pivot - r * pivot }]
             })
             .collect();
         let frames: Vec<Vec<Vec3>> = transforms
