@@ -288,7 +288,17 @@ pub fn sample_place(grid: Grid, s: u32) -> [u32; 2] {
     quantized_place(DVec2::new(at(s as usize % grid.n), at(s as usize / grid.n)))
 }
 
-fn quantized_place(uv: DVec2) -> [u32; 2] {
+/// A stored place coordinate rounded to leave its low `zero_bits` bits
+/// zero (at least [`PLACE_ZERO_BITS`]), the square's far edge included.
+pub fn coarser_place(q: u32, zero_bits: u32) -> u32 {
+    let bits = zero_bits.clamp(PLACE_ZERO_BITS, 31);
+    let top = u64::from(u32::MAX >> bits) << bits;
+    (((u64::from(q) + (1u64 << (bits - 1))) >> bits) << bits).min(top) as u32
+}
+
+/// The stored place of `uv` (any copy on the extended lattice): inside
+/// the square, on the coarse steps a file keeps.
+pub fn quantized_place(uv: DVec2) -> [u32; 2] {
     // Any copy of a vertex on the extended lattice is the same place; the
     // one inside the square is what fits the quantizer's range.
     let uv = Grid::canonical_uv(uv);

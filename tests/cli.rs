@@ -470,6 +470,7 @@ fn greedy_file() -> Vec<u8> {
         random_access: None,
         skin: None,
         segments: Vec::new(),
+        frame_meshes: false,
     };
     let mut bytes = format::write_header(&header).unwrap();
     bytes.extend(format::write_frame(0, &FrameInfo::default(), &[&[1u8][..]; 6]));

@@ -57,6 +57,7 @@ fn header() -> Header {
         random_access: None,
         skin: None,
         segments: Vec::new(),
+        frame_meshes: false,
     }
 }
 
@@ -82,6 +83,7 @@ fn frame_info(h: &Header, f: u32) -> format::FrameInfo {
         seed_origin,
         loose,
         bones: None,
+        mesh: None,
     }
 }
 
@@ -152,9 +154,9 @@ fn bad_magic_and_versions() {
     assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::BadMagic);
     assert_eq!(format::read(b"GIF89a").unwrap_err(), ContainerError::BadMagic);
     let mut bytes = file(&header());
-    bytes[8] = 16;
-    assert_eq!(format::VERSION, 15);
-    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 16 });
+    bytes[8] = 17;
+    assert_eq!(format::VERSION, 16);
+    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 17 });
     bytes[8] = 0;
     assert!(matches!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 0 }));
 }
@@ -420,6 +422,7 @@ fn bad_frame_chunks_are_errors() {
         seed_origin: None,
         loose: None,
         bones: None,
+        mesh: None,
     };
     let mut bad_bytes = good.to_bytes();
     bad_bytes.pop();
@@ -551,6 +554,20 @@ fn plain_info(mesh: &format::SourceMesh) -> format::SourceMeshInfo {
 /// `mesh`'s chunk as versions 6 to 11 write it.
 fn plain_chunk(mesh: &format::SourceMesh) -> Vec<u8> {
     format::write_chunk(format::TAG_SOURCE_MESH, 0, 0, &mesh.to_bytes_plain())
+}
+
+/// Version 16: a header with frame meshes needs version 16, and cannot
+/// also have one source mesh; a frame without its mesh unit is refused.
+#[test]
+fn frame_meshes_need_version_16_and_no_source_mesh() {
+    let mesh = source_mesh();
+    let h = Header { frame_meshes: true, ..header() };
+    assert_eq!(h.min_version(), 16);
+    let both = Header { source_mesh: Some(mesh.info()), ..h.clone() };
+    assert!(format::write_header(&both).unwrap_err().to_string().contains("frame meshes"));
+    // The frames of `file` have no mesh unit: the first is refused by name.
+    let err = format::read(&file(&h)).unwrap_err().to_string();
+    assert!(err.contains("frame 0's mesh"), "{err}");
 }
 
 #[test]
@@ -1000,7 +1017,7 @@ fn a_wrong_or_missing_index_and_bad_points_are_refused() {
     let mut seg = h.clone();
     (seg.key_frames, seg.segments) = (vec![0, 2, 3, 4, 6], vec![4]);
     let f = format::read(&file_with_points(&seg, |_| code(1, 0), |_| {})).unwrap();
-    assert_eq!((f.version, f.index.len(), f.header.point_frame(2)), (15, 4, Some(4)));
+    assert_eq!((f.header.min_version(), f.index.len(), f.header.point_frame(2)), (15, 4, Some(4)));
     assert!(format::read(&file_with_points(&seg, |_| code(1, 0), |i| i[2] += 1)).is_err());
     // A cycle prediction may not reach back past the last point: at frame
     // 5 (point 3) lag 2 would read frame 2's velocity.

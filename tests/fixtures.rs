@@ -327,6 +327,27 @@ fn v15_segments_fixture_decodes_as_frozen_from_every_point() {
     }
 }
 
+#[test]
+fn v16_frame_meshes_fixture_decodes_each_frames_mesh_as_frozen() {
+    let name = "v16/walk-capture-frame-meshes.cgv";
+    let f = open(name);
+    assert!(f.version == 16 && f.header.frame_meshes && f.header.source_mesh.is_none());
+    check(name, SolverKind::Predictive, 1e-5);
+    // Each frame's own mesh, rebuilt on its decoded grid: its vertices
+    // frozen, frame after frame, and its faces' count the capture's.
+    let diag = f.header.source.diagonal as f64;
+    let mut dec = FileDecoder::new(f, SolverKind::Predictive).unwrap();
+    let (mut got, mut faces) = (Vec::new(), Vec::new());
+    for t in 0..dec.frame_count() as u32 {
+        let (x, _) = dec.next_frame().unwrap();
+        let (v, f) = dec.frame_mesh(t, &x).unwrap().expect("a mesh every frame");
+        got.extend(v.iter().flat_map(|p| p.to_array()));
+        faces.push(f.len());
+    }
+    assert_eq!(faces, [1466, 1814, 1722, 1392], "the capture's faces a frame");
+    compare(&format!("{name}.frame-meshes.positions"), &got, 1e-5 * diag);
+}
+
 /// 14 frames of a ball (an icosphere of 642 vertices) bouncing and
 /// squashing, with a hat: a tetrahedron of four vertices riding above it
 /// and turning, a part of its own.

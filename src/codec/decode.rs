@@ -82,6 +82,9 @@ pub struct FileDecoder {
     units: UnitDecoder,
 }
 
+/// A frame's own vertices and faces (format version 16's frame meshes).
+pub type OwnMesh = (Vec<Vec3>, Vec<[u32; 3]>);
+
 impl FileDecoder {
     /// With the default memory limit ([`DEFAULT_MEMORY_LIMIT`]).
     pub fn new(file: CgvFile, solver: SolverKind) -> Result<FileDecoder> {
@@ -106,6 +109,19 @@ impl FileDecoder {
     /// The input's mesh, when the file carries it (format version 6).
     pub fn source_mesh(&self) -> Option<SourceMeshDecoder> {
         self.file.source_mesh.as_ref().map(|m| SourceMeshDecoder::new(self.grid, m))
+    }
+
+    /// Version 16: frame `frame`'s own mesh (a capture's, `--mesh
+    /// frames`), its vertices rebuilt on that frame's decoded grid
+    /// `grid_frame`, with its faces; none in a file without frame meshes.
+    pub fn frame_mesh(&self, frame: u32, grid_frame: &[Vec3]) -> Result<Option<OwnMesh>> {
+        let Some(unit) = self.file.frames.get(frame as usize).and_then(|f| f.mesh.as_deref()) else {
+            return Ok(None);
+        };
+        let mesh = crate::format::frame_mesh::parse_unit(unit, frame, 0)
+            .map_err(|source| crate::error::Error::Container { path: "frame mesh".into(), source })?;
+        let decoder = SourceMeshDecoder::new(self.grid, &mesh);
+        Ok(Some((decoder.vertices(grid_frame, &[]), mesh.faces)))
     }
 
     /// The frame [`next_frame`](Self::next_frame) decodes next.

@@ -15,10 +15,10 @@ use super::track::{place, track, Track};
 use crate::error::{Error, Result};
 use crate::grid::Grid;
 use crate::mesh::carrier::Carrier;
-use crate::mesh::{analyze, Bounds, FrameSelection, InMemory, Topology};
+use crate::mesh::{analyze, Bounds, FrameMesh, FrameSelection, FrameSource, InMemory, Topology};
 use crate::param::cut::{corner_for, Graph};
 use crate::param::{parameterize, ParamOptions, Parameterization};
-use crate::resample::SampleMap;
+use crate::resample::{carrier_places, quantized_place, SampleMap};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -34,6 +34,13 @@ pub const AREA_PASSES: usize = 20;
 pub struct CaptureFrame {
     pub positions: Vec<Vec3>,
     pub faces: Vec<[u32; 3]>,
+}
+
+impl CaptureFrame {
+    /// The frame as a [`FrameMesh`], its places not known yet.
+    fn mesh(&self) -> FrameMesh {
+        FrameMesh { positions: self.positions.clone(), faces: self.faces.clone(), places: Vec::new() }
+    }
 }
 
 /// The frames of a folder of OBJ files (`frames`, if given, a range of
@@ -175,13 +182,45 @@ pub fn segment_ranges(frames: &[CaptureFrame]) -> Vec<std::ops::Range<usize>> {
 /// Frames a new topology must last to start a segment.
 pub const SEGMENT_FRAMES: usize = 3;
 
+/// A registered capture: its frames on the grid (a motion on the grid's
+/// own mesh, which this source gives), and each frame's own mesh with
+/// every vertex's place on that frame's map, turned as its grid was.
+pub struct Registered {
+    pub grid: InMemory,
+    pub meshes: Vec<FrameMesh>,
+}
+
+impl FrameSource for Registered {
+    fn label(&self) -> &Path {
+        self.grid.label()
+    }
+    fn frame_count(&self) -> usize {
+        self.grid.frame_count()
+    }
+    fn fps(&self) -> f32 {
+        self.grid.fps()
+    }
+    fn topology(&self) -> &Topology {
+        self.grid.topology()
+    }
+    fn read_frame(&self, i: usize) -> Result<crate::mesh::Frame> {
+        self.grid.read_frame(i)
+    }
+    fn kind(&self) -> &'static str {
+        "capture registered on the grid"
+    }
+    fn frame_mesh(&self, i: usize) -> Option<&FrameMesh> {
+        self.meshes.get(i)
+    }
+}
+
 /// The capture `frames` (named `label`) on `grid`: each frame's grid
 /// positions, as a motion on the grid's own mesh, and the report. A
 /// capture whose topology changes is registered segment by segment
 /// ([`segment_starts`]), each with its own tracks and map.
-pub fn register(label: &Path, fps: f32, frames: &[CaptureFrame], grid: Grid) -> Result<(InMemory, RegisterReport)> {
+pub fn register(label: &Path, fps: f32, frames: &[CaptureFrame], grid: Grid) -> Result<(Registered, RegisterReport)> {
     let segments = segment_ranges(frames);
-    let mut out: Option<(InMemory, RegisterReport)> = None;
+    let mut out: Option<(Registered, RegisterReport)> = None;
     for (a, b) in segments.iter().map(|r| (r.start, r.end)) {
         let part = &frames[a..b];
         let in_segment = |e: Error| match segments.len() {
@@ -193,7 +232,8 @@ pub fn register(label: &Path, fps: f32, frames: &[CaptureFrame], grid: Grid) -> 
         out = Some(match out {
             None => (src, report),
             Some((mut all, mut so_far)) => {
-                all.frames.extend(src.frames);
+                all.grid.frames.extend(src.grid.frames);
+                all.meshes.extend(src.meshes);
                 so_far.join(a, &report);
                 (all, so_far)
             }
@@ -209,7 +249,7 @@ pub fn register_tracked(
     frames: &[CaptureFrame],
     mut tracked: Tracked,
     grid: Grid,
-) -> Result<(InMemory, RegisterReport)> {
+) -> Result<(Registered, RegisterReport)> {
     if frames.is_empty() || tracked.features.len() != frames.len() {
         return Err(Error::Argument(format!(
             "{}: features of {} frames for a capture of {}",
@@ -265,7 +305,7 @@ pub fn register_tracked(
             }
         }
     }
-    let (positions, turned, unmatched) = turned_back(grid, mapped, &reference);
+    let (positions, places, turned, unmatched) = turned_back(grid, mapped, &reference);
     let report = RegisterReport {
         frames: frames.len(),
         features_per_frame: tracked.features_per_frame(),
@@ -278,30 +318,47 @@ pub fn register_tracked(
         seconds_maps: t1.elapsed().as_secs_f64(),
         segments: Vec::new(),
     };
-    let source = InMemory { label: PathBuf::from(label), fps, topology: grid.topology(), frames: positions };
-    Ok((source, report))
+    let meshes = frames.iter().zip(places).map(|(f, places)| FrameMesh { places, ..f.mesh() }).collect();
+    let grid = InMemory { label: PathBuf::from(label), fps, topology: grid.topology(), frames: positions };
+    Ok((Registered { grid, meshes }, report))
 }
 
-/// Each frame's grid turned so that its cones sit on `reference`'s sides,
-/// and how many frames were turned and how many no turn matches (left as
-/// they are).
-fn turned_back(grid: Grid, mapped: Vec<Mapped>, reference: &[usize; 4]) -> (Vec<Vec<Vec3>>, usize, usize) {
+/// Each frame's grid and its vertices' places turned so that its cones
+/// sit on `reference`'s sides, and how many frames were turned and how
+/// many no turn matches (left as they are).
+fn turned_back(grid: Grid, mapped: Vec<Mapped>, reference: &[usize; 4]) -> Turned {
     let (mut turned, mut unmatched) = (0, 0);
-    let mut positions = Vec::with_capacity(mapped.len());
+    let (mut positions, mut places) = (Vec::with_capacity(mapped.len()), Vec::with_capacity(mapped.len()));
     for m in mapped {
         match symmetry_between(&m.sides, reference) {
-            Some(s) if s == IDENTITY => positions.push(m.grid),
+            Some(s) if s == IDENTITY => {
+                positions.push(m.grid);
+                places.push(m.places);
+            }
             Some(s) => {
                 turned += 1;
                 positions.push(apply_symmetry(grid, &m.grid, s));
+                places.push(m.places.iter().map(|&q| turn_place(q, s)).collect());
             }
             None => {
                 unmatched += 1;
                 positions.push(m.grid);
+                places.push(m.places);
             }
         }
     }
-    (positions, turned, unmatched)
+    (positions, places, turned, unmatched)
+}
+
+/// [`turned_back`]'s grids, places, turned and unmatched frames.
+type Turned = (Vec<Vec<Vec3>>, Vec<Vec<[u32; 2]>>, usize, usize);
+
+/// A stored place moved by the square's symmetry `m` (as
+/// [`apply_symmetry`] moves the samples: linear in the centred coordinates).
+fn turn_place(q: [u32; 2], m: Symmetry) -> [u32; 2] {
+    let u = q.map(crate::format::source_mesh::place);
+    let t = |r: [i32; 2]| f64::from(r[0]) * u[0] + f64::from(r[1]) * u[1];
+    quantized_place(glam::DVec2::new(t(m[0]), t(m[1])))
 }
 
 /// The four tracks seen in the most frames (among equals, the earliest,
@@ -471,7 +528,8 @@ fn map_frame(
     let (param, trace, cones) = map_with_cones(&mut carrier, &frame.positions, cones, seen, trace)?;
     let map = SampleMap::on_carrier(grid, &carrier, &param)?;
     let sides = param.cones.map(|v| cones.iter().position(|&c| c == v).unwrap_or(0));
-    Ok(Mapped { grid: map.apply(&frame.positions), sides, trace })
+    let places = carrier_places(&carrier, &param);
+    Ok(Mapped { grid: map.apply(&frame.positions), places, sides, trace })
 }
 
 /// A frame's map: its grid positions, which cone (its index in the
@@ -479,6 +537,8 @@ fn map_frame(
 /// and where its cut ran.
 struct Mapped {
     grid: Vec<Vec3>,
+    /// Each of the frame's own vertices' place on the map.
+    places: Vec<[u32; 2]>,
     sides: [usize; 4],
     trace: CutTrace,
 }

@@ -148,6 +148,9 @@ pub struct FrameInfo {
     /// file has it; its motions are differences that only a decoder in
     /// order can resolve (`crate::solve::skinned`).
     pub bones: Option<Vec<u8>>,
+    /// Version 16, in every frame of a file with frame meshes: the frame's
+    /// own mesh unit ([`super::frame_mesh`]), as the file has it (checked).
+    pub mesh: Option<Vec<u8>>,
 }
 
 impl FrameInfo {
@@ -218,7 +221,17 @@ impl FrameInfo {
         if anchors.iter().chain(&seed_origin).flatten().any(|v| !v.is_finite()) {
             return Err(bad("non-finite anchor position or seed origin".into()));
         }
-        Ok(FrameInfo { predictor, filter, relax, correction_scale, anchors, seed_origin, loose: None, bones: None })
+        Ok(FrameInfo {
+            predictor,
+            filter,
+            relax,
+            correction_scale,
+            anchors,
+            seed_origin,
+            loose: None,
+            bones: None,
+            mesh: None,
+        })
     }
 }
 
@@ -330,6 +343,10 @@ pub struct Header {
     /// point besides the interval's (absent: none). Needs `random_access`.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub segments: Vec<u32>,
+    /// Version 16: every frame carries its own mesh (an unregistered
+    /// capture's, [`super::frame_mesh`]) in place of one source mesh.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub frame_meshes: bool,
 }
 
 fn is_scaled(m: &CorrectionMode) -> bool {
@@ -344,8 +361,8 @@ fn is_zero(v: &u8) -> bool {
 pub const SEAM_RULE: &str = "octahedral-half-turn";
 
 impl Header {
-    /// The oldest format version that can hold this header: 15 for
-    /// segments, 14 for a packed skin, 13 for a skin,
+    /// The oldest format version that can hold this header: 16 for frame
+    /// meshes, 15 for segments, 14 for a packed skin, 13 for a skin,
     /// 12 for a
     /// source mesh coded as a walk, 11 for loose
     /// vertices, 10 for random-access points, 9 for a normal
@@ -355,7 +372,9 @@ impl Header {
     /// predictions, 3 for a CGV file without H, 2 for motion corrections,
     /// else 1.
     pub fn min_version(&self) -> u16 {
-        if !self.segments.is_empty() {
+        if self.frame_meshes {
+            16
+        } else if !self.segments.is_empty() {
             15
         } else if self.skin.is_some_and(|s| s.packed) {
             14

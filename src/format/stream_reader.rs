@@ -332,31 +332,7 @@ impl StreamReader {
             at += len;
         }
         let mut info = info;
-        if let Some(skin) = &header.skin {
-            let bad = |msg: String| ContainerError::Chunk { offset, msg };
-            let len = read_len(p, &mut at).ok_or_else(|| bad("bones: bad unit length".into()))?;
-            // Every frame but a random-access point has one.
-            let rap = header.is_random_access_point(frame);
-            let most = if rap { 0 } else { crate::format::BoneMotions::max_bytes(skin.bones, skin.packed) };
-            if len > p.len() - at || len > most || (!rap && len == 0) {
-                return Err(bad(format!(
-                    "bones: a unit of {len} bytes (frame {frame}'s has {} to {most})",
-                    most.min(1)
-                )));
-            }
-            info.bones = Some(p[at..at + len].to_vec());
-            at += len;
-        }
-        if let Some(count) = header.loose_vertices() {
-            let bad = |msg: String| ContainerError::Chunk { offset, msg };
-            let len = read_len(p, &mut at).ok_or_else(|| bad("loose vertices: bad unit length".into()))?;
-            if len > p.len() - at {
-                return Err(bad(format!("loose vertices: a unit of {len} bytes overruns its frame chunk")));
-            }
-            LooseFrame::parse(&p[at..at + len], count, offset)?;
-            info.loose = Some(p[at..at + len].to_vec());
-            at += len;
-        }
+        side_units(header, frame, (p, &mut at), &mut info, offset)?;
         if at != p.len() {
             return Err(ContainerError::Chunk {
                 offset,
@@ -433,4 +409,47 @@ fn shift(e: ContainerError, by: usize) -> ContainerError {
         }
         other => other,
     }
+}
+
+/// The units a frame chunk has after its access units, as the header says:
+/// the bones (version 13), the loose vertices (11) and the frame's own
+/// mesh (16), each checked and kept in `info`; `at` moves past them.
+fn side_units(
+    header: &Header,
+    frame: u32,
+    (p, at): (&[u8], &mut usize),
+    info: &mut FrameInfo,
+    offset: usize,
+) -> Result<(), ContainerError> {
+    let bad = |msg: String| ContainerError::Chunk { offset, msg };
+    if let Some(skin) = &header.skin {
+        let len = read_len(p, at).ok_or_else(|| bad("bones: bad unit length".into()))?;
+        // Every frame but a random-access point has one.
+        let rap = header.is_random_access_point(frame);
+        let most = if rap { 0 } else { crate::format::BoneMotions::max_bytes(skin.bones, skin.packed) };
+        if len > p.len() - *at || len > most || (!rap && len == 0) {
+            return Err(bad(format!("bones: a unit of {len} bytes (frame {frame}'s has {} to {most})", most.min(1))));
+        }
+        info.bones = Some(p[*at..*at + len].to_vec());
+        *at += len;
+    }
+    if let Some(count) = header.loose_vertices() {
+        let len = read_len(p, at).ok_or_else(|| bad("loose vertices: bad unit length".into()))?;
+        if len > p.len() - *at {
+            return Err(bad(format!("loose vertices: a unit of {len} bytes overruns its frame chunk")));
+        }
+        LooseFrame::parse(&p[*at..*at + len], count, offset)?;
+        info.loose = Some(p[*at..*at + len].to_vec());
+        *at += len;
+    }
+    if header.frame_meshes {
+        let len = read_len(p, at).ok_or_else(|| bad(format!("frame {frame}'s mesh: bad unit length")))?;
+        if len > p.len() - *at {
+            return Err(bad(format!("frame {frame}'s mesh: a unit of {len} bytes overruns its frame chunk")));
+        }
+        crate::format::frame_mesh::parse_unit(&p[*at..*at + len], frame, offset)?;
+        info.mesh = Some(p[*at..*at + len].to_vec());
+        *at += len;
+    }
+    Ok(())
 }

@@ -72,6 +72,9 @@ impl Header {
         if let Some(m) = &self.source_mesh {
             m.validate().map_err(ContainerError::Header)?;
         }
+        if self.frame_meshes && self.source_mesh.is_some() {
+            return bad("frame meshes and a source mesh: a file has one or the other".into());
+        }
         if let Some(a) = &self.appearance {
             if self.source_mesh.is_none() {
                 return bad("an appearance needs a source mesh".into());

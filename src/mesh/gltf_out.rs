@@ -313,6 +313,44 @@ pub fn write_obj_folder(
     mut frame: impl FnMut(usize) -> Result<Frame>,
 ) -> Result<()> {
     let look = look.filter(|l| l.uvs.len() == topology.vertex_count);
+    let material = |tmp: &Path| look.map_or(Ok(()), |l| write_material(tmp, l));
+    write_folder(dir, frame_count, material, |k| {
+        let positions = frame(k)?;
+        Ok(match look {
+            Some(l) => super::obj::format_textured_obj(&positions, &topology.faces, &l.uvs),
+            None => super::obj::format_obj(&positions, &topology.faces),
+        })
+    })
+}
+
+/// [`write_obj_folder`] for frames that each have their own faces (a
+/// capture's, format version 16's frame meshes): `frame(k)` gives frame
+/// k's vertices and faces.
+pub fn write_obj_folder_own_faces(
+    dir: &Path,
+    frame_count: usize,
+    mut frame: impl FnMut(usize) -> Result<(Frame, Vec<[u32; 3]>)>,
+) -> Result<()> {
+    write_folder(
+        dir,
+        frame_count,
+        |_| Ok(()),
+        |k| {
+            let (positions, faces) = frame(k)?;
+            Ok(super::obj::format_obj(&positions, &faces))
+        },
+    )
+}
+
+/// Fills the empty or new folder `dir` under a temporary name (`first`
+/// writes what all frames share, `text(k)` frame k's OBJ) and renames it
+/// when complete; removes it on an error.
+fn write_folder(
+    dir: &Path,
+    frame_count: usize,
+    first: impl FnOnce(&Path) -> Result<()>,
+    mut text: impl FnMut(usize) -> Result<String>,
+) -> Result<()> {
     if dir.exists() {
         let mut entries = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?;
         if entries.next().is_some() {
@@ -326,18 +364,11 @@ pub fn write_obj_folder(
     let tmp = dir.with_file_name(tmp_name);
     std::fs::create_dir_all(&tmp).map_err(|e| Error::io(&tmp, e))?;
     let result = (|| {
-        if let Some(l) = look {
-            write_material(&tmp, l)?;
-        }
+        first(&tmp)?;
         let digits = (frame_count.max(1) - 1).to_string().len().max(4);
         for k in 0..frame_count {
-            let positions = frame(k)?;
             let p = tmp.join(format!("frame_{k:0digits$}.obj"));
-            let text = match look {
-                Some(l) => super::obj::format_textured_obj(&positions, &topology.faces, &l.uvs),
-                None => super::obj::format_obj(&positions, &topology.faces),
-            };
-            std::fs::write(&p, text).map_err(|e| Error::io(&p, e))?;
+            std::fs::write(&p, text(k)?).map_err(|e| Error::io(&p, e))?;
         }
         if dir.exists() {
             std::fs::remove_dir(dir).map_err(|e| Error::io(dir, e))?;

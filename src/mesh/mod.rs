@@ -18,7 +18,7 @@ use glam::Vec3;
 
 pub use adjacency::Adjacency;
 pub use open::{open_sequence, FrameSelection, OpenOptions};
-pub use source::{FrameSource, InMemory};
+pub use source::{FrameMesh, FrameSource, InMemory};
 pub use topology::{analyze, TopologyReport};
 
 /// How the input looks beyond its shape: its vertices as it stored them

@@ -26,6 +26,22 @@ pub trait FrameSource: Send + Sync {
     fn appearance(&self) -> Option<&super::Appearance> {
         None
     }
+    /// Frame `i`'s own mesh, where every frame has its own (a registered
+    /// capture's, whose frames this source gives on the grid): none for a
+    /// sequence whose frames share their vertices.
+    fn frame_mesh(&self, _i: usize) -> Option<&FrameMesh> {
+        None
+    }
+}
+
+/// One frame's own mesh and where each of its vertices lies in the
+/// frame's parameterization (quantized as a file stores places:
+/// `crate::format::source_mesh::quantize_place`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct FrameMesh {
+    pub positions: Vec<Vec3>,
+    pub faces: Vec<[u32; 3]>,
+    pub places: Vec<[u32; 2]>,
 }
 
 /// Checks a frame against the sequence's first frame.

@@ -23,7 +23,9 @@ pub struct Args {
     /// closed genus-0 surface the grid mesh is the whole carrier: the
     /// faces that close holes and join parts included (the file does not
     /// say which samples lie on them), so only `source` has the input's
-    /// own holes and parts.
+    /// own holes and parts. A file with frame meshes (`cgv encode
+    /// --unregistered --mesh frames`) gives each frame's own mesh with
+    /// `auto` or `source`, one OBJ a frame in the output folder.
     #[arg(long, value_enum, default_value = "auto")]
     mesh: MeshChoice,
     /// Decode only these frames: A..B (B excluded), A.., ..B or A..=B. The
@@ -104,6 +106,9 @@ pub fn source_mesh(
 pub fn run(args: Args) -> Result<()> {
     check_skinned(&args)?;
     let (mut dec, solver) = open_decoder(&args.input, args.solver, args.memory)?;
+    if dec.file.header.frame_meshes && args.mesh != MeshChoice::Grid {
+        return write_frame_meshes(&args, dec, solver);
+    }
     let source = source_mesh(&args.input, &dec, args.mesh)?;
     // The input's texture coordinates and material go with its own mesh.
     let look = if source.is_some() { dec.file.appearance.clone() } else { None };
@@ -173,6 +178,51 @@ pub fn run(args: Args) -> Result<()> {
                 1000.0 * seek_seconds
             );
         }
+    }
+    Ok(())
+}
+
+/// A file with frame meshes (format version 16): each decoded frame's own
+/// vertices and faces, one OBJ a frame (their faces differ, which neither
+/// morph targets nor a skin can hold).
+fn write_frame_meshes(args: &Args, mut dec: FileDecoder, solver: cgv::format::SolverKind) -> Result<()> {
+    let out = &args.output;
+    if super::is_glb(out) || args.skinned {
+        anyhow::bail!(
+            "{}: every frame has its own mesh (an unregistered capture's, --mesh frames), which a glTF animation \
+             cannot hold: give a folder for one OBJ a frame, or --mesh grid for the grid mesh",
+            args.input.display()
+        );
+    }
+    let (start, frames) = selected(args, dec.frame_count())?;
+    dec.seek(start as u32)?;
+    let pb = super::progress(frames, "decoding", args.json);
+    let (mut vertices, mut faces) = (0, 0);
+    cgv::mesh::gltf_out::write_obj_folder_own_faces(out, frames, |k| {
+        let (x, _) = dec.next_frame()?;
+        let f = (start + k) as u32;
+        let mesh = dec.frame_mesh(f, &x)?;
+        let mesh = mesh.ok_or_else(|| cgv::Error::Argument(format!("frame {f} has no mesh of its own")))?;
+        (vertices, faces) = (vertices + mesh.0.len(), faces + mesh.1.len());
+        pb.inc(1);
+        Ok(mesh)
+    })?;
+    pb.finish_and_clear();
+    let (v, f) = (vertices / frames.max(1), faces / frames.max(1));
+    if args.json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&serde_json::json!({
+                "output": out, "frames": frames, "solver": solver.to_string(), "mesh": "frames",
+                "mean_vertices": v, "mean_faces": f, "first_frame": start,
+            }))?
+        );
+    } else {
+        println!(
+            "{} -> {} ({frames} frames, solver {solver}, each frame's own mesh: {v} vertices, {f} faces on average)",
+            args.input.display(),
+            out.display()
+        );
     }
     Ok(())
 }

@@ -100,11 +100,20 @@ pub struct Args {
     /// (heat kernel signature maxima), tracked, and every frame mapped onto
     /// the grid with four tracked features as its cones and its cut where
     /// the last frame's ran, so that the grid follows the body; what
-    /// decodes is that registered grid mesh (no source mesh). Where the
-    /// topology changes, a new segment starts (see --segments). The grid is
-    /// --grid's N, 128 for auto.
+    /// decodes is that registered grid mesh (no source mesh), or with
+    /// --mesh frames each frame's own. Where the topology changes, a new
+    /// segment starts (see --segments). The grid is --grid's N, 128 for
+    /// auto.
     #[arg(long)]
     unregistered: bool,
+    /// With --unregistered, the mesh a decoder gives back: `grid` (the
+    /// grid mesh, a registered animation of the capture: one mesh whose
+    /// vertices move, which you can skin, morph or edit), or `frames` (each
+    /// frame's own triangulation too, rebuilt on its decoded grid: format
+    /// version 16, its faces and each vertex's place stored every frame,
+    /// which costs about a source mesh's bytes a frame).
+    #[arg(long, value_enum, default_value = "grid", requires = "unregistered")]
+    mesh: CaptureMesh,
     /// Store each input vertex's place where the grid follows it best over
     /// the motion (up to a cell from its own, judged on 16 frames): the
     /// rebuilt vertices' floor falls 25-49 % on the shared sequences, which
@@ -235,6 +244,7 @@ fn request(args: &Args) -> EncodeRequest {
         random_access: args.random_access,
         bones: args.bones.0,
         segments: args.segments.clone(),
+        frame_meshes: args.mesh == CaptureMesh::Frames,
         ..EncodeOptions::default()
     };
     EncodeRequest {
@@ -362,6 +372,13 @@ fn registered(args: &Args) -> Result<(Box<dyn cgv::mesh::FrameSource>, Vec<u32>)
     Ok((Box::new(src), r.segments))
 }
 
+/// What mesh an unregistered capture's file gives back.
+#[derive(Clone, Copy, PartialEq, Debug, clap::ValueEnum)]
+pub enum CaptureMesh {
+    Grid,
+    Frames,
+}
+
 /// The bytes of each part of the file.
 fn print_sizes(report: &cgv::codec::EncodeReport) {
     for (name, b) in &report.stream_bytes {
@@ -373,6 +390,12 @@ fn print_sizes(report: &cgv::codec::EncodeReport) {
     );
     if report.skin_bytes > 0 {
         println!("  bone weights    {:>10} bytes (--bones: the skin's weights, once)", report.skin_bytes);
+    }
+    if report.frame_mesh_bytes > 0 {
+        println!(
+            "  frame meshes    {:>10} bytes (--mesh frames: each frame's faces and vertex places, every frame)",
+            report.frame_mesh_bytes
+        );
     }
     if report.source_mesh_bytes > 0 {
         println!(

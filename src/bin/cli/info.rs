@@ -177,6 +177,18 @@ fn unregistered_info(args: &Args) -> Result<()> {
     Ok(())
 }
 
+/// What `cgv info` says of the mesh a file gives back.
+fn mesh_line(file: &cgv::format::CgvFile) -> String {
+    if !file.header.frame_meshes {
+        return format!("source mesh   {}", source_mesh_line(file.header.source_mesh.as_ref()));
+    }
+    let bytes: usize = file.frames.iter().filter_map(|f| f.mesh.as_ref()).map(Vec::len).sum();
+    format!(
+        "frame meshes  every frame its own ({bytes} bytes, {:.0} a frame; decoders give each back)",
+        bytes as f64 / f64::from(file.header.frames.max(1))
+    )
+}
+
 /// What `cgv info` says of a file's source mesh.
 fn source_mesh_line(m: Option<&cgv::format::SourceMeshInfo>) -> String {
     match m {
@@ -276,7 +288,7 @@ fn cgv_info(args: &Args) -> Result<()> {
         h.settings.layers
     );
     println!("  source        {} ({} vertices, diagonal {})", h.source.label, h.source.vertices, h.source.diagonal);
-    println!("  source mesh   {}", source_mesh_line(h.source_mesh.as_ref()));
+    println!("  {}", mesh_line(&file));
     if let Some(a) = &h.appearance {
         let texture =
             a.texture.as_ref().map_or("no texture".into(), |t| format!("texture ({}, {} bytes)", t.mime, t.bytes));

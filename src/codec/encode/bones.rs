@@ -249,31 +249,7 @@ mod probe {
             truth_grid.push(x);
             truth.push(src.read_frame(f).unwrap());
         }
-        // Each source vertex's weights over the bones of its grid corners,
-        // by SSDR's weight solve with the file's transforms.
-        let full = p.influences().to_vec();
-        let src_inf: Vec<[(u16, f32); INFLUENCES]> = (0..rest.len())
-            .map(|v| {
-                let mut cand: Vec<u16> = points.corners[v]
-                    .iter()
-                    .flat_map(|&c| full[c as usize].iter().filter(|i| i.1 > 0.0).map(|i| i.0))
-                    .collect();
-                cand.sort_unstable();
-                cand.dedup();
-                crate::skin::nnls::influences(&cand, |c| {
-                    let mut eq = crate::skin::nnls::NormalEquations::new(c.len());
-                    let mut cols = vec![Vec3::ZERO; c.len()];
-                    for (m, t) in moves.iter().zip(&truth) {
-                        for (col, &b) in cols.iter_mut().zip(c) {
-                            *col = m[b as usize].apply(rest[v]);
-                        }
-                        eq.add(&cols, t[v]);
-                    }
-                    eq.solve_weights()
-                })
-                .unwrap_or(full[points.corners[v][0] as usize])
-            })
-            .collect();
+        let src_inf = source_weights(&points, p.influences(), &rest, &moves, &truth);
         let rms = |a: &[Vec3], b: &[Vec3]| {
             (a.iter().zip(b).map(|(p, q)| p.distance_squared(*q) as f64).sum::<f64>() / a.len() as f64).sqrt()
                 / diag as f64
@@ -306,5 +282,38 @@ mod probe {
         for (k, v) in sums {
             eprintln!("{dir}: {k}: {:.4} % vertex RMS", 100.0 * v / (n - 1) as f64);
         }
+    }
+
+    /// Each source vertex's weights over the bones of its grid corners
+    /// (`full`, the grid's), by SSDR's weight solve with the file's
+    /// transforms `moves` of each frame, against the vertices' `truth`.
+    fn source_weights(
+        points: &crate::resample::SourcePoints,
+        full: &[[(u16, f32); INFLUENCES]],
+        rest: &[Vec3],
+        moves: &[Vec<crate::skin::BoneTransform>],
+        truth: &[Vec<Vec3>],
+    ) -> Vec<[(u16, f32); INFLUENCES]> {
+        (0..rest.len())
+            .map(|v| {
+                let corners = points.corners[v];
+                let mut cand: Vec<u16> =
+                    corners.iter().flat_map(|&c| full[c as usize].iter().filter(|i| i.1 > 0.0).map(|i| i.0)).collect();
+                cand.sort_unstable();
+                cand.dedup();
+                crate::skin::nnls::influences(&cand, |c| {
+                    let mut eq = crate::skin::nnls::NormalEquations::new(c.len());
+                    let mut cols = vec![Vec3::ZERO; c.len()];
+                    for (m, t) in moves.iter().zip(truth) {
+                        for (col, &b) in cols.iter_mut().zip(c) {
+                            *col = m[b as usize].apply(rest[v]);
+                        }
+                        eq.add(&cols, t[v]);
+                    }
+                    eq.solve_weights()
+                })
+                .unwrap_or(full[corners[0] as usize])
+            })
+            .collect()
     }
 }

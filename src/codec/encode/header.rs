@@ -84,5 +84,6 @@ pub(super) fn header(
         random_access: plan.random_access,
         skin: None,
         segments: plan.segments.clone(),
+        frame_meshes: opts.frame_meshes,
     }
 }

@@ -133,6 +133,11 @@ pub struct EncodeOptions {
     /// at least [`MIN_BONE_FRAMES`] frames. Either way a file keeps them
     /// only where they cut the corrections 4x (`BONE_GAIN`).
     pub bones: Option<u16>,
+    /// Carry every frame's own mesh (format version 16: a source whose
+    /// frames are each their own triangulation, an unregistered capture's,
+    /// [`FrameSource::frame_mesh`]), so that a decoder gives back each
+    /// frame's own vertices and faces; it costs about a source mesh a frame.
+    pub frame_meshes: bool,
     /// Frames where a new segment starts (format version 15): an
     /// unregistered capture's topology changes there and its grid with
     /// it, so each is a random-access point (the closed loop restarts
@@ -163,6 +168,7 @@ impl Default for EncodeOptions {
             fit_places: false,
             random_access: DEFAULT_RANDOM_ACCESS,
             bones: None,
+            frame_meshes: false,
             segments: Vec::new(),
         }
     }
@@ -189,6 +195,9 @@ impl EncodeOptions {
         }
         if let Some(b) = self.bones.filter(|&b| b > format::skin::MAX_BONES) {
             return bad(format!("{b} bones: at most {}", format::skin::MAX_BONES));
+        }
+        if self.frame_meshes && self.source_mesh {
+            return bad("frame meshes replace the source mesh: ask for one or the other".into());
         }
         if self.max_steps > MAX_STEPS {
             return bad(format!("max_steps {} is above {MAX_STEPS}", self.max_steps));
@@ -255,6 +264,8 @@ pub struct EncodeReport {
     /// Bytes of the bones' weights (the `SKIN` chunk; 0 without bones);
     /// each frame's bone motions are in `side_bytes`.
     pub skin_bytes: usize,
+    /// Bytes of the frames' own meshes (format version 16; 0 without).
+    pub frame_mesh_bytes: usize,
     pub parameterization: Parameterization,
     pub seconds_parameterize: f64,
     pub seconds_coding: f64,
@@ -369,8 +380,15 @@ pub fn encode_prepared_into(
     header.appearance = src.appearance().filter(|_| opts.source_mesh).map(|a| a.look.info());
     header.skin = bones.as_ref().map(|b| b.info);
     let chunks = code::Chunks { source: source_chunk.as_deref(), skin: bones.as_ref().map(|b| &b.weights) };
-    let code::Coded { bytes, stream_bytes, side_bytes, source_mesh_bytes, skin_bytes, seconds_coding } =
-        code::code(src, opts, (&plan, &header), (image, chunks), &st, sink, progress)?;
+    let code::Coded {
+        bytes,
+        stream_bytes,
+        side_bytes,
+        source_mesh_bytes,
+        skin_bytes,
+        frame_mesh_bytes,
+        seconds_coding,
+    } = code::code(src, opts, (&plan, &header), (image, chunks), &st, sink, progress)?;
     let seconds_parameterize = image.seconds();
     let report = EncodeReport {
         codec: header.representation(),
@@ -380,6 +398,7 @@ pub fn encode_prepared_into(
         side_bytes,
         source_mesh_bytes,
         skin_bytes,
+        frame_mesh_bytes,
         parameterization: image.param.clone(),
         seconds_parameterize,
         seconds_coding,
