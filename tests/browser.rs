@@ -941,14 +941,15 @@ fn textured_colours(browser: &Browser, file: &str, shot: &Path) -> (usize, usize
 }
 
 /// A skinned glTF from `cgv skin` plays in three.js as three.js plays any
-/// skin: its own GLTFLoader finds a SkinnedMesh with every bone, the
-/// AnimationMixer moves it, and two times give two pictures of a lit figure.
+/// skin: its own GLTFLoader finds a SkinnedMesh with every bone and the
+/// residual's morph targets, the AnimationMixer moves it, and two times
+/// give two pictures of a lit figure.
 #[test]
 fn a_skinned_gltf_from_cgv_skin_plays_in_three_js() {
     let (dir, _server, port) = site("skinned");
     let art = common::temp_dir("browser-skinned");
     let out = Command::new(env!("CARGO_BIN_EXE_cgv"))
-        .args(["skin", "builtin:walk", "--frames", "0..24", "--bones", "12", "-o"])
+        .args(["skin", "builtin:walk", "--frames", "0..24", "--bones", "12", "--morph-targets", "2", "-o"])
         .arg(dir.join("walk-skin.glb"))
         .output()
         .unwrap();
@@ -959,8 +960,8 @@ fn a_skinned_gltf_from_cgv_skin_plays_in_three_js() {
     let state = browser.js("return window.skinError ? { error: window.skinError } : window.skinState();", json!([]));
     assert!(state["error"].is_null(), "{state}");
     assert_eq!(
-        (state["skinned"].clone(), state["bones"].clone(), state["vertices"].clone()),
-        (json!(true), json!(12), json!(6274)),
+        (state["skinned"].clone(), state["bones"].clone(), state["vertices"].clone(), state["morphs"].clone()),
+        (json!(true), json!(12), json!(6274), json!(2)),
         "{state}"
     );
     let bright = |png: &[u8]| {

@@ -809,6 +809,67 @@ fn skin_writes_a_valid_skinned_gltf_and_reports_its_error() {
     assert!(!out.status.success() && stderr(&out).contains("--bones") && !bad.exists());
 }
 
+/// `cgv skin --morph-targets`: what the bones miss as morph targets of the
+/// skinned mesh, weighed every frame: the GLB passes the validator, reads
+/// back with its targets and their weights' track, and the error falls.
+#[test]
+fn skin_morph_targets_lower_the_error_in_a_valid_gltf() {
+    let dir = common::temp_dir("cli-skin-morph");
+    let run = |k: &str, glb: &std::path::Path| {
+        let out = cgv(&[
+            "skin",
+            "builtin:walk",
+            "--frames",
+            "0..24",
+            "--bones",
+            "8",
+            "--morph-targets",
+            k,
+            "-o",
+            glb.to_str().unwrap(),
+            "--json",
+            "--surface-every",
+            "0",
+        ]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+    };
+    let (plain, morphed) = (dir.join("plain.glb"), dir.join("morphed.glb"));
+    let (a, b) = (run("0", &plain), run("4", &morphed));
+    eprintln!("walk, 8 bones: vertex RMS {} without, {} with 4 targets", a["vertex_rms"], b["vertex_rms"]);
+    assert_eq!(b["morph_targets"], 4);
+    assert!(b["vertex_rms"].as_f64().unwrap() < 0.9 * a["vertex_rms"].as_f64().unwrap(), "{a} {b}");
+    assert!(b["compact_bits_per_vertex_frame"].as_f64() > a["compact_bits_per_vertex_frame"].as_f64());
+    let r = &validate_gltf(&[morphed.as_path()])[0];
+    assert_eq!(r["errors"], 0, "{r}");
+    let g = gltf::Gltf::from_slice(&std::fs::read(&morphed).unwrap()).unwrap();
+    let prim = g.document.meshes().next().unwrap().primitives().next().unwrap();
+    assert_eq!(prim.morph_targets().count(), 4);
+    let weights = g
+        .document
+        .animations()
+        .next()
+        .unwrap()
+        .channels()
+        .filter(|c| c.target().property() == gltf::animation::Property::MorphTargetWeights);
+    assert_eq!(weights.count(), 1, "one track of the targets' weights");
+    // More targets than frames: refused by name, nothing written.
+    let bad = dir.join("bad.glb");
+    let out = cgv(&[
+        "skin",
+        "builtin:walk",
+        "--frames",
+        "0..3",
+        "--bones",
+        "4",
+        "--morph-targets",
+        "5",
+        "-o",
+        bad.to_str().unwrap(),
+    ]);
+    assert!(!out.status.success() && stderr(&out).contains("morph") && !bad.exists(), "{}", stderr(&out));
+}
+
 /// `cgv skin --affine`: affine bones are reported (error and compact size,
 /// below the rigid fit's error on the same bones) but written nowhere,
 /// since glTF joints cannot shear: asking for a GLB with them is refused.

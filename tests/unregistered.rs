@@ -20,11 +20,18 @@ use std::path::Path;
 /// `n` frames of `src`, each simplified on its own (keeping 50 to 80 % of
 /// the faces) and shuffled.
 fn remeshed(src: &dyn FrameSource, n: usize) -> Vec<CaptureFrame> {
+    remeshed_from(src, n, 0)
+}
+
+/// [`remeshed`] for a clip that starts at frame `first` of its motion:
+/// each frame simplified as that frame of the whole would be.
+fn remeshed_from(src: &dyn FrameSource, n: usize, first: usize) -> Vec<CaptureFrame> {
     let faces = &src.topology().faces;
     (0..n)
         .map(|t| {
+            let k = first + t;
             let (positions, faces) =
-                remesh_frame(&src.read_frame(t).unwrap(), faces, keep_for(t, 0.5, 0.8, 5), t as u64);
+                remesh_frame(&src.read_frame(t).unwrap(), faces, keep_for(k, 0.5, 0.8, 5), k as u64);
             CaptureFrame { positions, faces }
         })
         .collect()
@@ -249,15 +256,17 @@ fn unregistered_against_registered() {
     let name = std::env::var("CGV_PROBE").unwrap_or_else(|_| "samba".into());
     let frames: usize = std::env::var("CGV_FRAMES").ok().and_then(|s| s.parse().ok()).unwrap_or(24);
     let n: usize = std::env::var("CGV_GRID").ok().and_then(|s| s.parse().ok()).unwrap_or(128);
+    // CGV_START=K: the clip from frame K (its first frame mapped afresh).
+    let start: usize = std::env::var("CGV_START").ok().and_then(|s| s.parse().ok()).unwrap_or(0);
     let dir = common::real_sequence(&name);
     let full = cgv::mesh::open_sequence(dir.to_str().unwrap(), &Default::default()).unwrap();
     let truth = InMemory {
         label: dir.clone(),
         fps: 30.0,
         topology: full.topology().clone(),
-        frames: (0..frames).map(|t| full.read_frame(t).unwrap()).collect(),
+        frames: (start..start + frames).map(|t| full.read_frame(t).unwrap()).collect(),
     };
-    let capture = remeshed(&truth, frames);
+    let capture = remeshed_from(&truth, frames, start);
     let grid = Grid::new(n).unwrap();
     let r: usize = std::env::var("CGV_REGISTER_GRID").ok().and_then(|s| s.parse().ok()).unwrap_or(n);
     let (registered, report) = register(&dir, 30.0, &capture, Grid::new(r).unwrap()).unwrap();

@@ -29,11 +29,23 @@ pub fn measure(
     surface_every: usize,
     diagonal: &dyn Fn(usize) -> f64,
 ) -> Result<SkinErrors> {
+    measure_frames(frames, faces, &|t| skin.frame(t), surface_every, diagonal)
+}
+
+/// [`measure`] of any frames a skinning plays (`played(t)`: frame t, as
+/// with its residual's morph targets).
+pub fn measure_frames(
+    frames: &[Vec<Vec3>],
+    faces: &[[u32; 3]],
+    played: &dyn Fn(usize) -> Vec<Vec3>,
+    surface_every: usize,
+    diagonal: &dyn Fn(usize) -> f64,
+) -> Result<SkinErrors> {
     let n = frames.len().max(1) as f64;
     let (mut e, mut surface) = (SkinErrors::default(), Vec::new());
     let mut kg = crate::metrics::KgError::default();
     for (t, f) in frames.iter().enumerate() {
-        let (x, diag) = (skin.frame(t), diagonal(t));
+        let (x, diag) = (played(t), diagonal(t));
         let (rms, max) = crate::metrics::vertex_error(&x, f);
         (e.vertex_rms, e.vertex_max) = (e.vertex_rms + rms / diag / n, e.vertex_max.max(max / diag));
         kg.add_frame(f, &x);

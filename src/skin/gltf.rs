@@ -4,6 +4,7 @@
 //! times, and identity inverse bind matrices (the rest pose is the bind
 //! pose). three.js, Babylon.js and every engine play it on the GPU.
 
+use super::residual::MorphTargets;
 use super::{Skinning, INFLUENCES};
 use crate::error::{Error, Result};
 use glam::{Quat, Vec3};
@@ -89,6 +90,19 @@ fn joints_and_weights(skin: &Skinning) -> (Vec<u16>, Vec<f32>) {
 /// (atomically). Needs at least [`INFLUENCES`] bones, so that each vertex
 /// has four distinct joints.
 pub fn write_skinned_glb(path: &Path, skin: &Skinning, faces: &[[u32; 3]], fps: f32, name: &str) -> Result<()> {
+    write_skinned_glb_with(path, skin, None, faces, fps, name)
+}
+
+/// [`write_skinned_glb`] with the residual's morph targets (`morph`), which
+/// the mesh carries as targets and the animation weighs every frame.
+pub fn write_skinned_glb_with(
+    path: &Path,
+    skin: &Skinning,
+    morph: Option<&MorphTargets>,
+    faces: &[[u32; 3]],
+    fps: f32,
+    name: &str,
+) -> Result<()> {
     if skin.bones < INFLUENCES || skin.frames() == 0 {
         return Err(Error::Argument(format!(
             "a skinned glTF needs at least {INFLUENCES} bones and one frame ({} bones, {} frames)",
@@ -122,18 +136,26 @@ pub fn write_skinned_glb(path: &Path, skin: &Skinning, faces: &[[u32; 3]], fps: 
     );
     let identity: Vec<f32> = (0..skin.bones).flat_map(|_| glam::Mat4::IDENTITY.to_cols_array()).collect();
     let ibm = bin.floats(&identity, ("MAT4", skin.bones), None, false);
-    let (nodes, animation) = joints_animated(&mut bin, skin, fps);
+    let (nodes, mut animation) = joints_animated(&mut bin, skin, fps);
+    let mut primitive =
+        json!({"attributes": attributes_of(position, joints_acc, weights_acc), "indices": indices, "mode": 4});
+    let mut mesh = json!({"name": name});
+    if let Some(m) = morph {
+        primitive["targets"] = json!(morph_targets(&mut bin, m));
+        mesh["weights"] = json!(vec![0.0; m.targets.len()]);
+        morph_animated(&mut bin, m, &mut animation);
+    }
+    mesh["primitives"] = json!([primitive]);
     let root = skin.bones + 1;
     let mut all_nodes = vec![json!({"name": name, "mesh": 0, "skin": 0})];
     all_nodes.extend(nodes);
     all_nodes.push(json!({"name": "skeleton", "children": (1..=skin.bones).collect::<Vec<_>>()}));
-    let attributes = json!({"POSITION": position, "JOINTS_0": joints_acc, "WEIGHTS_0": weights_acc});
     let doc = json!({
         "asset": {"version": "2.0", "generator": "cgv skin"},
         "scene": 0,
         "scenes": [{"nodes": [0, root]}],
         "nodes": all_nodes,
-        "meshes": [{"name": name, "primitives": [{"attributes": attributes, "indices": indices, "mode": 4}]}],
+        "meshes": [mesh],
         "skins": [{"joints": (1..=skin.bones).collect::<Vec<_>>(), "inverseBindMatrices": ibm, "skeleton": root}],
         "animations": [animation],
         "buffers": [{"byteLength": bin.bytes.len()}],
@@ -142,6 +164,40 @@ pub fn write_skinned_glb(path: &Path, skin: &Skinning, faces: &[[u32; 3]], fps: 
     });
     let len = bin.bytes.len();
     crate::mesh::gltf_out::write_container(path, &doc, &mut bin.bytes.as_slice(), len)
+}
+
+fn attributes_of(position: usize, joints: usize, weights: usize) -> serde_json::Value {
+    json!({"POSITION": position, "JOINTS_0": joints, "WEIGHTS_0": weights})
+}
+
+/// The morph targets' position accessors (each with the bounds glTF asks
+/// of a target's positions).
+fn morph_targets(bin: &mut Bin, m: &MorphTargets) -> Vec<serde_json::Value> {
+    m.targets
+        .iter()
+        .map(|t| {
+            let (lo, hi) = t.iter().fold((Vec3::MAX, Vec3::MIN), |(l, h), p| (l.min(*p), h.max(*p)));
+            let data: Vec<f32> = t.iter().flat_map(|p| p.to_array()).collect();
+            let bounds = Some((lo.to_array().to_vec(), hi.to_array().to_vec()));
+            json!({"POSITION": bin.floats(&data, ("VEC3", t.len()), bounds, true)})
+        })
+        .collect()
+}
+
+/// The morph weights' track on the mesh's node (node 0), on the joints'
+/// times (the animation's first sampler's input).
+fn morph_animated(bin: &mut Bin, m: &MorphTargets, animation: &mut serde_json::Value) {
+    let input = animation["samplers"][0]["input"].clone();
+    let data: Vec<f32> = m.weights.iter().flatten().copied().collect();
+    let output = bin.floats(&data, ("SCALAR", data.len()), None, false);
+    if let (Some(samplers), Some(channels)) =
+        (animation["samplers"].as_array().map(Vec::len), animation["channels"].as_array_mut())
+    {
+        channels.push(json!({"sampler": samplers, "target": {"node": 0, "path": "weights"}}));
+    }
+    if let Some(s) = animation["samplers"].as_array_mut() {
+        s.push(json!({"input": input, "output": output, "interpolation": "LINEAR"}));
+    }
 }
 
 /// The joint nodes (frame 0's pose) and the animation that moves them:

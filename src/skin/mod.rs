@@ -9,6 +9,7 @@
 //! - [`count`]: the fewest bones within an error target;
 //! - [`nnls`]: the small non-negative least-squares solves its weights need;
 //! - [`procrustes`]: the weighted rigid fit its transforms need;
+//! - [`residual`]: what a skinning misses, as a few morph targets;
 //! - [`gltf`]: a skinning as a standard skinned, animated glTF;
 //! - [`errors`]: how far a skinning is from its frames.
 
@@ -20,6 +21,8 @@ pub mod errors;
 pub mod gltf;
 pub mod nnls;
 pub mod procrustes;
+#[cfg(not(target_arch = "wasm32"))]
+pub mod residual;
 #[cfg(not(target_arch = "wasm32"))]
 pub mod ssdr;
 

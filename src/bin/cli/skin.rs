@@ -6,6 +6,7 @@
 use super::InputArgs;
 use anyhow::{bail, Context, Result};
 use cgv::mesh::Bounds;
+use cgv::skin::residual::MorphTargets;
 use cgv::skin::SkinOptions;
 use std::path::PathBuf;
 
@@ -23,6 +24,12 @@ pub struct Args {
     /// written.
     #[arg(long)]
     affine: bool,
+    /// Also write what the bones miss as this many morph targets (the
+    /// principal components of the residual, in the bind pose), weighed
+    /// every frame: three.js plays them with the skin. Each costs 3 numbers
+    /// a vertex once and one a frame.
+    #[arg(long, value_name = "K", default_value_t = 0)]
+    morph_targets: usize,
     /// Bones (4 to 255). More bones, less error, more bits: 16 to 32 suit
     /// a body, a few more a body with a face or hands.
     #[arg(long, default_value_t = SkinOptions::default().bones)]
@@ -68,6 +75,9 @@ struct Report {
     glb_bits_per_vertex_frame: Option<f64>,
     /// Affine bones instead of rigid ones.
     affine: bool,
+    /// Morph targets of the residual (counted in the compact bits at 16
+    /// bits a number: 3 a vertex each, once, and a weight a frame).
+    morph_targets: usize,
     seconds_decompose: f64,
     /// With --target-error: each bone count fitted, and whether one met it.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -82,7 +92,8 @@ struct Target {
     tried: Vec<cgv::skin::count::Tried>,
 }
 
-pub fn run(args: Args) -> Result<()> {
+/// The arguments checked before any work.
+fn check(args: &Args) -> Result<()> {
     if let Some(output) = &args.output {
         if !super::is_glb(output) {
             bail!("{}: the output should end in .glb", output.display());
@@ -92,6 +103,11 @@ pub fn run(args: Args) -> Result<()> {
     if !(4..=255).contains(&args.bones) {
         bail!("--bones {}: a skinned glTF needs 4 to 255 bones", args.bones);
     }
+    Ok(())
+}
+
+pub fn run(args: Args) -> Result<()> {
+    check(&args)?;
     let src = args.input.open()?;
     let frames = (0..src.frame_count()).map(|i| src.read_frame(i)).collect::<cgv::Result<Vec<_>>>()?;
     let faces = &src.topology().faces;
@@ -108,16 +124,15 @@ pub fn run(args: Args) -> Result<()> {
             (skin, Some(target))
         }
     };
+    let morph = (args.morph_targets > 0)
+        .then(|| cgv::skin::residual::fit(&skin, &frames, args.morph_targets))
+        .transpose()
+        .context("--morph-targets")?;
     let seconds_decompose = t.elapsed().as_secs_f64();
     let name = src.label().file_stem().and_then(|s| s.to_str()).unwrap_or("motion").to_string();
-    let glb_bytes = match &args.output {
-        Some(output) => {
-            cgv::skin::gltf::write_skinned_glb(output, &skin, faces, src.fps(), &name)?;
-            Some(std::fs::metadata(output)?.len())
-        }
-        None => None,
-    };
-    let mut report = measure(&frames, faces, &skin, args.surface_every, (glb_bytes, seconds_decompose))?;
+    let glb_bytes = write_glb(&args, (&skin, morph.as_ref()), faces, src.fps(), &name)?;
+    let played = (&skin, morph.as_ref());
+    let mut report = measure(&frames, faces, played, args.surface_every, (glb_bytes, seconds_decompose))?;
     report.affine = args.affine;
     report.target = target;
     if args.json {
@@ -147,8 +162,12 @@ pub fn run(args: Args) -> Result<()> {
         _ => String::new(),
     };
     println!(
-        "  size           {:.3} bits/vertex/frame compact (16-bit matrices, 8-bit weights; rest mesh not counted){glb}",
-        report.compact_bits_per_vertex_frame
+        "  size           {:.3} bits/vertex/frame compact (16-bit matrices, 8-bit weights{}; rest mesh not counted){glb}",
+        report.compact_bits_per_vertex_frame,
+        match report.morph_targets {
+            0 => String::new(),
+            k => format!(", {k} morph targets at 16 bits"),
+        }
     );
     if let Some(t) = &report.target {
         let tried: Vec<String> = t.tried.iter().map(|c| format!("{} {:.4} %", c.bones, 100.0 * c.vertex_rms)).collect();
@@ -198,18 +217,36 @@ fn fit_to_error(
     Ok((skin, Target { vertex_rms_at_most: percent / 100.0, met, tried }))
 }
 
-/// The skinning's errors against the frames (each frame's diagonal), and its sizes.
+/// The GLB at `-o`, if asked for, and its size.
+fn write_glb(
+    args: &Args,
+    (skin, morph): (&cgv::skin::Skinning, Option<&MorphTargets>),
+    faces: &[[u32; 3]],
+    fps: f32,
+    name: &str,
+) -> Result<Option<u64>> {
+    let Some(output) = &args.output else { return Ok(None) };
+    cgv::skin::gltf::write_skinned_glb_with(output, skin, morph, faces, fps, name)?;
+    Ok(Some(std::fs::metadata(output)?.len()))
+}
+
+/// The skinning's errors against the frames (each frame's diagonal), with
+/// its residual's morph targets if any, and its sizes.
 fn measure(
     frames: &[Vec<glam::Vec3>],
     faces: &[[u32; 3]],
-    skin: &cgv::skin::Skinning,
+    (skin, morph): (&cgv::skin::Skinning, Option<&MorphTargets>),
     surface_every: usize,
     (glb_bytes, seconds_decompose): (Option<u64>, f64),
 ) -> Result<Report> {
     let diagonal = |t: usize| Bounds::of(&frames[t]).diagonal() as f64;
-    let e = cgv::skin::errors::measure(frames, faces, skin, surface_every, &diagonal)?;
+    let played = |t: usize| morph.map_or_else(|| skin.frame(t), |m| m.frame(skin, t));
+    let e = cgv::skin::errors::measure_frames(frames, faces, &played, surface_every, &diagonal)?;
     let (n, nv) = (frames.len(), skin.rest.len());
     let per = |bits: f64| bits / (n * nv) as f64;
+    // A target: 3 numbers a vertex once and a weight a frame, 16 bits each.
+    let targets = morph.map_or(0, |m| m.targets.len()) as u64;
+    let morph_bits = targets * 16 * (3 * nv as u64 + n as u64);
     Ok(Report {
         frames: n,
         vertices: nv,
@@ -218,7 +255,8 @@ fn measure(
         vertex_max: e.vertex_max,
         surface_rms: e.surface_rms,
         kg: e.kg,
-        compact_bits_per_vertex_frame: per(skin.compact_bits() as f64),
+        compact_bits_per_vertex_frame: per((skin.compact_bits() + morph_bits) as f64),
+        morph_targets: targets as usize,
         glb_bytes,
         glb_bits_per_vertex_frame: glb_bytes.map(|b| per(b as f64 * 8.0)),
         affine: false,
