@@ -1037,6 +1037,14 @@ fn skinning_joins_eval_as_a_peer_and_decode_writes_bones() {
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert!(v["skin_vertex_rms_of_decoded"].as_f64().unwrap() < 0.02, "{v}");
     assert_eq!(validate_gltf(&[std::path::Path::new(&p("w-skin.glb"))])[0]["errors"], 0);
+    // With the residual as 3 morph targets: closer to what the file decodes to.
+    let args = ["decode", &p("w.cgv"), "--skinned", "--bones", "8", "--morph-targets", "3", "--json", "-o"];
+    let out = cgv(&[&args[..], &[p("w-morph.glb").as_str()]].concat());
+    assert!(out.status.success(), "{}", stderr(&out));
+    let m: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let (with, without) = (m["skin_vertex_rms_of_decoded"].as_f64().unwrap(), v["skin_vertex_rms_of_decoded"].as_f64());
+    assert!(m["morph_targets"] == 3 && Some(with) < without, "{m} against {v}");
+    assert_eq!(validate_gltf(&[std::path::Path::new(&p("w-morph.glb"))])[0]["errors"], 0);
 }
 
 /// `cgv info` on a file with bones (format v13): how many, where their

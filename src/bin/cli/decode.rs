@@ -1,6 +1,6 @@
 //! `cgv decode`: a `.cgv` file back into a mesh sequence (GLB or OBJ folder).
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use cgv::codec::FileDecoder;
 use cgv::solve::SolverKind;
 use std::path::PathBuf;
@@ -45,6 +45,11 @@ pub struct Args {
     /// With --skinned: the number of bones (4 to 255).
     #[arg(long, default_value_t = cgv::skin::SkinOptions::default().bones, requires = "skinned")]
     bones: usize,
+    /// With --skinned: also what the bones miss of the decoded motion, as
+    /// this many morph targets weighed every frame (`cgv skin
+    /// --morph-targets`).
+    #[arg(long, value_name = "K", default_value_t = 0, requires = "skinned")]
+    morph_targets: usize,
     /// Print statistics as JSON.
     #[arg(long)]
     json: bool,
@@ -252,13 +257,18 @@ fn write_skinned(args: &Args, decoded: &[Vec<glam::Vec3>], faces: &[[u32; 3]], f
     let pb = super::progress(opts.iterations, "fitting bones", args.json);
     let skin = cgv::skin::decompose(decoded, faces, &opts, &mut |it, _| pb.set_position(it as u64))?;
     pb.finish_and_clear();
-    cgv::skin::gltf::write_skinned_glb(&args.output, &skin, faces, fps, "cgv")?;
+    let morph = (args.morph_targets > 0)
+        .then(|| cgv::skin::residual::fit(&skin, decoded, args.morph_targets))
+        .transpose()
+        .context("--morph-targets")?;
+    cgv::skin::gltf::write_skinned_glb_with(&args.output, &skin, morph.as_ref(), faces, fps, "cgv")?;
     let diagonal = |t: usize| cgv::mesh::Bounds::of(&decoded[t]).diagonal() as f64;
-    let rms = cgv::skin::errors::measure(decoded, faces, &skin, 0, &diagonal)?.vertex_rms;
+    let played = |t: usize| morph.as_ref().map_or_else(|| skin.frame(t), |m| m.frame(&skin, t));
+    let rms = cgv::skin::errors::measure_frames(decoded, faces, &played, 0, &diagonal)?.vertex_rms;
     let bytes = std::fs::metadata(&args.output)?.len();
     if args.json {
         let report = serde_json::json!({"output": &args.output, "frames": decoded.len(), "bones": args.bones,
-            "skin_vertex_rms_of_decoded": rms, "bytes": bytes});
+            "morph_targets": args.morph_targets, "skin_vertex_rms_of_decoded": rms, "bytes": bytes});
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
         println!(
