@@ -118,8 +118,9 @@ impl FileDecoder {
         let Some(unit) = self.file.frames.get(frame as usize).and_then(|f| f.mesh.as_deref()) else {
             return Ok(None);
         };
+        // The reader checked every unit; a file built in memory may not be.
         let mesh = crate::format::frame_mesh::parse_unit(unit, frame, 0)
-            .map_err(|source| crate::error::Error::Container { path: "frame mesh".into(), source })?;
+            .map_err(|e| crate::error::Error::Argument(e.to_string()))?;
         let decoder = SourceMeshDecoder::new(self.grid, &mesh);
         Ok(Some((decoder.vertices(grid_frame, &[]), mesh.faces)))
     }

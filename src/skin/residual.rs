@@ -59,20 +59,20 @@ pub fn fit(skin: &Skinning, frames: &[Vec<Vec3>], k: usize) -> Result<MorphTarge
     }
     // Each frame's residual in the bind pose (a blend that is singular, as
     // two opposed bones can make it, leaves that vertex's residual out).
-    let residual: Vec<Vec<f64>> = (0..t_count)
+    let residual: Vec<Vec<f32>> = (0..t_count)
         .map(|t| {
             let (skinned, a) = (skin.frame(t), blended(skin, t));
             (0..nv)
                 .flat_map(|v| {
                     let inv = a[v].inverse();
                     let d = if inv.is_finite() { inv * (frames[t][v] - skinned[v]) } else { Vec3::ZERO };
-                    d.as_dvec3().to_array()
+                    d.to_array()
                 })
                 .collect()
         })
         .collect();
     let gram = faer::Mat::<f64>::from_fn(t_count, t_count, |i, j| {
-        residual[i].iter().zip(&residual[j]).map(|(a, b)| a * b).sum()
+        residual[i].iter().zip(&residual[j]).map(|(&a, &b)| f64::from(a) * f64::from(b)).sum()
     });
     let svd = gram.svd().map_err(|e| Error::Numerical(format!("the residual's components: {e:?}")))?;
     let (u, s) = (svd.U(), svd.S().column_vector());
@@ -84,7 +84,7 @@ pub fn fit(skin: &Skinning, frames: &[Vec<Vec3>], k: usize) -> Result<MorphTarge
         let mut b = vec![0.0f64; 3 * nv];
         for (t, r) in residual.iter().enumerate() {
             let w = u[(t, c)] / sigma.max(f64::MIN_POSITIVE);
-            b.iter_mut().zip(r).for_each(|(x, y)| *x += w * y);
+            b.iter_mut().zip(r).for_each(|(x, &y)| *x += w * f64::from(y));
         }
         targets.push(b.chunks_exact(3).map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32)).collect());
         for (t, w) in weights.iter_mut().enumerate() {
