@@ -27,20 +27,24 @@ impl BoneTransform {
     }
 }
 
-/// The rigid transform minimizing `Σ ‖q − w (R r + T)‖²` over the triples
-/// `(r, q, w)`; the identity where the weights are all zero.
-pub fn fit(points: impl Iterator<Item = (Vec3, Vec3, f32)> + Clone) -> BoneTransform {
+/// The centres that eliminate T from both fits: p̄ = Σ w² r / Σ w² and
+/// q̄ = Σ w q / Σ w² (none where the weights are all zero or a sum is not
+/// finite).
+fn centres(points: impl Iterator<Item = (Vec3, Vec3, f32)>) -> Option<(DVec3, DVec3)> {
     let (mut w2, mut wr, mut wq) = (0.0, DVec3::ZERO, DVec3::ZERO);
-    for (r, q, w) in points.clone() {
+    for (r, q, w) in points {
         let w = w as f64;
         w2 += w * w;
         wr += w * w * r.as_dvec3();
         wq += w * q.as_dvec3();
     }
-    if !(w2 > 1e-300 && wr.is_finite() && wq.is_finite()) {
-        return BoneTransform::default();
-    }
-    let (p_bar, q_bar) = (wr / w2, wq / w2);
+    (w2 > 1e-300 && wr.is_finite() && wq.is_finite()).then(|| (wr / w2, wq / w2))
+}
+
+/// The rigid transform minimizing `Σ ‖q − w (R r + T)‖²` over the triples
+/// `(r, q, w)`; the identity where the weights are all zero.
+pub fn fit(points: impl Iterator<Item = (Vec3, Vec3, f32)> + Clone) -> BoneTransform {
+    let Some((p_bar, q_bar)) = centres(points.clone()) else { return BoneTransform::default() };
     // H = Σ (q − w q̄)(w (r − p̄))ᵀ: R maximizes tr(Rᵀ H).
     let mut h = DMat3::ZERO;
     for (r, q, w) in points {
@@ -61,17 +65,7 @@ pub fn fit(points: impl Iterator<Item = (Vec3, Vec3, f32)> + Clone) -> BoneTrans
 /// a bone whose points lie near a plane or a line from folding space; M is
 /// the rigid fit where the system is singular anyway.
 pub fn fit_affine(points: impl Iterator<Item = (Vec3, Vec3, f32)> + Clone) -> BoneTransform {
-    let (mut w2, mut wr, mut wq) = (0.0, DVec3::ZERO, DVec3::ZERO);
-    for (r, q, w) in points.clone() {
-        let w = w as f64;
-        w2 += w * w;
-        wr += w * w * r.as_dvec3();
-        wq += w * q.as_dvec3();
-    }
-    if !(w2 > 1e-300 && wr.is_finite() && wq.is_finite()) {
-        return BoneTransform::default();
-    }
-    let (p_bar, q_bar) = (wr / w2, wq / w2);
+    let Some((p_bar, q_bar)) = centres(points.clone()) else { return BoneTransform::default() };
     let (mut h, mut s) = (DMat3::ZERO, DMat3::ZERO);
     for (r, q, w) in points {
         let w = w as f64;

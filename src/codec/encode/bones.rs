@@ -159,31 +159,49 @@ mod probe {
     use super::*;
     use crate::mesh::{open_sequence, Bounds, OpenOptions};
 
+    /// `CGV_PROBE`'s motion at N = 128: its path, the source, its geometry
+    /// image and its first frame's diagonal.
+    fn probe_input() -> (String, Box<dyn FrameSource>, crate::geometry_image::GeometryImage, f32) {
+        let dir = std::env::var("CGV_PROBE").unwrap();
+        let src = open_sequence(&dir, &OpenOptions::default()).unwrap();
+        let opts = EncodeOptions { grid: 128, ..Default::default() };
+        let image = crate::codec::prepare(src.as_ref(), &opts).unwrap();
+        let diag = Bounds::of(&src.read_frame(0).unwrap()).diagonal();
+        (dir, src, image, diag)
+    }
+
+    /// The 32 bones of quantized `inf` on the 128 grid halved `shrink`
+    /// times, as a file's header and chunk, and their predictor.
+    fn probe_bones(
+        inf: &[[(u16, f32); INFLUENCES]],
+        shrink: u8,
+        diag: f32,
+    ) -> (SkinInfo, SkinWeights, SkinnedPredictor) {
+        let weights = SkinWeights { influences: inf.iter().map(quantize).collect() };
+        let info = SkinInfo {
+            bones: 32,
+            shrink,
+            rotation_step: ROTATION_STEP,
+            translation_step: diag * TRANSLATION_STEP,
+            packed: true,
+        };
+        let p = SkinnedPredictor::new(Grid::new(128).unwrap(), &info, &weights).unwrap();
+        (info, weights, p)
+    }
+
     /// The bones alone on the full grid, with and without the weights'
     /// refit: `CGV_PROBE=/tmp/data/samba cargo test --release --lib probe -- --ignored --nocapture`.
     #[test]
     #[ignore]
     fn bones_alone_on_the_full_grid() {
-        let dir = std::env::var("CGV_PROBE").unwrap();
-        let src = open_sequence(&dir, &OpenOptions::default()).unwrap();
-        let opts = EncodeOptions { grid: 128, ..Default::default() };
-        let image = crate::codec::prepare(src.as_ref(), &opts).unwrap();
+        let (dir, src, image, diag) = probe_input();
         let grid = Grid::new(128).unwrap();
-        let diag = Bounds::of(&src.read_frame(0).unwrap()).diagonal();
         let shrink = skin_shrink(128);
         for sweeps in [0, REFIT_SWEEPS] {
             let t0 = std::time::Instant::now();
             let inf = fit_weights(src.as_ref(), grid, &image.map, shrink, 32, sweeps, &mut |_, _, _| {}).unwrap();
             let secs = t0.elapsed().as_secs_f64();
-            let weights = SkinWeights { influences: inf.iter().map(quantize).collect() };
-            let info = SkinInfo {
-                bones: 32,
-                shrink,
-                rotation_step: ROTATION_STEP,
-                translation_step: diag * TRANSLATION_STEP,
-                packed: true,
-            };
-            let mut p = SkinnedPredictor::new(grid, &info, &weights).unwrap();
+            let (info, weights, mut p) = probe_bones(&inf, shrink, diag);
             let (mut l, mut sum, mut bytes) = (Vec::new(), 0.0, 0);
             for f in 0..src.frame_count() {
                 let x = image.map.apply(&src.read_frame(f).unwrap());
@@ -216,23 +234,11 @@ mod probe {
     #[ignore]
     fn bones_on_the_source_vertices() {
         use crate::resample::triangle_frame;
-        let dir = std::env::var("CGV_PROBE").unwrap();
-        let src = open_sequence(&dir, &OpenOptions::default()).unwrap();
-        let opts = EncodeOptions { grid: 128, ..Default::default() };
-        let image = crate::codec::prepare(src.as_ref(), &opts).unwrap();
+        let (dir, src, image, diag) = probe_input();
         let grid = Grid::new(128).unwrap();
-        let diag = Bounds::of(&src.read_frame(0).unwrap()).diagonal();
         let shrink = skin_shrink(128);
         let inf = fit_weights(src.as_ref(), grid, &image.map, shrink, 32, REFIT_SWEEPS, &mut |_, _, _| {}).unwrap();
-        let weights = SkinWeights { influences: inf.iter().map(quantize).collect() };
-        let info = SkinInfo {
-            bones: 32,
-            shrink,
-            rotation_step: ROTATION_STEP,
-            translation_step: diag * TRANSLATION_STEP,
-            packed: true,
-        };
-        let mut p = SkinnedPredictor::new(grid, &info, &weights).unwrap();
+        let (_, _, mut p) = probe_bones(&inf, shrink, diag);
         let points = image.source_points();
         let faces = grid.topology().faces;
         let n = src.frame_count();
