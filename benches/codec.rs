@@ -154,14 +154,21 @@ fn bench(c: &mut Criterion) {
 fn bone_predictor(grid: Grid) -> SkinnedPredictor {
     let side = 32usize.min(grid.n);
     let shrink = (grid.n / side).trailing_zeros() as u8;
-    let info = SkinInfo { bones: 32, shrink, rotation_step: 1.0 / 512.0, translation_step: 1e-3, packed: true };
+    let info = SkinInfo {
+        bones: 32,
+        shrink,
+        rotation_step: 1.0 / 512.0,
+        translation_step: 1e-3,
+        packed: true,
+        rest_step: None,
+    };
     let influences = (0..side * side)
         .map(|k| {
             let b = (8 * (k % side) / side + 8 * (4 * (k / side) / side)) as u8;
             [(b, 200), ((b + 1) % 32, 55), (0, 0), (0, 0)]
         })
         .collect();
-    SkinnedPredictor::new(grid, &info, &SkinWeights { influences }).expect("bones")
+    SkinnedPredictor::new(grid, &info, &SkinWeights { influences, ..Default::default() }).expect("bones")
 }
 
 criterion_group!(benches, bench);

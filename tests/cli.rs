@@ -1060,3 +1060,51 @@ fn info_names_the_bones_and_the_frames_they_predict() {
     let bad = cgv(&["encode", "builtin:walk", "--bones", "many", "-o", "/nonexistent/x.cgv"]);
     assert!(!bad.status.success() && stderr(&bad).contains("give auto or a count"), "{}", stderr(&bad));
 }
+
+/// `--codec skinned` (format version 17): the file says what it stores,
+/// decodes to the input's own mesh, refuses its grid (a residual, not a
+/// surface), and an encode without the source mesh or bones is refused
+/// with what to do.
+#[test]
+fn the_skinned_codec_round_trips_and_refuses_what_it_cannot() {
+    let dir = common::temp_dir("cli-skinned");
+    let file = dir.join("walk.cgv");
+    let f = file.to_str().unwrap();
+    let out = cgv(&[
+        "encode",
+        "builtin:walk",
+        "--frames",
+        "0..6",
+        "--grid",
+        "16",
+        "--codec",
+        "skinned",
+        "--bones",
+        "4",
+        "-o",
+        f,
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(text.contains("skinned codec") && text.contains("rest pose ("), "{text}");
+    let info = cgv(&["info", f]);
+    let text = String::from_utf8_lossy(&info.stdout);
+    assert!(text.contains("version 17") && text.contains("bones         4 on the source mesh's vertices"), "{text}");
+    let objs = dir.join("objs");
+    let out = cgv(&["decode", f, "-o", objs.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert_eq!(std::fs::read_dir(&objs).unwrap().count(), 6);
+    let grid = cgv(&["decode", f, "--mesh", "grid", "-o", dir.join("grid").to_str().unwrap()]);
+    assert!(!grid.status.success() && stderr(&grid).contains("what its bones miss"), "{}", stderr(&grid));
+    let x = dir.join("x.cgv");
+    for (flag, value, says) in
+        [("--no-source-mesh", None, "needs the source mesh"), ("--bones", Some("0"), "bone count")]
+    {
+        let mut args = vec!["encode", "builtin:walk", "--frames", "0..6", "--codec", "skinned", flag];
+        args.extend(value);
+        args.extend(["-o", x.to_str().unwrap()]);
+        let out = cgv(&args);
+        assert!(!out.status.success() && stderr(&out).contains(says), "{flag}: {}", stderr(&out));
+    }
+    assert!(!x.exists(), "a refused encode leaves no file");
+}

@@ -154,9 +154,9 @@ fn bad_magic_and_versions() {
     assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::BadMagic);
     assert_eq!(format::read(b"GIF89a").unwrap_err(), ContainerError::BadMagic);
     let mut bytes = file(&header());
-    bytes[8] = 17;
-    assert_eq!(format::VERSION, 16);
-    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 17 });
+    bytes[8] = 18;
+    assert_eq!(format::VERSION, 17);
+    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 18 });
     bytes[8] = 0;
     assert!(matches!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 0 }));
 }
@@ -1136,7 +1136,7 @@ fn bones_file(prefix: &[u8], chunks: &[RawChunk]) -> Vec<u8> {
     out
 }
 
-/// Versions 13's and 14's parts, each broken on its own: the skin weights
+/// Versions 13's, 14's and 17's parts, each broken on its own: the skin weights
 /// missing, truncated or naming a bone past the count, a frame's bones
 /// unit missing or overlong, and the file declared as the version before.
 /// Each is a typed error; the intact file reads.
@@ -1144,6 +1144,7 @@ fn bones_file(prefix: &[u8], chunks: &[RawChunk]) -> Vec<u8> {
 fn broken_bones_are_errors() {
     broken_bones_of("v13/walk-bones.cgv");
     broken_bones_of("v14/walk-bones-packed.cgv");
+    broken_bones_of("v17/walk-skinned.cgv");
 }
 
 fn broken_bones_of(fixture: &str) {
@@ -1154,7 +1155,7 @@ fn broken_bones_of(fixture: &str) {
     let h = format::read(&bones_file(&prefix, &chunks)).unwrap().header;
     let info = h.skin.unwrap();
     let side = h.grid as usize >> info.shrink;
-    let weights = format::SkinWeights::parse(&chunks[skin].2, &info, h.grid, 0).unwrap();
+    let weights = format::SkinWeights::parse(&chunks[skin].2, &info, h.skin_samples(), 0).unwrap();
     let mut bad_bone = weights.clone();
     bad_bone.influences[side][0] = (info.bones as u8, 10);
     // Frame 1's side data, its access units' lengths and units, then the bones unit.

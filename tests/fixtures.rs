@@ -71,7 +71,7 @@ fn compare(expected: &str, got: &[f32], tolerance: f64) {
 fn every_fixture_is_named_for_what_it_stores() {
     // Issue 18's honest names, read from the streams of files of every
     // version (the header's `codec` field is `cgv` for all but GV).
-    use format::Representation::{Conformal, Gv, Normal, Predictive};
+    use format::Representation::{Conformal, Gv, Normal, Predictive, Skinned};
     let named = [
         ("v1/walk-gv.cgv", Gv),
         ("v1/walk-cgv.cgv", Predictive),
@@ -81,6 +81,7 @@ fn every_fixture_is_named_for_what_it_stores() {
         ("v9/walk-cgv-normal.cgv", Normal),
         ("v10/walk-cgv-random-access.cgv", Normal),
         ("v11/walk-conformal.cgv", Conformal),
+        ("v17/walk-skinned.cgv", Skinned),
     ];
     for (name, kind) in named {
         assert_eq!(open(name).header.representation(), kind, "{name}");
@@ -180,7 +181,7 @@ fn check_source(name: &str, f: CgvFile) {
     let mut got = Vec::new();
     for _ in 0..dec.frame_count() {
         let (x, _) = dec.next_frame().unwrap();
-        got.extend(source.vertices(&x, dec.loose()).iter().flat_map(|p| p.to_array()));
+        got.extend(source.vertices(&x, dec.loose(), dec.skinned()).iter().flat_map(|p| p.to_array()));
     }
     compare(&format!("{name}.source.positions"), &got, 1e-5 * diag);
 }
@@ -239,6 +240,25 @@ fn v14_packed_bones_fixture_decodes_as_frozen() {
     assert!(f.frames.iter().enumerate().all(|(k, i)| i.bones.as_ref().is_some_and(|b| b.is_empty() == (k % 3 == 0))));
     check("v14/walk-bones-packed.cgv", SolverKind::Predictive, 1e-5);
     check_source("v14/walk-bones-packed.cgv", f);
+}
+
+#[test]
+fn v17_skinned_fixture_decodes_as_frozen() {
+    // Bones on the source mesh's vertices (`--codec skinned`): the weights
+    // and rest pose in the SKIN chunk, a bones unit every frame (the
+    // random-access points at 0, 3 and 6 too), the grid what they miss.
+    let f = open("v17/walk-skinned.cgv");
+    assert_eq!(f.version, 17);
+    assert_eq!(f.header.representation(), format::Representation::Skinned);
+    let skin = f.header.skin.expect("the file has bones");
+    assert!(skin.on_vertices() && skin.packed);
+    assert_eq!((skin.bones, f.header.random_access), (4, Some(3)));
+    let weights = f.skin.as_ref().expect("the SKIN chunk");
+    let vertices = f.source_mesh.as_ref().expect("the source mesh").places.len();
+    assert_eq!((weights.influences.len(), weights.rest.len()), (vertices, vertices));
+    assert!(f.frames.iter().all(|i| i.bones.as_ref().is_some_and(|b| !b.is_empty())));
+    check("v17/walk-skinned.cgv", SolverKind::Predictive, 1e-5);
+    check_source("v17/walk-skinned.cgv", f);
 }
 
 #[test]

@@ -211,13 +211,13 @@ fn the_player_gives_back_the_input_mesh_of_version_six_and_seven_files() {
         assert_eq!(p.source_faces().len(), 3 * 12544);
         let (grid, want) = (floats(pos), floats(vertices));
         let n = 3 * (h.grid * h.grid) as usize;
-        let got: Vec<f32> = grid.chunks(n).flat_map(|g| p.source_vertices(g, &[]).unwrap()).collect();
+        let got: Vec<f32> = grid.chunks(n).flat_map(|g| p.source_vertices(g, &[], &[]).unwrap()).collect();
         assert_eq!(got.len(), want.len());
         let worst = got.iter().zip(&want).map(|(a, b)| (a - b).abs()).fold(0.0, f32::max);
         assert!(worst <= 1e-5 * h.source.diagonal, "{worst}");
-        assert!(p.source_vertices(&grid[..9], &[]).is_err());
+        assert!(p.source_vertices(&grid[..9], &[], &[]).is_err());
         // These files have no loose vertices (format v11): none may be given.
-        assert!(p.source_vertices(&grid[..n], &[0.0; 3]).is_err());
+        assert!(p.source_vertices(&grid[..n], &[0.0; 3], &[]).is_err());
         assert!(p.loose_vertices().is_empty());
     }
     let grid = floats(SOURCE6_POS);
@@ -225,7 +225,7 @@ fn the_player_gives_back_the_input_mesh_of_version_six_and_seven_files() {
     // A file without one says so.
     let mut q = Player::new("").unwrap();
     q.push(FILTER5).unwrap();
-    assert!(q.source_faces().is_empty() && q.source_vertices(&grid[..n], &[]).is_err());
+    assert!(q.source_faces().is_empty() && q.source_vertices(&grid[..n], &[], &[]).is_err());
 }
 
 #[wasm_bindgen_test]

@@ -285,7 +285,11 @@ export class CgvPlayer extends HTMLElement {
       // The input's own mesh (a version-6 file carries it) when shaded;
       // λ, H and the error map are the grid's. mesh="grid" keeps the grid.
       const sm = this.header?.source_mesh;
-      const mesh = !!sm && this.mode === 'shaded' && this.getAttribute('mesh') !== 'grid';
+      // A skinned file's grid (format v17) is what its bones miss: only
+      // its mesh is a surface, shown shaded.
+      const skinned = this.header?.skin?.rest_step != null;
+      const mode = skinned ? 'shaded' : this.mode;
+      const mesh = !!sm && (skinned || (mode === 'shaded' && this.getAttribute('mesh') !== 'grid'));
       if (!s || s.frame !== this.frames[f] || s.mode !== this.mode || s.ref !== ref || s.mesh !== mesh) {
         if (!s || s.mesh !== mesh || s.texture !== this.texture) {
           this.view.set_mesh(mesh ? this.player.source_faces() : new Uint32Array(0), mesh ? sm.vertices : 0);
@@ -293,7 +297,7 @@ export class CgvPlayer extends HTMLElement {
           if (mesh && t) this.view.set_texture(t.uvs, t.baseColor, t.rgba, t.width, t.height);
         }
         this.view.set_reference(ref || new Float32Array(0));
-        this.view.set_frame(mesh ? this.player.source_vertices(this.frames[f], this.frames[f].loose) : this.frames[f], this.mode);
+        this.view.set_frame(mesh ? this.player.source_vertices(this.frames[f], this.frames[f].loose, this.frames[f].skinned) : this.frames[f], mode);
         this.shown = { frame: this.frames[f], mode: this.mode, ref, mesh, texture: this.texture };
         this.dataset.textured = mesh && this.texture?.width > 0 ? 'yes' : 'no';
         this.dataset.surface = mesh ? 'source' : 'grid';

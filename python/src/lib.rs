@@ -235,7 +235,7 @@ fn bytes_of(made: Made) -> Vec<u8> {
 /// Encodes a motion into the bytes of a .cgv file. `frames`: positions of
 /// shape (F, V, 3); `faces`: vertex indices of shape (M, 3), the same for
 /// every frame. Options, as `cgv encode`'s flags: codec ("auto", also
-/// called "cgv", the default; "normal", "predictive", "conformal", "gv"),
+/// called "cgv", the default; "normal", "predictive", "conformal", "gv", "skinned"),
 /// grid (N, or "auto", the default: 256 for a high enough kbps or a
 /// target error below N = 128's resampling floor, else 128), qp (default 20) or kbps (a budget the whole file
 /// keeps within 5 %, or an error; a UserWarning where neither the rate

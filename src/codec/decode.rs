@@ -37,6 +37,12 @@ impl UnitDecoder {
         self.sequence.loose()
     }
 
+    /// Version 17: the bones' skinning of the source mesh's vertices at the
+    /// frame decoded last.
+    pub fn skinned(&self) -> Option<&[Vec3]> {
+        self.sequence.skinned()
+    }
+
     /// Version 11: the anchors of the file's loose vertices (see
     /// [`SequenceDecoder::set_loose_anchors`]).
     pub fn set_loose_anchors(&mut self, anchors: &[u32]) -> Result<()> {
@@ -122,7 +128,7 @@ impl FileDecoder {
         let mesh = crate::format::frame_mesh::parse_unit(unit, frame, 0)
             .map_err(|e| crate::error::Error::Argument(e.to_string()))?;
         let decoder = SourceMeshDecoder::new(self.grid, &mesh);
-        Ok(Some((decoder.vertices(grid_frame, &[]), mesh.faces)))
+        Ok(Some((decoder.vertices(grid_frame, &[], None), mesh.faces)))
     }
 
     /// The frame [`next_frame`](Self::next_frame) decodes next.
@@ -136,11 +142,17 @@ impl FileDecoder {
         self.units.loose()
     }
 
+    /// Version 17: the bones' skinning of the source mesh's vertices at the
+    /// frame decoded last (none without bones on the vertices).
+    pub fn skinned(&self) -> Option<&[Vec3]> {
+        self.units.skinned()
+    }
+
     /// The next frame's grid positions and the input's vertices rebuilt
     /// from them (with `source`, from [`source_mesh`](Self::source_mesh)).
     pub fn next_source_frame(&mut self, source: &SourceMeshDecoder) -> Result<(Vec<Vec3>, Vec<Vec3>, FrameStats)> {
         let (x, stats) = self.next_frame()?;
-        let vertices = source.vertices(&x, self.loose());
+        let vertices = source.vertices(&x, self.loose(), self.skinned());
         Ok((x, vertices, stats))
     }
 

@@ -292,6 +292,9 @@ pub struct SequenceDecoder {
     reconstructor: Reconstructor,
     /// Version 11: the loose vertices' decoded past.
     loose: LooseVertices,
+    /// Version 17: bones on the source mesh's vertices, and their skinning
+    /// of the frame decoded last.
+    vertex_bones: Option<SkinnedPredictor>,
     next: u32,
 }
 
@@ -306,7 +309,7 @@ impl SequenceDecoder {
         let grid = Grid::new(header.grid as usize)?;
         let reconstructor = Reconstructor::new(&header, solver)?;
         let loose = LooseVertices::for_header(&header);
-        Ok(SequenceDecoder { header, grid, reconstructor, loose, next: 0 })
+        Ok(SequenceDecoder { header, grid, reconstructor, loose, vertex_bones: None, next: 0 })
     }
 
     pub fn header(&self) -> &Header {
@@ -337,6 +340,7 @@ impl SequenceDecoder {
         }
         self.reconstructor.reset();
         self.loose.reset();
+        self.vertex_bones.iter_mut().for_each(SkinnedPredictor::reset);
         self.next = f;
         Ok(())
     }
@@ -363,12 +367,17 @@ impl SequenceDecoder {
             };
             return Err(Error::Video(format!("stream {s} frame {f}: {problem}")));
         }
-        if h.skin.is_some() && !self.reconstructor.has_skin() {
+        if h.skin.is_some() && !self.has_skin() {
             return Err(Error::Argument("a file with bones decoded without its skin weights".into()));
         }
         if f > 0 && h.is_random_access_point(f) {
             self.reconstructor.reset();
             self.loose.reset();
+            self.vertex_bones.iter_mut().for_each(SkinnedPredictor::reset);
+        }
+        if let Some(b) = &mut self.vertex_bones {
+            let unit = info.bones.as_deref().unwrap_or_default();
+            b.decode(unit).map_err(|e| Error::Argument(format!("frame {f}: {e}")))?;
         }
         let vals = frame_values(h, lumas, info.correction_scale)?;
         let out = self.reconstructor.frame(f, info, &Values::new(h, &vals).with_seed_origin(info.seed_origin))?;
@@ -388,12 +397,25 @@ impl SequenceDecoder {
     /// Version 13: the file's skin weights (its `SKIN` chunk), needed
     /// before the first frame of a file with bones.
     pub fn set_skin(&mut self, weights: &SkinWeights) -> Result<()> {
-        self.reconstructor.set_skin(&self.header, weights)
+        match &self.header.skin {
+            Some(info) if info.on_vertices() => {
+                self.vertex_bones = Some(SkinnedPredictor::on_vertices(info, weights)?);
+                Ok(())
+            }
+            _ => self.reconstructor.set_skin(&self.header, weights),
+        }
     }
 
     /// Whether [`set_skin`](Self::set_skin) gave the decoder its bones.
     pub fn has_skin(&self) -> bool {
-        self.reconstructor.has_skin()
+        self.reconstructor.has_skin() || self.vertex_bones.is_some()
+    }
+
+    /// Version 17: the bones' skinning of the source mesh's vertices at the
+    /// frame decoded last (none in files without bones on the vertices),
+    /// for [`SourceMeshDecoder::vertices`].
+    pub fn skinned(&self) -> Option<&[Vec3]> {
+        self.vertex_bones.as_ref().and_then(SkinnedPredictor::skinned)
     }
 
     /// Version 11: the anchors of the file's loose vertices (its source
@@ -429,10 +451,15 @@ impl SourceMeshDecoder {
         }
     }
 
-    /// The input's vertices on one decoded grid frame and its loose
-    /// vertices ([`SequenceDecoder::loose`]).
-    pub fn vertices(&self, grid_frame: &[Vec3], loose: &[Vec3]) -> Vec<Vec3> {
+    /// The input's vertices on one decoded grid frame, with its loose
+    /// vertices ([`SequenceDecoder::loose`]) and, version 17, the bones'
+    /// skinning of the vertices ([`SequenceDecoder::skinned`]), to which
+    /// the grid frame (what the bones missed) adds.
+    pub fn vertices(&self, grid_frame: &[Vec3], loose: &[Vec3], skinned: Option<&[Vec3]>) -> Vec<Vec3> {
         let mut x = self.points.apply(grid_frame);
+        if let Some(s) = skinned {
+            x.iter_mut().zip(s).for_each(|(x, s)| *x += *s);
+        }
         place_loose(&mut x, &self.loose_of, loose);
         x
     }
@@ -491,6 +518,11 @@ pub fn decoder_memory(h: &Header, solver: SolverKind) -> u64 {
     });
     // Version 13: four influences a sample, one bone's expanded field while
     // they are chosen, the rest pose and three skinned frames.
-    let skin = h.skin.map_or(0, |_| n * 32 + n * 4 + 4 * frame);
+    let skin = match h.skin {
+        // The weights, rest pose and skinning of each vertex.
+        Some(s) if s.on_vertices() => h.skin_samples() as u64 * 64,
+        Some(_) => n * 32 + n * 4 + 4 * frame,
+        None => 0,
+    };
     streams + past + source + look + loose + skin
 }

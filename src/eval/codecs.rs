@@ -66,12 +66,16 @@ impl EvalCodec {
     pub const PREDICTIVE_MOTION: EvalCodec = EvalCodec::of(Representation::Predictive, Some(CorrectionMode::Motion));
     pub const NORMAL_SCALED: EvalCodec = EvalCodec::of(Representation::Normal, Some(CorrectionMode::Scaled));
     pub const NORMAL_MOTION: EvalCodec = EvalCodec::of(Representation::Normal, Some(CorrectionMode::Motion));
+    /// Bones on the input's own vertices and what they miss as x, y, z
+    /// (format v17): measured on the input's vertices, its grid being a
+    /// residual, not a surface.
+    pub const SKINNED: EvalCodec = EvalCodec::of(Representation::Skinned, None);
 
     /// What `cgv eval` runs unless told otherwise.
     pub const ALL: [EvalCodec; 4] = [EvalCodec::GV, EvalCodec::CONFORMAL, EvalCodec::PREDICTIVE, EvalCodec::NORMAL];
 
     /// Every codec `--codecs` names, in the order reports list them.
-    pub const NAMED: [EvalCodec; 8] = [
+    pub const NAMED: [EvalCodec; 9] = [
         EvalCodec::GV,
         EvalCodec::CONFORMAL,
         EvalCodec::PREDICTIVE,
@@ -80,6 +84,7 @@ impl EvalCodec {
         EvalCodec::PREDICTIVE_MOTION,
         EvalCodec::NORMAL_SCALED,
         EvalCodec::NORMAL_MOTION,
+        EvalCodec::SKINNED,
     ];
 
     /// The encodes a best-of entry matches at each rate point (codec,
@@ -105,6 +110,12 @@ impl EvalCodec {
         self.representation == Representation::Normal
     }
 
+    /// Whether its files carry bones on the input's vertices (and so the
+    /// source mesh), the grid coding only what they miss.
+    pub(super) fn skinned(self) -> bool {
+        self.representation == Representation::Skinned
+    }
+
     fn closed_loop(self) -> bool {
         matches!(self.representation, Representation::Predictive | Representation::Normal)
     }
@@ -116,7 +127,11 @@ impl EvalCodec {
             representation: self.representation,
             solver: self.solver(),
             corrections: self.corrections.unwrap_or(CorrectionMode::Scaled),
-            source_mesh: false,
+            source_mesh: self.skinned(),
+            bones: match self.skinned() {
+                true => base.bones.filter(|&b| b > 0).or(Some(crate::codec::DEFAULT_BONES)),
+                false => base.bones,
+            },
             ..base.clone()
         }
     }

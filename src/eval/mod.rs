@@ -21,6 +21,7 @@
 
 pub mod bdrate;
 mod codecs;
+mod frame_metrics;
 pub mod peers;
 pub mod plot;
 pub mod report;
@@ -30,11 +31,11 @@ pub mod source;
 use crate::codec::{encode_prepared, EncodeOptions, FileDecoder};
 use crate::error::{Error, Result};
 use crate::format::{self, CorrectionMode};
-use crate::geometry_image::{surface_vertices, GeometryImage};
+use crate::geometry_image::GeometryImage;
 use crate::grid::stencil::Stencils;
 use crate::grid::Grid;
 use crate::mesh::{Bounds, FrameSource, InMemory};
-use crate::metrics::{self, surface};
+use crate::metrics;
 use crate::resample::SourcePoints;
 use crate::solve::SolverKind;
 use glam::Vec3;
@@ -445,8 +446,9 @@ impl Ctx<'_> {
         o.video.qp_max = rc.map(|r| r.0);
         o.video.kbps = rc.map(|r| r.1);
         o.layers = layers;
-        // Loose vertices are rebuilt through the source mesh.
-        o.source_mesh = !self.prepared.carrier.loose.is_empty();
+        // Loose vertices are rebuilt through the source mesh, and the
+        // skinned codec's bones act on it.
+        o.source_mesh = !self.prepared.carrier.loose.is_empty() || codec.skinned();
         let t = std::time::Instant::now();
         let (bytes, report) = encode_prepared(self.src, &o, self.prepared, &mut |_, _, _| {})?;
         let size = bytes.len() - report.source_mesh_bytes;
@@ -591,26 +593,21 @@ impl Ctx<'_> {
         let loose_of = self.prepared.loose_of(topology.vertex_count);
         let mut source = SourceMeasure::new(self.points, loose_of, self.diagonal);
         let mut per_frame = Vec::with_capacity(n);
+        // The skinned codec's grid is what its bones miss: it is measured
+        // on the input's own vertices, which its decoder gives.
+        let own = dec.source_mesh().filter(|_| codec.skinned());
         for f in 0..n {
             let (x, stats) = dec.next_frame()?;
             video += stats.video_seconds;
             solve += stats.solve_seconds;
             let input = self.src.read_frame(f)?;
-            let truth = &self.prepared.map.apply(&input);
-            let (rms, max) = metrics::vertex_error(&x, truth);
-            kg.add_frame(truth, &x);
-            let surf = (self.opts.surface_every > 0 && f % self.opts.surface_every == 0)
-                .then(|| surface::symmetric(&surface_vertices(&x, dec.loose()), &faces, &input, &topology.faces))
-                .transpose()?;
-            per_frame.push(FrameMetrics {
-                frame: f,
-                vertex_rms: rms / self.diagonal,
-                vertex_max: max / self.diagonal,
-                smoothness: metrics::smoothness(&st, truth, &x) / self.diagonal,
-                spacing_drift: metrics::spacing_drift(&st, truth, &x, &self.prepared.map.on_input),
-                surface_rms: surf.map(|d| d.rms / self.diagonal),
-                surface_max: surf.map(|d| d.max / self.diagonal),
-                source_vertex_rms: source.add_frame(&input, &x, dec.loose()),
+            let sums = (&mut kg, &mut source);
+            per_frame.push(match &own {
+                Some(m) => {
+                    let v = self.on_input(m.vertices(&x, dec.loose(), dec.skinned()));
+                    self.vertex_metrics(f, &input, &v, sums)?
+                }
+                None => self.grid_metrics(f, &input, (&x, dec.loose()), sums, (&st, &faces))?,
             });
         }
         let mean = |g: &dyn Fn(&FrameMetrics) -> Option<f64>| -> Option<f64> {

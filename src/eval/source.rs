@@ -46,8 +46,14 @@ impl<'a> SourceMeasure<'a> {
     pub fn add_frame(&mut self, input: &[Vec3], grid_frame: &[Vec3], loose: &[Vec3]) -> f64 {
         let mut rebuilt = self.points.apply(grid_frame);
         crate::codec::place_loose(&mut rebuilt, &self.loose_of, loose);
-        let (rms, max) = metrics::vertex_error(&rebuilt, input);
-        self.kg.add_frame(input, &rebuilt);
+        self.add_vertices(input, &rebuilt)
+    }
+
+    /// Adds one frame's vertices as a decoder rebuilt them; returns its
+    /// RMS, relative to the diagonal.
+    pub fn add_vertices(&mut self, input: &[Vec3], rebuilt: &[Vec3]) -> f64 {
+        let (rms, max) = metrics::vertex_error(rebuilt, input);
+        self.kg.add_frame(input, rebuilt);
         self.rms_sum += rms / self.diagonal;
         self.max = self.max.max(max / self.diagonal);
         self.frames += 1;

@@ -58,6 +58,10 @@ pub enum Representation {
     /// (`dn`, one scalar channel at full size) and by x, y, z on a coarser
     /// grid (version 9).
     Normal,
+    /// Bones on the source mesh's own vertices (a skinning decomposition's
+    /// weights and rest pose, each frame's transforms) and what they miss
+    /// as x, y, z every frame on the grid (version 17).
+    Skinned,
 }
 
 impl Representation {
@@ -68,6 +72,7 @@ impl Representation {
             Representation::Conformal => "conformal",
             Representation::Predictive => "predictive",
             Representation::Normal => "normal",
+            Representation::Skinned => "skinned",
         }
     }
 }
@@ -361,7 +366,8 @@ fn is_zero(v: &u8) -> bool {
 pub const SEAM_RULE: &str = "octahedral-half-turn";
 
 impl Header {
-    /// The oldest format version that can hold this header: 16 for frame
+    /// The oldest format version that can hold this header: 17 for bones
+    /// on the source mesh's vertices, 16 for frame
     /// meshes, 15 for segments, 14 for a packed skin, 13 for a skin,
     /// 12 for a
     /// source mesh coded as a walk, 11 for loose
@@ -372,7 +378,9 @@ impl Header {
     /// predictions, 3 for a CGV file without H, 2 for motion corrections,
     /// else 1.
     pub fn min_version(&self) -> u16 {
-        if self.frame_meshes {
+        if self.skin.is_some_and(|s| s.on_vertices()) {
+            17
+        } else if self.frame_meshes {
             16
         } else if !self.segments.is_empty() {
             15
@@ -402,6 +410,19 @@ impl Header {
             2
         } else {
             1
+        }
+    }
+
+    /// The samples the `SKIN` chunk holds weights for: the source mesh's
+    /// vertices (version 17's bones on the vertices) or the coarse grid's
+    /// (0 without a skin).
+    pub fn skin_samples(&self) -> usize {
+        match (&self.skin, &self.source_mesh) {
+            (Some(s), Some(m)) if s.on_vertices() => m.vertices as usize,
+            (Some(s), _) if !s.on_vertices() => {
+                crate::format::skin::coarse_side(self.grid as usize, s.shrink).map_or(0, |n| n * n)
+            }
+            _ => 0,
         }
     }
 
@@ -497,6 +518,7 @@ impl Header {
     /// What the file stores (see [`Representation`]).
     pub fn representation(&self) -> Representation {
         match (self.codec, self.correction_streams()) {
+            (CodecKind::Gv, _) if self.skin.is_some_and(|s| s.on_vertices()) => Representation::Skinned,
             (CodecKind::Gv, _) => Representation::Gv,
             (CodecKind::Cgv, None) => Representation::Conformal,
             (CodecKind::Cgv, Some(_)) if self.stream(StreamName::Dn).is_some() => Representation::Normal,

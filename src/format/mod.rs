@@ -1,6 +1,6 @@
-//! The `.cgv` file format, versions 1 to 16 (documented in
+//! The `.cgv` file format, versions 1 to 17 (documented in
 //! `docs/FORMAT.md`, with the compatibility promise): this writer writes
-//! version 16, the reader reads all sixteen. Split as the png crate splits
+//! version 17, the reader reads all seventeen. Split as the png crate splits
 //! its decoder:
 //!
 //! - [`header`]: what a file holds, the frame chunk's side data, and which
@@ -17,7 +17,7 @@
 //!
 //! ```text
 //! magic    8 bytes   89 43 47 56 0D 0A 1A 0A   ("\x89CGV\r\n\x1a\n")
-//! version  u16 LE    1 to 16
+//! version  u16 LE    1 to 17
 //! flags    u16 LE    0
 //! length   u32 LE    header length L (at most 1 MiB)
 //! header   L bytes   UTF-8 JSON (serde), see [`Header`]
@@ -76,7 +76,7 @@ pub use writer::{
 
 pub const MAGIC: [u8; 8] = [0x89, b'C', b'G', b'V', b'\r', b'\n', 0x1A, b'\n'];
 /// The newest version this reader reads and this writer writes.
-pub const VERSION: u16 = 16;
+pub const VERSION: u16 = 17;
 /// Largest header accepted.
 pub const MAX_HEADER: usize = 1 << 20;
 /// Largest chunk payload accepted (an access unit of a 2160² frame at QP 0

@@ -17,6 +17,18 @@
 //!   identity at and before the random-access point), deflated (RFC 1951,
 //!   raw).
 //!
+//! Version 17 (`SkinInfo::rest_step`) puts the bones on the source mesh's
+//! own vertices instead of the grid (the decoder's side is
+//! `crate::solve::skinned` too): the `SKIN` chunk holds, not deflated as a
+//! whole, the LEB128 length of the deflated weights (version 14's packing,
+//! one sample per source vertex, each referring to the vertex before it),
+//! those, then each vertex's rest position deflated apart (three integers
+//! in `rest_step` mesh units, zigzag LEB128 differences from the vertex
+//! before it; a report counts them with the mesh); every frame has a
+//! bones unit (random-access points too: the rest pose is the file's, not
+//! a decoded frame), coding its transforms from that rest pose; and the
+//! grid codes what the bones miss (see `crate::codec::vertex_bones`).
+//!
 //! Version 14 (`SkinInfo::packed`) codes both smaller: a sample's weights
 //! without its empty pairs and its bones by reference to its neighbours'
 //! ([`SkinWeights::to_bytes`]), and a unit's differences as Exp-Golomb
@@ -56,6 +68,11 @@ pub struct SkinInfo {
     /// version 13's deflated bytes).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub packed: bool,
+    /// Version 17: the bones act on the source mesh's vertices, whose rest
+    /// positions the `SKIN` chunk carries in steps of this many mesh units
+    /// (absent: the bones act on the grid). Needs `packed`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rest_step: Option<f32>,
 }
 
 impl SkinInfo {
@@ -66,18 +83,26 @@ impl SkinInfo {
         if !(1..=MAX_BONES).contains(&self.bones) {
             return Err(format!("{} bones (1..={MAX_BONES})", self.bones));
         }
-        let steps = [self.rotation_step, self.translation_step];
+        let steps = [self.rotation_step, self.translation_step, self.rest_step.unwrap_or(1.0)];
         if steps.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
             return Err(format!("skin steps {steps:?} are not positive numbers"));
+        }
+        if self.on_vertices() && (self.shrink != 0 || !self.packed) {
+            return Err("bones on the vertices are packed and on no coarse grid (shrink 0)".into());
         }
         Ok(side)
     }
 
-    /// The `SKIN` chunk's largest raw (inflated) size: two bytes an
-    /// influence (version 14: a count a sample and an escape a pair more).
-    pub fn weights_bytes(&self, grid: u32) -> usize {
-        let per_sample = INFLUENCES * 2 + if self.packed { 1 + INFLUENCES } else { 0 };
-        coarse_side(grid as usize, self.shrink).map_or(0, |s| s * s * per_sample)
+    /// Version 17: whether the bones act on the source mesh's vertices.
+    pub fn on_vertices(&self) -> bool {
+        self.rest_step.is_some()
+    }
+
+    /// The `SKIN` chunk's largest raw (inflated) size for `samples`
+    /// samples: two bytes an influence (version 14: a count a sample and an
+    /// escape a pair more).
+    pub fn weights_bytes(&self, samples: usize) -> usize {
+        samples * (INFLUENCES * 2 + if self.packed { 1 + INFLUENCES } else { 0 })
     }
 }
 
@@ -99,13 +124,24 @@ pub fn coarse_side(grid: usize, shrink: u8) -> Option<usize> {
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct SkinWeights {
     pub influences: Vec<[(u8, u8); INFLUENCES]>,
+    /// Version 17: each vertex's rest position in the header's
+    /// `rest_step` (empty: the bones act on the grid).
+    pub rest: Vec<[i32; 3]>,
 }
 
 impl SkinWeights {
     /// The chunk's payload as `info` says (version 13 or 14).
     pub fn to_bytes(&self, info: &SkinInfo) -> Vec<u8> {
-        debug_assert_eq!(coarse_side_of(self.influences.len()).pow(2), self.influences.len());
+        if info.on_vertices() {
+            let weights = miniz_oxide::deflate::compress_to_vec(&self.packed(1), 9);
+            let mut out = Vec::with_capacity(weights.len() + 5);
+            leb128::write(&mut out, weights.len() as u64);
+            out.extend(weights);
+            out.extend(rest_bytes(&self.rest));
+            return out;
+        }
         let raw: Vec<u8> = if info.packed {
+            debug_assert_eq!(coarse_side_of(self.influences.len()).pow(2), self.influences.len());
             self.packed(coarse_side_of(self.influences.len()))
         } else {
             self.influences.iter().flatten().flat_map(|&(b, w)| [b, w]).collect()
@@ -136,31 +172,107 @@ impl SkinWeights {
         [counts, bones, weights].concat()
     }
 
-    /// Reads and checks the chunk of a file whose header says `info` on
-    /// grid `grid` (the chunk at byte `offset`).
-    pub fn parse(payload: &[u8], info: &SkinInfo, grid: u32, offset: usize) -> Result<SkinWeights, ContainerError> {
+    /// Reads and checks the chunk of a file whose header says `info`, for
+    /// `samples` samples (`Header::skin_samples`; the chunk at byte
+    /// `offset`).
+    pub fn parse(
+        payload: &[u8],
+        info: &SkinInfo,
+        samples: usize,
+        offset: usize,
+    ) -> Result<SkinWeights, ContainerError> {
         let bad = |msg: String| ContainerError::Chunk { offset, msg: format!("skin weights: {msg}") };
-        let most = info.weights_bytes(grid);
+        if info.on_vertices() {
+            return parse_on_vertices(payload, info, samples).map_err(bad);
+        }
+        let most = info.weights_bytes(samples);
         let raw = miniz_oxide::inflate::decompress_to_vec_with_limit(payload, most)
             .map_err(|e| bad(format!("do not inflate within their size ({:?})", e.status)))?;
-        let side = coarse_side(grid as usize, info.shrink).unwrap_or(0);
         let influences = if info.packed {
-            unpack(&raw, side).map_err(bad)?
+            let (inf, at) = unpack(&raw, samples, coarse_side_of(samples)).map_err(&bad)?;
+            if at != raw.len() {
+                return Err(bad("bytes after the weights".into()));
+            }
+            inf
         } else {
             if raw.len() != most {
                 return Err(bad(format!("{} bytes, expected {most}", raw.len())));
             }
             raw.chunks_exact(2 * INFLUENCES).map(|s| std::array::from_fn(|i| (s[2 * i], s[2 * i + 1]))).collect()
         };
-        for (k, pairs) in influences.iter().enumerate() {
-            let total: u32 = pairs.iter().map(|p| u32::from(p.1)).sum();
-            if total == 0 || pairs.iter().any(|&(b, w)| w > 0 && u16::from(b) >= info.bones) {
-                return Err(bad(format!("sample {k} has no weight or names a bone past {}", info.bones)));
-            }
-        }
-        Ok(SkinWeights { influences })
+        check_bones(&influences, info).map_err(bad)?;
+        Ok(SkinWeights { influences, rest: Vec::new() })
     }
 }
+
+/// Version 17's `SKIN` payload: the packed weights deflated (their length
+/// first, LEB128), then the rest positions deflated ([`rest_bytes`]), so
+/// that a report can tell the rest pose (the mesh) from the weights.
+fn parse_on_vertices(payload: &[u8], info: &SkinInfo, n: usize) -> Result<SkinWeights, String> {
+    let mut at = 0;
+    let len = leb128::read(payload, &mut at, DIFF_BYTES).ok_or("a bad weights length")?;
+    let end = usize::try_from(len).ok().and_then(|l| at.checked_add(l)).filter(|&e| e <= payload.len());
+    let end = end.ok_or("the weights overrun the chunk")?;
+    let inflate = |bytes: &[u8], most: usize, what: &str| {
+        miniz_oxide::inflate::decompress_to_vec_with_limit(bytes, most)
+            .map_err(|e| format!("the {what} do not inflate within their size ({:?})", e.status))
+    };
+    let raw = inflate(&payload[at..end], info.weights_bytes(n), "weights")?;
+    let (influences, used) = unpack(&raw, n, 1)?;
+    if used != raw.len() {
+        return Err("bytes after the weights".into());
+    }
+    let rest = unpack_rest(&inflate(&payload[end..], n * 3 * DIFF_BYTES, "rest positions")?, n)?;
+    check_bones(&influences, info)?;
+    Ok(SkinWeights { influences, rest })
+}
+
+/// Each sample has weight and names only the header's bones.
+fn check_bones(influences: &[[(u8, u8); INFLUENCES]], info: &SkinInfo) -> Result<(), String> {
+    for (k, pairs) in influences.iter().enumerate() {
+        let total: u32 = pairs.iter().map(|p| u32::from(p.1)).sum();
+        if total == 0 || pairs.iter().any(|&(b, w)| w > 0 && u16::from(b) >= info.bones) {
+            return Err(format!("sample {k} has no weight or names a bone past {}", info.bones));
+        }
+    }
+    Ok(())
+}
+
+/// Version 17's rest positions deflated: three zigzag LEB128 differences
+/// from the vertex before each.
+pub fn rest_bytes(rest: &[[i32; 3]]) -> Vec<u8> {
+    let mut raw = Vec::with_capacity(rest.len() * 6);
+    let mut last = [0i32; 3];
+    for p in rest {
+        for (x, l) in p.iter().zip(&mut last) {
+            let d = i64::from(*x) - i64::from(*l);
+            leb128::write(&mut raw, ((d << 1) ^ (d >> 63)) as u64);
+            *l = *x;
+        }
+    }
+    miniz_oxide::deflate::compress_to_vec(&raw, 9)
+}
+
+/// Version 17's rest positions, `n` vertices' zigzag LEB128 differences
+/// from the vertex before, filling `raw`.
+fn unpack_rest(raw: &[u8], n: usize) -> Result<Vec<[i32; 3]>, String> {
+    let (mut at, mut last, mut out) = (0, [0i32; 3], Vec::with_capacity(n));
+    for v in 0..n {
+        for l in &mut last {
+            let z = leb128::read(raw, &mut at, DIFF_BYTES).ok_or_else(|| format!("vertex {v}'s rest is cut"))?;
+            let d = (z >> 1) as i64 ^ -((z & 1) as i64);
+            *l = i64::from(*l).checked_add(d).and_then(|x| i32::try_from(x).ok()).ok_or("a rest past 32 bits")?;
+        }
+        out.push(last);
+    }
+    if at != raw.len() {
+        return Err("bytes after the rest positions".into());
+    }
+    Ok(out)
+}
+
+/// A sample's (bone, weight) pairs as stored.
+type Pairs = [(u8, u8); INFLUENCES];
 
 /// A packed bone that is none of the neighbours'.
 const NEW_BONE: u8 = 8;
@@ -186,9 +298,9 @@ fn neighbour_bones(influences: &[[(u8, u8); INFLUENCES]], side: usize, k: usize)
     known
 }
 
-/// Version 14's raw bytes back as `side`² samples of pairs.
-fn unpack(raw: &[u8], side: usize) -> Result<Vec<[(u8, u8); INFLUENCES]>, String> {
-    let n = side * side;
+/// Version 14's raw bytes back as `n` samples of pairs, `side` to a row
+/// (1: each refers to the one before it), and where they end.
+fn unpack(raw: &[u8], n: usize, side: usize) -> Result<(Vec<Pairs>, usize), String> {
     let counts = raw.get(..n).ok_or("fewer counts than samples")?;
     if let Some(k) = counts.iter().position(|&c| c == 0 || usize::from(c) > INFLUENCES) {
         return Err(format!("sample {k} has {} pairs (1 to {INFLUENCES})", counts[k]));
@@ -215,9 +327,6 @@ fn unpack(raw: &[u8], side: usize) -> Result<Vec<[(u8, u8); INFLUENCES]>, String
         out.push(inf);
     }
     let weights = raw.get(at..at + pairs).ok_or("the weights end early")?;
-    if raw.len() != at + pairs {
-        return Err("bytes after the weights".into());
-    }
     if weights.contains(&0) {
         return Err("a packed pair without weight".into());
     }
@@ -227,7 +336,7 @@ fn unpack(raw: &[u8], side: usize) -> Result<Vec<[(u8, u8); INFLUENCES]>, String
             slot.1 = w.next().copied().unwrap_or(0);
         }
     }
-    Ok(out)
+    Ok((out, at + pairs))
 }
 
 /// One frame's bone motions as the file codes them: integers in the
@@ -359,6 +468,51 @@ mod tests {
     #![allow(clippy::unwrap_used)]
     use super::*;
 
+    /// Version 17's chunk: each vertex's weights (each referring to the
+    /// vertex before) and rest position round trip; a cut, a rest too many
+    /// or a missing weight is refused.
+    #[test]
+    fn vertex_weights_and_rest_round_trip_and_bad_ones_are_refused() {
+        let info = SkinInfo {
+            bones: 3,
+            shrink: 0,
+            rotation_step: 1e-3,
+            translation_step: 1e-3,
+            packed: true,
+            rest_step: Some(1e-4),
+        };
+        assert!(info.check(32).is_ok() && info.on_vertices());
+        assert!(SkinInfo { packed: false, ..info }.check(32).is_err(), "vertex bones are packed");
+        assert!(SkinInfo { shrink: 1, ..info }.check(32).is_err(), "and on no coarse grid");
+        assert!(SkinInfo { rest_step: Some(0.0), ..info }.check(32).is_err());
+        let w = SkinWeights {
+            influences: vec![
+                [(0, 200), (2, 55), (0, 0), (0, 0)],
+                [(2, 255), (0, 0), (0, 0), (0, 0)],
+                [(1, 9), (0, 0), (0, 0), (0, 0)],
+            ],
+            rest: vec![[0, -5, 70000], [i32::MIN, i32::MAX, 3], [1, 1, 1]],
+        };
+        let bytes = w.to_bytes(&info);
+        assert_eq!(SkinWeights::parse(&bytes, &info, 3, 0).unwrap(), w);
+        assert!(SkinWeights::parse(&bytes, &info, 2, 0).is_err(), "a vertex too many");
+        assert!(SkinWeights::parse(&bytes, &info, 4, 0).is_err(), "a vertex too few");
+        for cut in [1, 5, bytes.len() - 1] {
+            assert!(SkinWeights::parse(&bytes[..cut], &info, 3, 0).is_err(), "cut at {cut}");
+        }
+        let mut empty = w.clone();
+        empty.influences[1] = [(0, 0); INFLUENCES];
+        assert!(SkinWeights::parse(&empty.to_bytes(&info), &info, 3, 0).is_err(), "a vertex without weight");
+        let mut far = w.clone();
+        far.influences[0][0].0 = 3;
+        assert!(SkinWeights::parse(&far.to_bytes(&info), &info, 3, 0).is_err(), "a bone past the header's");
+        // A weights length past the chunk, not a panic.
+        let mut long = Vec::new();
+        leb128::write(&mut long, u64::from(u32::MAX));
+        long.extend(&bytes[1..]);
+        assert!(SkinWeights::parse(&long, &info, 3, 0).is_err());
+    }
+
     #[test]
     fn motions_round_trip_in_both_codings_and_bad_ones_are_refused() {
         let last = vec![[0, 1, -2, 3, 0, 0], [5, 5, 5, 5, 5, 5]];
@@ -420,10 +574,11 @@ mod tests {
     #[test]
     fn weights_round_trip_in_both_codings_and_bad_ones_are_refused() {
         for packed in [false, true] {
-            let info = SkinInfo { bones: 3, shrink: 2, rotation_step: 1e-3, translation_step: 1e-3, packed };
+            let info =
+                SkinInfo { bones: 3, shrink: 2, rotation_step: 1e-3, translation_step: 1e-3, packed, rest_step: None };
             assert_eq!(info.check(16), Ok(4));
             assert!(info.check(8).is_err());
-            let mut w = SkinWeights { influences: vec![[(0, 200), (2, 55), (0, 0), (0, 0)]; 16] };
+            let mut w = SkinWeights { influences: vec![[(0, 200), (2, 55), (0, 0), (0, 0)]; 16], ..Default::default() };
             w.influences[5] = [(1, 10), (2, 20), (0, 30), (1, 0)];
             w.influences[6] = [(2, 255), (0, 0), (0, 0), (0, 0)];
             // Packed, a pair without weight comes back as (0, 0), which
@@ -444,7 +599,14 @@ mod tests {
 
     #[test]
     fn packed_weights_refuse_what_no_encoder_writes() {
-        let info = SkinInfo { bones: 3, shrink: 2, rotation_step: 1e-3, translation_step: 1e-3, packed: true };
+        let info = SkinInfo {
+            bones: 3,
+            shrink: 2,
+            rotation_step: 1e-3,
+            translation_step: 1e-3,
+            packed: true,
+            rest_step: None,
+        };
         let deflate = |raw: &[u8]| miniz_oxide::deflate::compress_to_vec(raw, 9);
         // A count of 0, of 5; a neighbour bone the first sample has none of.
         for first in [0u8, 5] {

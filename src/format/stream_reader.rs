@@ -220,7 +220,7 @@ impl StreamReader {
             if chunk.tag != TAG_SKIN || chunk.frame != 0 {
                 return Err(unexpected(&chunk, offset, "the skin weights", 0));
             }
-            file.skin = Some(SkinWeights::parse(chunk.payload, skin, file.header.grid, offset)?);
+            file.skin = Some(SkinWeights::parse(chunk.payload, skin, file.header.skin_samples(), offset)?);
             return Ok(());
         }
         let header = &file.header;
@@ -424,8 +424,9 @@ fn side_units(
     let bad = |msg: String| ContainerError::Chunk { offset, msg };
     if let Some(skin) = &header.skin {
         let len = read_len(p, at).ok_or_else(|| bad("bones: bad unit length".into()))?;
-        // Every frame but a random-access point has one.
-        let rap = header.is_random_access_point(frame);
+        // Every frame but a random-access point has one (with bones on the
+        // vertices, every frame).
+        let rap = header.is_random_access_point(frame) && !skin.on_vertices();
         let most = if rap { 0 } else { crate::format::BoneMotions::max_bytes(skin.bones, skin.packed) };
         if len > p.len() - *at || len > most || (!rap && len == 0) {
             return Err(bad(format!("bones: a unit of {len} bytes (frame {frame}'s has {} to {most})", most.min(1))));

@@ -60,12 +60,7 @@ impl Header {
         if self.max_lag > 0 && !closed_loop {
             return bad("cycle predictions (max_lag) need correction streams".into());
         }
-        if let Some(skin) = &self.skin {
-            skin.check(self.grid).map_err(ContainerError::Header)?;
-            if !closed_loop {
-                return bad("bones (skin) need correction streams".into());
-            }
-        }
+        self.validate_skin()?;
         if self.codec == CodecKind::Cgv && self.anchors.len() < 4 && !closed_loop {
             return bad("a CGV file without correction streams needs at least 4 anchors".into());
         }
@@ -82,6 +77,24 @@ impl Header {
             a.validate().map_err(ContainerError::Header)?;
         }
         self.validate_random_access()
+    }
+
+    /// The bones: on the grid, with correction streams to predict; on the
+    /// vertices (version 17), in a GV file with a source mesh.
+    fn validate_skin(&self) -> Result<(), ContainerError> {
+        let Some(skin) = &self.skin else { return Ok(()) };
+        let bad = |m: &str| Err(ContainerError::Header(m.into()));
+        skin.check(self.grid).map_err(ContainerError::Header)?;
+        if skin.on_vertices() {
+            let loose = self.source_mesh.is_some_and(|m| m.loose.is_some());
+            if self.codec != CodecKind::Gv || self.source_mesh.is_none() || loose || self.frame_meshes {
+                return bad("bones on the vertices need a GV file (what they miss) and a source mesh without loose \
+                            vertices");
+            }
+        } else if !self.is_closed_loop() {
+            return bad("bones (skin) need correction streams");
+        }
+        Ok(())
     }
 
     /// Each stream: a valid range, a shrink only where allowed, and a

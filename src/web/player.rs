@@ -92,10 +92,16 @@ impl Player {
 
     /// The input's vertices (x, y, z each) on a decoded grid frame (x, y,
     /// z per grid sample, as [`decode_next`](Self::decode_next) returns it)
-    /// and that frame's loose vertices (as
-    /// [`loose_vertices`](Self::loose_vertices) returned them after it;
+    /// and that frame's loose vertices and skinned vertices (as
+    /// [`loose_vertices`](Self::loose_vertices) and
+    /// [`skinned_vertices`](Self::skinned_vertices) returned them after it;
     /// empty in files without them).
-    pub fn source_vertices(&self, grid_frame: &[f32], loose: &[f32]) -> std::result::Result<Vec<f32>, JsError> {
+    pub fn source_vertices(
+        &self,
+        grid_frame: &[f32],
+        loose: &[f32],
+        skinned: &[f32],
+    ) -> std::result::Result<Vec<f32>, JsError> {
         let source = self.source.as_ref().ok_or_else(|| JsError::new("the file carries no source mesh"))?;
         let n = self.dec.as_ref().map_or(0, |d| d.grid().len());
         if grid_frame.len() != 3 * n {
@@ -105,7 +111,18 @@ impl Player {
         if loose.len() != 3 * count {
             return Err(JsError::new(&format!("{} values for {count} loose vertices", loose.len())));
         }
-        Ok(source.vertices(&positions(grid_frame), &positions(loose)).iter().flat_map(|p| p.to_array()).collect())
+        let bones = self.dec.as_ref().is_some_and(|d| d.header().skin.is_some_and(|s| s.on_vertices()));
+        let want = if bones { 3 * source.topology.vertex_count } else { 0 };
+        if skinned.len() != want {
+            return Err(JsError::new(&format!("{} skinned values for {want}", skinned.len())));
+        }
+        let skinned = positions(skinned);
+        let skinned = bones.then_some(&skinned[..]);
+        Ok(source
+            .vertices(&positions(grid_frame), &positions(loose), skinned)
+            .iter()
+            .flat_map(|p| p.to_array())
+            .collect())
     }
 
     /// The input's texture coordinates (u, v per source vertex) when the
@@ -252,6 +269,18 @@ impl Player {
     /// without them.
     pub fn loose_vertices(&self) -> Vec<f32> {
         self.dec.as_ref().map_or_else(Vec::new, |d| d.loose().iter().flat_map(|p| p.to_array()).collect())
+    }
+
+    /// Version 17: the bones' skinning of the source mesh's vertices (x, y,
+    /// z each) at the frame [`decode_next`](Self::decode_next) rebuilt
+    /// last; keep it with that frame for
+    /// [`source_vertices`](Self::source_vertices). Empty in files without
+    /// bones on the vertices.
+    pub fn skinned_vertices(&self) -> Vec<f32> {
+        self.dec
+            .as_ref()
+            .and_then(|d| d.skinned())
+            .map_or_else(Vec::new, |s| s.iter().flat_map(|p| p.to_array()).collect())
     }
 
     /// Rebuilds the next frame from the pictures supplied: x, y, z per grid sample.

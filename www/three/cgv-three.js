@@ -106,7 +106,7 @@ export class CgvMesh extends THREE.Mesh {
   showFrame(f) {
     if (f === this.frame || !this.stream.frames[f]) return;
     const grid = this.stream.frames[f];
-    const x = this.useSource ? this.stream.player.source_vertices(grid, grid.loose) : grid;
+    const x = this.useSource ? this.stream.player.source_vertices(grid, grid.loose, grid.skinned) : grid;
     const position = this.geometry.getAttribute('position');
     position.array.set(x);
     position.needsUpdate = true;

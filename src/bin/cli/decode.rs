@@ -95,7 +95,12 @@ pub fn source_mesh(
     dec: &FileDecoder,
     choice: MeshChoice,
 ) -> Result<Option<cgv::codec::SourceMeshDecoder>> {
+    let skinned = dec.file.header.representation() == cgv::format::Representation::Skinned;
     Ok(match (choice, dec.source_mesh()) {
+        (MeshChoice::Grid, _) if skinned => anyhow::bail!(
+            "{}: the skinned codec's grid is what its bones miss, not a surface: use --mesh source (or auto)",
+            path.display()
+        ),
         (MeshChoice::Grid, _) => None,
         (_, Some(s)) => Some(s),
         (MeshChoice::Source, None) => anyhow::bail!(
@@ -131,7 +136,7 @@ pub fn run(args: Args) -> Result<()> {
         stats.push(s);
         pb.inc(1);
         Ok(match &source {
-            Some(m) => m.vertices(&x, dec.loose()),
+            Some(m) => m.vertices(&x, dec.loose(), dec.skinned()),
             None => x,
         })
     };

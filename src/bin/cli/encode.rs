@@ -49,8 +49,13 @@ pub struct Args {
     /// corrections; decoded by the paper's solver, or by `--solver cgv` on
     /// H and the anchors alone (it drifts; for measurement).
     /// `gv`: geometry video, x, y, z every frame (the baseline).
+    /// `skinned`: bones on your mesh's own vertices (a skinning
+    /// decomposition: --bones rigid bones, four weights a vertex, the rest
+    /// pose; 32 by default) and what they miss as a geometry video, for
+    /// articulated motion (format version 17; docs/RESULTS.md, "Bones on
+    /// the vertices").
     #[arg(long, default_value = "auto", value_parser = CodecChoice::parse,
-          value_name = "auto|normal|predictive|conformal|gv")]
+          value_name = "auto|normal|predictive|conformal|gv|skinned")]
     codec: CodecChoice,
     /// The decoder the file names as intended, `cgv` (the predictive one)
     /// or `paper` (only for --codec conformal, whose default it is);
@@ -397,7 +402,12 @@ fn print_sizes(report: &cgv::codec::EncodeReport) {
             report.frame_mesh_bytes
         );
     }
-    if report.source_mesh_bytes > 0 {
+    if report.rest_pose_bytes > 0 {
+        println!(
+            "  source mesh     {:>10} bytes (the input's faces, vertex places and rest pose ({} bytes), once)",
+            report.source_mesh_bytes, report.rest_pose_bytes
+        );
+    } else if report.source_mesh_bytes > 0 {
         println!(
             "  source mesh     {:>10} bytes (the input's faces and vertex places, once; --no-source-mesh leaves it out)",
             report.source_mesh_bytes

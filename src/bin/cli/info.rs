@@ -262,7 +262,12 @@ fn cgv_info(args: &Args) -> Result<()> {
         );
     }
     println!("  anchors       {:?}", h.anchors);
-    if let Some(skin) = &h.skin {
+    if let Some(skin) = h.skin.filter(|s| s.on_vertices()) {
+        println!(
+            "  bones         {} on the source mesh's vertices (four weights each, rest pose in the file)",
+            skin.bones
+        );
+    } else if let Some(skin) = &h.skin {
         let skinned = file.frames.iter().filter(|f| f.predictor.extrapolation.is_skinned()).count();
         let side = h.grid >> skin.shrink;
         println!(
@@ -375,5 +380,6 @@ fn representation_text(h: &cgv::format::Header) -> &'static str {
         }
         R::Predictive => "closed-loop x, y, z corrections to a prediction",
         R::Normal => "closed-loop corrections along the normal, x, y, z coarser",
+        R::Skinned => "bones on the source mesh's vertices; what they miss as x, y, z every frame",
     }
 }

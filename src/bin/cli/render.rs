@@ -74,7 +74,7 @@ fn decode_frame(
     }
     pb.finish_and_clear();
     let source = source.map(|s| {
-        let vertices = s.vertices(&x, dec.loose());
+        let vertices = s.vertices(&x, dec.loose(), dec.skinned());
         (s, vertices)
     });
     Ok((grid, x, source))

@@ -85,13 +85,14 @@ pub(super) fn fit_bones(
     let shrink = skin_shrink(plan.grid.n);
     let bones = usize::from(asked).min((plan.grid.n >> shrink).pow(2));
     let influences = fit_weights(src, plan.grid, map, shrink, bones, REFIT_SWEEPS, progress)?;
-    let weights = SkinWeights { influences: influences.iter().map(quantize).collect() };
+    let weights = SkinWeights { influences: influences.iter().map(quantize).collect(), ..Default::default() };
     let info = SkinInfo {
         bones: bones as u16,
         shrink,
         rotation_step: ROTATION_STEP,
         translation_step: (diagonal * TRANSLATION_STEP).max(f32::MIN_POSITIVE),
         packed: true,
+        rest_step: None,
     };
     let predictor = SkinnedPredictor::new(plan.grid, &info, &weights)?;
     Ok(Some(Bones { info, weights, predictor }))
@@ -144,7 +145,7 @@ fn shrink_positions(grid: Grid, x: &[Vec3], levels: u8) -> Vec<Vec3> {
 
 /// Weights summing to one as bytes (out of their sum, which stays
 /// positive: the largest keeps at least 1).
-fn quantize(inf: &[(u16, f32); INFLUENCES]) -> [(u8, u8); INFLUENCES] {
+pub(super) fn quantize(inf: &[(u16, f32); INFLUENCES]) -> [(u8, u8); INFLUENCES] {
     let mut q = inf.map(|(b, w)| (b.min(255) as u8, (w.clamp(0.0, 1.0) * 255.0).round() as u8));
     if q.iter().all(|p| p.1 == 0) {
         let k = (0..INFLUENCES).max_by(|&a, &b| inf[a].1.total_cmp(&inf[b].1)).unwrap_or(0);
@@ -177,13 +178,14 @@ mod probe {
         shrink: u8,
         diag: f32,
     ) -> (SkinInfo, SkinWeights, SkinnedPredictor) {
-        let weights = SkinWeights { influences: inf.iter().map(quantize).collect() };
+        let weights = SkinWeights { influences: inf.iter().map(quantize).collect(), ..Default::default() };
         let info = SkinInfo {
             bones: 32,
             shrink,
             rotation_step: ROTATION_STEP,
             translation_step: diag * TRANSLATION_STEP,
             packed: true,
+            rest_step: None,
         };
         let p = SkinnedPredictor::new(Grid::new(128).unwrap(), &info, &weights).unwrap();
         (info, weights, p)

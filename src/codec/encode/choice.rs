@@ -23,12 +23,13 @@ pub enum CodecChoice {
 const ALIASES: [(&str, CodecChoice); 1] = [("cgv", CodecChoice::Auto)];
 
 impl CodecChoice {
-    pub const ALL: [CodecChoice; 5] = [
+    pub const ALL: [CodecChoice; 6] = [
         CodecChoice::Auto,
         CodecChoice::Named(Representation::Normal),
         CodecChoice::Named(Representation::Predictive),
         CodecChoice::Named(Representation::Conformal),
         CodecChoice::Named(Representation::Gv),
+        CodecChoice::Named(Representation::Skinned),
     ];
 
     pub fn name(self) -> &'static str {
@@ -59,6 +60,9 @@ impl CodecChoice {
             CodecChoice::Auto => Representation::Predictive,
             CodecChoice::Named(r) => r,
         };
+        if opts.representation == Representation::Skinned {
+            opts.bones = opts.bones.or(Some(super::DEFAULT_BONES));
+        }
         opts.corrections = auto_corrections(&opts.video, opts.grid, opts.video.fps);
         opts.solver = match (opts.representation, solver) {
             (Representation::Conformal, s) => s.unwrap_or(SolverKind::Paper),

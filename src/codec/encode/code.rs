@@ -38,10 +38,12 @@ pub(super) struct Coded {
 }
 
 /// The chunks before frame 0: the source mesh's (and appearance's), as
-/// made, and the bones' weights.
+/// made, the bones' weights and, with bones on the vertices (version 17),
+/// each frame's bones unit.
 pub(super) struct Chunks<'a> {
     pub source: Option<&'a [u8]>,
     pub skin: Option<&'a SkinWeights>,
+    pub bone_units: Option<&'a [Vec<u8>]>,
 }
 
 /// A sink and the length of what went into it: the index names offsets.
@@ -122,7 +124,7 @@ pub(super) fn code(
     let mut out = Written { sink, len: 0 };
     let (source_mesh_bytes, skin_bytes) = write_prefix(&mut out, src, header, &chunks)?;
     let mut predictive = Predictive::new(header, st.clone());
-    if let Some(weights) = chunks.skin {
+    if let Some(weights) = chunks.skin.filter(|_| chunks.bone_units.is_none()) {
         // The bones as the decoder will have them.
         predictive.set_skin(header, weights)?;
     }
@@ -170,6 +172,7 @@ pub(super) fn code(
             info.loose = Some(code_loose(&mut loose, (header, st, map), &coder, decoded, &truth, &g)?);
         }
         info.mesh = header.frame_meshes.then(|| frame_mesh_unit(src, fi, map.grid, &g)).transpose()?;
+        info.bones = chunks.bone_units.and_then(|u| u.get(fi).cloned()).or(info.bones);
         seconds_coding += t.elapsed().as_secs_f64();
         let (side, mesh) = put_frame(&mut out, fi, &info, &coder.units, &mut streams)?;
         (side_bytes, frame_mesh_bytes) = (side_bytes + side, frame_mesh_bytes + mesh);

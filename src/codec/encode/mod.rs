@@ -24,6 +24,7 @@ mod plan;
 mod request;
 mod simulate;
 mod target;
+mod vertex_bones;
 mod weights_refit;
 
 pub use bones::{DEFAULT_BONES, MIN_BONE_FRAMES};
@@ -196,6 +197,14 @@ impl EncodeOptions {
         if let Some(b) = self.bones.filter(|&b| b > format::skin::MAX_BONES) {
             return bad(format!("{b} bones: at most {}", format::skin::MAX_BONES));
         }
+        if self.vertex_bones() {
+            let ok = self.source_mesh && self.bones.is_some_and(|b| b > 0) && self.layers == 1;
+            if !ok {
+                return bad("the skinned codec (bones on the vertices) needs the source mesh, one layer and a \
+                            bone count (1 to 255)"
+                    .into());
+            }
+        }
         if self.frame_meshes && self.source_mesh {
             return bad("frame meshes replace the source mesh: ask for one or the other".into());
         }
@@ -223,11 +232,17 @@ impl EncodeOptions {
 
     /// The header's `codec` field for this representation.
     pub fn codec(&self) -> CodecKind {
-        if self.representation == Representation::Gv {
+        if matches!(self.representation, Representation::Gv | Representation::Skinned) {
             CodecKind::Gv
         } else {
             CodecKind::Cgv
         }
+    }
+
+    /// Version 17: whether `bones` act on the source mesh's own vertices
+    /// and the grid codes what they miss (the skinned codec, `vertex_bones`).
+    pub fn vertex_bones(&self) -> bool {
+        self.representation == Representation::Skinned
     }
 
     /// Whether the corrections are laid out along the predicted surface's
@@ -259,11 +274,16 @@ pub struct EncodeReport {
     /// Bytes of the frame chunks besides the access units: framing, lengths,
     /// predictor, correction scale and anchors.
     pub side_bytes: usize,
-    /// Bytes of the source mesh chunk (0 without one).
+    /// Bytes of the source mesh chunk (0 without one) and, with bones on
+    /// the vertices (version 17), of its rest pose in the `SKIN` chunk
+    /// (`rest_pose_bytes`): the mesh, which a skinned mesh's size leaves
+    /// out too.
     pub source_mesh_bytes: usize,
-    /// Bytes of the bones' weights (the `SKIN` chunk; 0 without bones);
-    /// each frame's bone motions are in `side_bytes`.
+    /// Bytes of the bones' weights (the `SKIN` chunk, less the rest pose;
+    /// 0 without bones); each frame's bone motions are in `side_bytes`.
     pub skin_bytes: usize,
+    /// Version 17: bytes of the rest pose (in `source_mesh_bytes`).
+    pub rest_pose_bytes: usize,
     /// Bytes of the frames' own meshes (format version 16; 0 without).
     pub frame_mesh_bytes: usize,
     pub parameterization: Parameterization,
@@ -367,10 +387,17 @@ pub fn encode_prepared_into(
         ));
     }
     // The source mesh first: an input too large for a file fails before the passes.
-    let source = if opts.source_mesh { Some(source_mesh_chunk(src, image)?) } else { None };
+    let source = if opts.source_mesh { Some(source_mesh_chunk(src, image, !opts.vertex_bones())?) } else { None };
+    let diagonal = Bounds::of(&src.read_frame(opts.reference)?).diagonal();
+    let vertex_bones = fit_vertex_bones(src, opts, (image, &plan), diagonal, progress)?;
+    let residual = vertex_bones.as_ref().map(|bones| vertex_bones::Residual { src, bones });
+    // With bones on the vertices the grid codes what they miss.
+    let src: &dyn FrameSource = match &residual {
+        Some(r) => r,
+        None => src,
+    };
     let st = Stencils::new(plan.grid);
     let analysis = analyse::analyse(src, &plan, &image.map, &st, progress)?;
-    let diagonal = Bounds::of(&src.read_frame(opts.reference)?).diagonal();
     let bones = bones::fit_bones(src, &plan, opts, &image.map, diagonal, progress)?;
     let skin = bones.as_ref().map(|b| &b.predictor);
     let simulation = simulate::simulate(src, &plan, opts, (&image.map, &st), skin)?;
@@ -378,8 +405,12 @@ pub fn encode_prepared_into(
     let (source_chunk, source_info) = source.map_or((None, None), |(chunk, info)| (Some(chunk), Some(info)));
     let mut header = header::header(&plan, src, opts, (&analysis, &simulation), diagonal, source_info);
     header.appearance = src.appearance().filter(|_| opts.source_mesh).map(|a| a.look.info());
-    header.skin = bones.as_ref().map(|b| b.info);
-    let chunks = code::Chunks { source: source_chunk.as_deref(), skin: bones.as_ref().map(|b| &b.weights) };
+    header.skin = bones.as_ref().map(|b| b.info).or(vertex_bones.as_ref().map(|b| b.info));
+    let chunks = code::Chunks {
+        source: source_chunk.as_deref(),
+        skin: bones.as_ref().map(|b| &b.weights).or(vertex_bones.as_ref().map(|b| &b.weights)),
+        bone_units: vertex_bones.as_ref().map(|b| &b.units[..]),
+    };
     let code::Coded {
         bytes,
         stream_bytes,
@@ -389,6 +420,8 @@ pub fn encode_prepared_into(
         frame_mesh_bytes,
         seconds_coding,
     } = code::code(src, opts, (&plan, &header), (image, chunks), &st, sink, progress)?;
+    let rest_pose_bytes = vertex_bones.as_ref().map_or(0, |b| format::skin::rest_bytes(&b.weights.rest).len());
+    let (source_mesh_bytes, skin_bytes) = (source_mesh_bytes + rest_pose_bytes, skin_bytes - rest_pose_bytes);
     let seconds_parameterize = image.seconds();
     let report = EncodeReport {
         codec: header.representation(),
@@ -398,6 +431,7 @@ pub fn encode_prepared_into(
         side_bytes,
         source_mesh_bytes,
         skin_bytes,
+        rest_pose_bytes,
         frame_mesh_bytes,
         parameterization: image.param.clone(),
         seconds_parameterize,
@@ -409,11 +443,39 @@ pub fn encode_prepared_into(
     Ok(report)
 }
 
+/// The skinned codec's bones on the vertices (none for the others).
+fn fit_vertex_bones(
+    src: &dyn FrameSource,
+    opts: &EncodeOptions,
+    (image, plan): (&GeometryImage, &plan::Plan),
+    diagonal: f32,
+    progress: &mut dyn FnMut(&str, usize, usize),
+) -> Result<Option<vertex_bones::VertexBones>> {
+    let Some(n) = opts.bones.filter(|_| opts.vertex_bones()) else { return Ok(None) };
+    if !image.carrier.loose.is_empty() {
+        return Err(Error::Argument(
+            "the skinned codec cannot carry tiny loose parts (their own vertices every frame): encode with \
+             --loose-parts 0"
+                .into(),
+        ));
+    }
+    vertex_bones::fit(src, plan, n, diagonal, progress).map(Some)
+}
+
 /// The `SMSH` chunk of the input's mesh (and `APPR` after it) with the
 /// header's description of it, or an error naming the way out
 /// when the mesh is more than a file may carry.
-fn source_mesh_chunk(src: &dyn FrameSource, image: &GeometryImage) -> Result<(Vec<u8>, format::SourceMeshInfo)> {
-    let mesh = image.source_mesh_as_stored(src.topology(), src.appearance());
+fn source_mesh_chunk(
+    src: &dyn FrameSource,
+    image: &GeometryImage,
+    offsets: bool,
+) -> Result<(Vec<u8>, format::SourceMeshInfo)> {
+    let mut mesh = image.source_mesh_as_stored(src.topology(), src.appearance());
+    if !offsets {
+        // Bones on the vertices: the rest pose is the file's, and the grid
+        // (what the bones miss) has no surface to offset from.
+        mesh.offsets = None;
+    }
     mesh.info().validate().map_err(|m| Error::Argument(format!("{m}: encode with --no-source-mesh")))?;
     let mut chunk = format::write_source_mesh(&mesh);
     if let Some(a) = src.appearance() {

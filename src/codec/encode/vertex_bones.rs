@@ -1,0 +1,177 @@
+//! Step 3c (format version 17): bones on the source mesh's own vertices,
+//! what they miss coded as a geometry video. As MPEG-4 FAMC codes a mesh's
+//! skinning and the residual (Mamou, Zaharia and Prêteux 2009), with SSDR's
+//! decomposition (Le and Deng 2012, `crate::skin::ssdr`): rigid bones and
+//! four weights a vertex fitted to the motion. The file carries the
+//! weights and the rest pose once (`SKIN`), each frame's transforms from
+//! that rest pose (`crate::solve::skinned`'s unit, fitted here to the true
+//! frame), and the residual x − L(x) resampled on the grid as GV's x, y, z
+//! streams; the decoder adds the residual, read at each vertex's place, to
+//! the skinning (`SourceMeshDecoder::vertices`). Unlike the grid's bones
+//! (version 13) nothing runs on the decoded past: every frame is the
+//! skinning of the file's rest pose plus its own residual, so the grid's
+//! resampling floor bounds only the residual, not the body.
+
+use super::bones::{quantize, ROTATION_STEP, TRANSLATION_STEP};
+use super::plan::Plan;
+use crate::error::{Error, Result};
+use crate::format::skin::Motion;
+use crate::format::{SkinInfo, SkinWeights};
+use crate::mesh::{Frame, FrameSource, Topology};
+use crate::skin::{decompose, SkinOptions};
+use crate::solve::skinned::SkinnedPredictor;
+use glam::Vec3;
+use std::path::Path;
+
+/// A rest coordinate's unit, in diagonals: 1e-5 (a 16-bit grid would be
+/// 1.5e-5), far below any error the residual video reaches.
+pub const REST_STEP: f32 = 1e-5;
+/// Frames the decomposition reads at most, spread over the motion (the
+/// weights; each frame's transforms are fitted on their own).
+pub const VERTEX_SKIN_FRAMES: usize = 256;
+
+/// The bones of a file with bones on its vertices.
+pub(super) struct VertexBones {
+    pub info: SkinInfo,
+    pub weights: SkinWeights,
+    /// Each frame's bones unit.
+    pub units: Vec<Vec<u8>>,
+    /// Each frame's motions (as the units code them), and the predictor
+    /// that skins the rest pose with them, as a decoder's.
+    motions: Vec<Vec<Motion>>,
+    predictor: SkinnedPredictor,
+    /// For each source vertex, a stored vertex that is it (a textured
+    /// input's stored mesh splits vertices along its UV seams).
+    stored_of: Vec<u32>,
+}
+
+/// The stored vertices' source vertices (`welded`; each its own without
+/// an appearance).
+fn welded(src: &dyn FrameSource) -> Vec<u32> {
+    match src.appearance() {
+        Some(a) => a.welded.clone(),
+        None => (0..src.topology().vertex_count as u32).collect(),
+    }
+}
+
+/// Fits `bones` bones to `src` and each frame's transforms.
+pub(super) fn fit(
+    src: &dyn FrameSource,
+    plan: &Plan,
+    bones: u16,
+    diagonal: f32,
+    progress: &mut dyn FnMut(&str, usize, usize),
+) -> Result<VertexBones> {
+    let n = plan.frames;
+    let picks: Vec<usize> = (0..n.min(VERTEX_SKIN_FRAMES)).map(|k| k * n / n.min(VERTEX_SKIN_FRAMES)).collect();
+    let frames = picks.iter().map(|&f| src.read_frame(f)).collect::<Result<Vec<Frame>>>()?;
+    let opts = SkinOptions { bones: usize::from(bones), ..Default::default() };
+    let iterations = opts.iterations;
+    let skin = decompose(&frames, &src.topology().faces, &opts, &mut |it, _| progress("bones", it, iterations))?;
+    drop(frames);
+    // Each frame's transforms from the decomposition's where it read that
+    // frame.
+    let from = |f: usize| picks.binary_search(&f).ok().and_then(|k| skin.transforms.get(k));
+    let welded = welded(src);
+    let step = diagonal * REST_STEP;
+    let at = |v: &u32| skin.rest.get(*v as usize).copied().unwrap_or_default();
+    let weights = SkinWeights {
+        influences: welded.iter().map(|v| quantize(&skin.influences[*v as usize])).collect(),
+        rest: welded.iter().map(|v| (at(v) / step).round().to_array().map(|x| x.clamp(-2e9, 2e9) as i32)).collect(),
+    };
+    let info = SkinInfo {
+        bones,
+        shrink: 0,
+        rotation_step: ROTATION_STEP,
+        translation_step: diagonal * TRANSLATION_STEP,
+        packed: true,
+        rest_step: Some(step),
+    };
+    let mut predictor = SkinnedPredictor::on_vertices(&info, &weights)?;
+    let (mut units, mut motions) = (Vec::with_capacity(n), Vec::with_capacity(n));
+    for f in 0..n {
+        if f > 0 && plan.is_rap(f) {
+            predictor.reset();
+        }
+        let x = src.read_frame(f)?;
+        let truth: Vec<Vec3> = welded.iter().map(|&v| x[v as usize]).collect();
+        units.push(predictor.encode_from(&truth, from(f).map(Vec::as_slice)));
+        motions.push(predictor.motions().to_vec());
+        progress("bone motions", f + 1, n);
+    }
+    let mut stored_of = vec![0u32; src.topology().vertex_count];
+    for (k, &v) in welded.iter().enumerate().rev() {
+        stored_of[v as usize] = k as u32;
+    }
+    Ok(VertexBones { info, weights, units, motions, predictor, stored_of })
+}
+
+/// What the bones miss of each frame of `src`, x − L(x): the motion the
+/// grid codes (a source with the same connectivity, appearance and rate).
+pub(super) struct Residual<'a> {
+    pub src: &'a dyn FrameSource,
+    pub bones: &'a VertexBones,
+}
+
+impl FrameSource for Residual<'_> {
+    fn label(&self) -> &Path {
+        self.src.label()
+    }
+    fn frame_count(&self) -> usize {
+        self.src.frame_count()
+    }
+    fn fps(&self) -> f32 {
+        self.src.fps()
+    }
+    fn topology(&self) -> &Topology {
+        self.src.topology()
+    }
+    fn read_frame(&self, i: usize) -> Result<Frame> {
+        let b = self.bones;
+        let skinned = b.motions.get(i).and_then(|m| b.predictor.skin_with(m));
+        let skinned = skinned.ok_or_else(|| Error::Argument(format!("no bone motions for frame {i}")))?;
+        let x = self.src.read_frame(i)?;
+        Ok(x.iter().zip(&b.stored_of).map(|(p, &k)| *p - skinned[k as usize]).collect())
+    }
+    fn kind(&self) -> &'static str {
+        self.src.kind()
+    }
+    fn appearance(&self) -> Option<&crate::mesh::Appearance> {
+        self.src.appearance()
+    }
+}
+
+#[cfg(test)]
+mod probe {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+    use crate::mesh::{open_sequence, Bounds, OpenOptions};
+
+    /// The bones alone, as the decomposition fitted them and as the file
+    /// codes them: `CGV_PROBE=/tmp/data/pcow CGV_BONES=24 cargo test
+    /// --release --lib vertex_bones_alone -- --ignored --nocapture`.
+    #[test]
+    #[ignore]
+    fn vertex_bones_alone() {
+        let dir = std::env::var("CGV_PROBE").unwrap();
+        let bones: u16 = std::env::var("CGV_BONES").ok().and_then(|b| b.parse().ok()).unwrap_or(32);
+        let src = open_sequence(&dir, &OpenOptions::default()).unwrap();
+        let diag = Bounds::of(&src.read_frame(0).unwrap()).diagonal();
+        let opts = crate::codec::EncodeOptions { random_access: 0.0, ..Default::default() };
+        let plan = Plan::new(&opts, src.frame_count(), src.fps()).unwrap();
+        let b = fit(src.as_ref(), &plan, bones, diag, &mut |_, _, _| {}).unwrap();
+        let mut sum = 0.0;
+        for f in 0..plan.frames {
+            let x = src.read_frame(f).unwrap();
+            let s = b.predictor.skin_with(&b.motions[f]).unwrap();
+            let e: f64 = x.iter().zip(&s).map(|(a, c)| a.distance_squared(*c) as f64).sum::<f64>() / x.len() as f64;
+            sum += e.sqrt() / diag as f64;
+        }
+        let unit: usize = b.units.iter().map(Vec::len).sum();
+        eprintln!(
+            "{dir}: {bones} bones as coded: {:.4} % vertex RMS, {} B/frame",
+            100.0 * sum / plan.frames as f64,
+            unit / plan.frames
+        );
+    }
+}
