@@ -53,6 +53,10 @@ if [ ! -e "$f" ]; then
   "$cgv" encode fuzz/corpus/icosahedron.obj --grid 16 --qp 30 -o "$f" >/dev/null
 fi
 cp "$f" fuzz/corpus/decode/
+# Bones on the vertices (format v17), small enough for -max_len.
+f=fuzz/corpus/read/icosahedron-skinned.cgv
+[ -e "$f" ] || "$cgv" encode fuzz/corpus/icosahedron.obj --codec skinned --bones 2 --grid 16 --qp 30 -o "$f" >/dev/null
+cp "$f" fuzz/corpus/decode/
 seed tests/fixtures/v*/*.cgv
 seed $(find tests/fuzz-regressions -type f ! -name '*.md')
 

@@ -34,7 +34,14 @@ fn curve(report: &Value, codec: EvalCodec, metric: &str) -> Vec<(f64, f64)> {
         .iter()
         .flat_map(|p| p["results"].as_array().into_iter().flatten())
         .filter(|r| r["codec"].as_str().and_then(|c| c.parse::<EvalCodec>().ok()) == Some(codec))
-        .filter_map(|r| Some((r["kbps_30fps"].as_f64()?, r[metric].as_f64()?)))
+        .filter_map(|r| {
+            // The error on the input's own vertices sits in the result's `source`.
+            let error = match metric {
+                "source_vertex_rms" => r["source"]["vertex_rms"].as_f64(),
+                m => r[m].as_f64(),
+            };
+            Some((r["kbps_30fps"].as_f64()?, error?))
+        })
         .collect()
 }
 

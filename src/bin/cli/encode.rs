@@ -40,8 +40,11 @@ pub struct Args {
     /// grid halved --correction-shrink times (format version 9).
     /// `predictive`: the same prediction corrected by x, y, z at full size
     /// (versions 1-8; scaled corrections also carry H and λ).
-    /// `auto` (the default; `cgv` is another name for it): normal from 0.25
-    /// to 1.3 bits per grid sample per frame (or QP 12 to 30) with one
+    /// `auto` (the default; `cgv` is another name for it): `skinned` for a
+    /// motion of 24 frames or more at a constant QP whose file keeps the
+    /// input's mesh (lower vertex error at equal bits on every motion
+    /// measured, docs/RESULTS.md, "Bones on the vertices"); else normal from
+    /// 0.25 to 1.3 bits per grid sample per frame (or QP 12 to 30) with one
     /// layer, where it measured better, else predictive (docs/RESULTS.md,
     /// "One scalar channel per frame").
     /// `conformal`: the seed paper's representation, the mean curvature H

@@ -33,8 +33,10 @@ pub struct Args {
     /// Codecs to compare, named for what their files store (as `cgv encode
     /// --codec`): gv (x, y, z), conformal (the paper's H and λ, decoded by
     /// its Eq. 1 solver), predictive (closed-loop x, y, z corrections),
-    /// normal (closed-loop corrections along the normal, x, y, z coarser).
-    /// predictive and normal keep, at each rate point, the best of their
+    /// normal (closed-loop corrections along the normal, x, y, z coarser),
+    /// skinned (--bones bones on the input's own vertices, 32 by default,
+    /// what they miss as x, y, z; its errors are on the input's vertices
+    /// and surface, its grid being a residual). predictive and normal keep, at each rate point, the best of their
     /// correction modes; predictive-scaled, predictive-motion,
     /// normal-scaled and normal-motion run one mode only. The first
     /// round's names still work: paper is conformal, cgv predictive,

@@ -62,6 +62,9 @@ impl CodecChoice {
         };
         if opts.representation == Representation::Skinned {
             opts.bones = opts.bones.or(Some(super::DEFAULT_BONES));
+            // Tiny parts too move with the bones, on the grid by a tube:
+            // the residual is small there as anywhere.
+            opts.param.loose_max_vertices = 0;
         }
         opts.corrections = auto_corrections(&opts.video, opts.grid, opts.video.fps);
         opts.solver = match (opts.representation, solver) {

@@ -197,13 +197,10 @@ impl EncodeOptions {
         if let Some(b) = self.bones.filter(|&b| b > format::skin::MAX_BONES) {
             return bad(format!("{b} bones: at most {}", format::skin::MAX_BONES));
         }
-        if self.vertex_bones() {
-            let ok = self.source_mesh && self.bones.is_some_and(|b| b > 0) && self.layers == 1;
-            if !ok {
-                return bad("the skinned codec (bones on the vertices) needs the source mesh, one layer and a \
-                            bone count (1 to 255)"
-                    .into());
-            }
+        if self.vertex_bones() && !(self.source_mesh && self.bones.is_some_and(|b| b > 0)) {
+            return bad(
+                "the skinned codec (bones on the vertices) needs the source mesh and a bone count (1 to 255)".into()
+            );
         }
         if self.frame_meshes && self.source_mesh {
             return bad("frame meshes replace the source mesh: ask for one or the other".into());

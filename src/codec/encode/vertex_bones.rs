@@ -30,6 +30,15 @@ pub const REST_STEP: f32 = 1e-5;
 /// weights; each frame's transforms are fitted on their own).
 pub const VERTEX_SKIN_FRAMES: usize = 256;
 
+/// `--grid auto` for the skinned codec: the smallest of 32, 64, 128 and
+/// 256 with a sample for each vertex of the mesh. The grid codes only what
+/// the bones miss, read at the vertices' places; more samples than
+/// vertices cost bits and add nothing (pcow's 2,904 vertices, 24 bones:
+/// 0.239 % vertex RMS at 1.45 bits/v/f on N = 64, 0.265 % at 1.44 on 128).
+pub fn skinned_grid(vertices: usize) -> usize {
+    [32, 64, 128].into_iter().find(|n| n * n >= vertices).unwrap_or(256)
+}
+
 /// The bones of a file with bones on its vertices.
 pub(super) struct VertexBones {
     pub info: SkinInfo,
@@ -138,6 +147,17 @@ impl FrameSource for Residual<'_> {
     }
     fn appearance(&self) -> Option<&crate::mesh::Appearance> {
         self.src.appearance()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::skinned_grid;
+
+    #[test]
+    fn the_skinned_grid_has_a_sample_for_each_vertex() {
+        let sizes = [500, 2904, 4096, 4097, 8431, 9971, 16385, 1_000_000].map(skinned_grid);
+        assert_eq!(sizes, [32, 64, 64, 128, 128, 128, 256, 256]);
     }
 }
 
