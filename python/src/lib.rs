@@ -485,7 +485,7 @@ impl Decoder {
             .detach(|| -> cgv::Result<Vec<Vec3>> {
                 let (x, _) = dec.next_frame()?;
                 Ok(match source {
-                    Some(s) => s.vertices(&x, dec.loose()),
+                    Some(s) => s.vertices(&x, dec.loose(), dec.skinned()),
                     None => x,
                 })
             })
@@ -545,7 +545,7 @@ fn decode<'py>(
             for _ in 0..frames {
                 let (x, _) = dec.next_frame()?;
                 let x = match &source {
-                    Some(s) => s.vertices(&x, dec.loose()),
+                    Some(s) => s.vertices(&x, dec.loose(), dec.skinned()),
                     None => x,
                 };
                 coords.extend(x.iter().flat_map(|p| p.to_array()));
