@@ -82,11 +82,15 @@ pub(super) fn fit(
     // frame.
     let from = |f: usize| picks.binary_search(&f).ok().and_then(|k| skin.transforms.get(k));
     let welded = welded(src);
-    let step = diagonal * REST_STEP;
+    // A mesh far from the origin gets coarser rest steps rather than
+    // numbers past i32.
+    let farthest = skin.rest.iter().map(|p| p.abs().max_element()).fold(0.0f32, f32::max);
+    let step = (diagonal * REST_STEP).max(farthest / 2.0e9);
     let at = |v: &u32| skin.rest.get(*v as usize).copied().unwrap_or_default();
+    let influence = |v: &u32| skin.influences.get(*v as usize).map_or([(0, 255), (0, 0), (0, 0), (0, 0)], quantize);
     let weights = SkinWeights {
-        influences: welded.iter().map(|v| quantize(&skin.influences[*v as usize])).collect(),
-        rest: welded.iter().map(|v| (at(v) / step).round().to_array().map(|x| x.clamp(-2e9, 2e9) as i32)).collect(),
+        influences: welded.iter().map(influence).collect(),
+        rest: welded.iter().map(|v| (at(v) / step).round().to_array().map(|x| x.clamp(-2.1e9, 2.1e9) as i32)).collect(),
     };
     let info = SkinInfo {
         bones,
