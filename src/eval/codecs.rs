@@ -128,10 +128,6 @@ impl EvalCodec {
             solver: self.solver(),
             corrections: self.corrections.unwrap_or(CorrectionMode::Scaled),
             source_mesh: self.skinned(),
-            bones: match self.skinned() {
-                true => base.bones.filter(|&b| b > 0).or(Some(crate::codec::DEFAULT_BONES)),
-                false => base.bones,
-            },
             ..base.clone()
         }
     }

@@ -449,6 +449,10 @@ impl Ctx<'_> {
         // Loose vertices are rebuilt through the source mesh, and the
         // skinned codec's bones act on it.
         o.source_mesh = !self.prepared.carrier.loose.is_empty() || codec.skinned();
+        if codec.skinned() {
+            let bones = o.bones.filter(|&b| b > 0);
+            o.bones = bones.or(Some(crate::codec::skinned_bones(self.src.topology().vertex_count)));
+        }
         let t = std::time::Instant::now();
         let (bytes, report) = encode_prepared(self.src, &o, self.prepared, &mut |_, _, _| {})?;
         let size = bytes.len() - report.source_mesh_bytes;

@@ -53,8 +53,9 @@ pub struct Args {
     /// H and the anchors alone (it drifts; for measurement).
     /// `gv`: geometry video, x, y, z every frame (the baseline).
     /// `skinned`: bones on your mesh's own vertices (a skinning
-    /// decomposition: --bones rigid bones, four weights a vertex, the rest
-    /// pose; 32 by default) and what they miss as a geometry video, for
+    /// decomposition: --bones rigid bones, by default one for each 150
+    /// vertices from 32 to 48, four weights a vertex, the rest pose) and
+    /// what they miss as a geometry video, for
     /// articulated motion (format version 17; docs/RESULTS.md, "Bones on
     /// the vertices").
     #[arg(long, default_value = "auto", value_parser = CodecChoice::parse,
@@ -195,7 +196,8 @@ pub struct Args {
     /// at least 24 frames; N: that many (1-255); 0: none. A file keeps them
     /// only where they cut the corrections 4x: articulated motion (samba,
     /// pcow, horse-gallop: -28 % to -46 % BD-rate on vertex RMS), not a
-    /// collapsing horse.
+    /// collapsing horse. With --codec skinned: the bones on the vertices
+    /// (auto: one for each 150 vertices, 32 to 48).
     #[arg(long, value_name = "auto|N", default_value = "auto", value_parser = parse_bones)]
     bones: BonesArg,
     /// Frames between H.264 intra frames.

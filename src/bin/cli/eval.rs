@@ -34,7 +34,8 @@ pub struct Args {
     /// --codec`): gv (x, y, z), conformal (the paper's H and λ, decoded by
     /// its Eq. 1 solver), predictive (closed-loop x, y, z corrections),
     /// normal (closed-loop corrections along the normal, x, y, z coarser),
-    /// skinned (--bones bones on the input's own vertices, 32 by default,
+    /// skinned (--bones bones on the input's own vertices, by default one
+    /// for each 150 vertices from 32 to 48,
     /// what they miss as x, y, z; its errors are on the input's vertices
     /// and surface, its grid being a residual). predictive and normal keep, at each rate point, the best of their
     /// correction modes; predictive-scaled, predictive-motion,

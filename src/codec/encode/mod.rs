@@ -33,6 +33,7 @@ pub use choice::CodecChoice;
 pub use request::{EncodeRequest, Encoded, GridChoice, Made};
 pub use simulate::MOTION_MARGIN;
 pub use target::{encode_to_error, prepare_for_error, TargetReport};
+pub use vertex_bones::{skinned_bones, skinned_grid};
 
 use super::h264::VideoSettings;
 use crate::error::{Error, Result};
