@@ -730,8 +730,10 @@ fn the_three_js_module_plays_a_motion_in_a_scene() {
         let (px, ch) = common::decode_png(png);
         px.chunks_exact(ch).filter(|p| p[..3].iter().map(|&c| c as u32).sum::<u32>() > 3 * 120).count()
     };
-    // And a file whose frames are predicted by bones (format v13).
-    for (file, vertices) in [("walk-source.cgv", 6274), ("walk-cgv.cgv", 16 * 16), ("bones.cgv", 6274)] {
+    // And a file whose frames are predicted by bones (format v13), and one
+    // whose bones move the mesh's own vertices (v17, the skinned codec).
+    let files = [("walk-source.cgv", 6274), ("walk-cgv.cgv", 16 * 16), ("bones.cgv", 6274), ("skinned.cgv", 6274)];
+    for (file, vertices) in files {
         browser.go(&format!("http://127.0.0.1:{port}/three/index.html?src=../{file}"));
         browser.wait(&format!("{file} in three.js"), "return !!window.cgvMesh || !!window.cgvError;", 90);
         let s = browser.js(THREE_STATE, json!([]));

@@ -21,6 +21,11 @@
 //! leave), quantizes them in the header's steps, and every frame of the
 //! file carries them (a frame predicted otherwise still needs L_t for the
 //! next one).
+//!
+//! Version 17 puts the same bones on the source mesh's vertices
+//! ([`SkinnedPredictor::on_vertices`]): the rest pose is the file's, fixed
+//! across random-access points, and L_t itself is the prediction, to which
+//! the grid's residual adds (`crate::codec::SourceMeshDecoder::vertices`).
 
 use crate::error::{Error, Result};
 use crate::format::skin::{coarse_side, Motion, INFLUENCES, MOTION_PARAMS};
@@ -111,7 +116,10 @@ impl SkinnedPredictor {
         let mut members = vec![Vec::new(); info.bones as usize];
         for (v, inf) in influences.iter().enumerate() {
             for &(b, w) in inf.iter().filter(|i| i.1 > 0.0) {
-                members[b as usize].push((v as u32, w));
+                let group = members.get_mut(b as usize);
+                group
+                    .ok_or_else(|| Error::Argument(format!("vertex {v} names bone {b} of {}", info.bones)))?
+                    .push((v as u32, w));
             }
         }
         let identity = vec![[0; MOTION_PARAMS]; info.bones as usize];
