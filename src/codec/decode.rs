@@ -43,6 +43,11 @@ impl UnitDecoder {
         self.sequence.skinned()
     }
 
+    /// Version 17: the bones on the source mesh's vertices.
+    pub fn vertex_bones(&self) -> Option<&crate::solve::skinned::SkinnedPredictor> {
+        self.sequence.vertex_bones()
+    }
+
     /// Version 11: the anchors of the file's loose vertices (see
     /// [`SequenceDecoder::set_loose_anchors`]).
     pub fn set_loose_anchors(&mut self, anchors: &[u32]) -> Result<()> {
@@ -146,6 +151,12 @@ impl FileDecoder {
     /// frame decoded last (none without bones on the vertices).
     pub fn skinned(&self) -> Option<&[Vec3]> {
         self.units.skinned()
+    }
+
+    /// Version 17: the bones on the source mesh's vertices (a skinned
+    /// file's; its rest pose, weights and the last frame's transforms).
+    pub fn vertex_bones(&self) -> Option<&crate::solve::skinned::SkinnedPredictor> {
+        self.units.vertex_bones()
     }
 
     /// The next frame's grid positions and the input's vertices rebuilt

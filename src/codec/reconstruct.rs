@@ -418,6 +418,12 @@ impl SequenceDecoder {
         self.vertex_bones.as_ref().and_then(SkinnedPredictor::skinned)
     }
 
+    /// Version 17: the bones on the source mesh's vertices (their rest
+    /// pose, weights and the last frame's transforms).
+    pub fn vertex_bones(&self) -> Option<&SkinnedPredictor> {
+        self.vertex_bones.as_ref()
+    }
+
     /// Version 11: the anchors of the file's loose vertices (its source
     /// mesh's `loose_anchors`), needed before the first frame.
     pub fn set_loose_anchors(&mut self, anchors: &[u32]) -> Result<()> {

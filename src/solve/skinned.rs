@@ -329,7 +329,12 @@ impl SkinnedPredictor {
         )
     }
 
-    /// Each grid sample's bones and weights.
+    /// The rest pose the bones move (the segment's, or version 17's file's).
+    pub fn rest(&self) -> Option<&[Vec3]> {
+        self.rest.as_ref().map(|r| &r.0[..])
+    }
+
+    /// Each grid sample's (or version 17's vertex's) bones and weights.
     pub fn influences(&self) -> &[[(u16, f32); INFLUENCES]] {
         &self.influences
     }

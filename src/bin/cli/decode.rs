@@ -38,8 +38,10 @@ pub struct Args {
     memory: MemoryArgs,
     /// Write a skinned glTF instead of one morph target a frame: bones and
     /// four weights per vertex fitted to the decoded motion (`cgv skin`'s
-    /// decomposition), which three.js and game engines play natively. The
-    /// decoded frames are held in memory while the bones are fitted.
+    /// decomposition), which three.js and game engines play natively; a
+    /// skinned file (`--codec skinned`) gives its own bones as they are,
+    /// without a fit (--bones does not apply). The decoded frames are held
+    /// in memory.
     #[arg(long)]
     skinned: bool,
     /// With --skinned: the number of bones (4 to 255).
@@ -131,21 +133,24 @@ pub fn run(args: Args) -> Result<()> {
     let fps = dec.file.header.fps;
     let pb = super::progress(frames, "decoding", args.json);
     let mut stats = Vec::with_capacity(frames);
+    if args.skinned {
+        // A skinned file's own bones, each frame's as decoded (none in others).
+        let (mut own, mut decoded) = (None, Vec::with_capacity(frames));
+        for _ in 0..frames {
+            decoded.push(next_vertices(&mut dec, source.as_ref())?.0);
+            own = file_bones(own, dec.vertex_bones());
+            pb.inc(1);
+        }
+        pb.finish_and_clear();
+        return write_skinned(&args, &decoded, &topo.faces, fps, own);
+    }
     let mut next = |_i: usize| -> cgv::Result<Vec<glam::Vec3>> {
-        let (x, s) = dec.next_frame()?;
+        let (x, s) = next_vertices(&mut dec, source.as_ref())?;
         stats.push(s);
         pb.inc(1);
-        Ok(match &source {
-            Some(m) => m.vertices(&x, dec.loose(), dec.skinned()),
-            None => x,
-        })
+        Ok(x)
     };
     let out = &args.output;
-    if args.skinned {
-        let decoded = (0..frames).map(&mut next).collect::<cgv::Result<Vec<_>>>()?;
-        pb.finish_and_clear();
-        return write_skinned(&args, &decoded, &topo.faces, fps);
-    }
     super::write_sequence(out, &topo, frames, fps, "cgv", look.as_ref(), &mut next)?;
     pb.finish_and_clear();
     let video: f64 = stats.iter().map(|s| s.video_seconds).sum();
@@ -255,13 +260,55 @@ fn check_skinned(args: &Args) -> Result<()> {
     Ok(())
 }
 
-/// `--skinned`: bones fitted to the decoded frames, written as a skinned
-/// glTF, with how far the skinning is from what the file decodes to.
-fn write_skinned(args: &Args, decoded: &[Vec<glam::Vec3>], faces: &[[u32; 3]], fps: f32) -> Result<()> {
-    let opts = cgv::skin::SkinOptions { bones: args.bones, ..Default::default() };
-    let pb = super::progress(opts.iterations, "fitting bones", args.json);
-    let skin = cgv::skin::decompose(decoded, faces, &opts, &mut |it, _| pb.set_position(it as u64))?;
-    pb.finish_and_clear();
+/// The next frame's vertices: the input's own rebuilt on it with `source`,
+/// else the grid's.
+fn next_vertices(
+    dec: &mut FileDecoder,
+    source: Option<&cgv::codec::SourceMeshDecoder>,
+) -> cgv::Result<(Vec<glam::Vec3>, cgv::codec::FrameStats)> {
+    let (x, s) = dec.next_frame()?;
+    let v = match source {
+        Some(m) => m.vertices(&x, dec.loose(), dec.skinned()),
+        None => x,
+    };
+    Ok((v, s))
+}
+
+/// `own` with the frame just decoded by `bones` (a skinned file's) added:
+/// its rest pose and weights once, each frame's transforms.
+fn file_bones(
+    own: Option<cgv::skin::Skinning>,
+    bones: Option<&cgv::solve::skinned::SkinnedPredictor>,
+) -> Option<cgv::skin::Skinning> {
+    let b = bones?;
+    let mut skin = own.or_else(|| {
+        let rest = b.rest()?.to_vec();
+        Some(cgv::skin::Skinning { rest, bones: b.bones(), influences: b.influences().to_vec(), transforms: vec![] })
+    })?;
+    skin.transforms.push(b.transforms()?);
+    Some(skin)
+}
+
+/// `--skinned`: a skinned file's own bones (`own`), or bones fitted to the
+/// decoded frames, written as a skinned glTF, with how far the skinning is
+/// from what the file decodes to.
+fn write_skinned(
+    args: &Args,
+    decoded: &[Vec<glam::Vec3>],
+    faces: &[[u32; 3]],
+    fps: f32,
+    own: Option<cgv::skin::Skinning>,
+) -> Result<()> {
+    let skin = match own {
+        Some(s) => s,
+        None => {
+            let opts = cgv::skin::SkinOptions { bones: args.bones, ..Default::default() };
+            let pb = super::progress(opts.iterations, "fitting bones", args.json);
+            let skin = cgv::skin::decompose(decoded, faces, &opts, &mut |it, _| pb.set_position(it as u64))?;
+            pb.finish_and_clear();
+            skin
+        }
+    };
     let morph = (args.morph_targets > 0)
         .then(|| cgv::skin::residual::fit(&skin, decoded, args.morph_targets))
         .transpose()
@@ -272,7 +319,7 @@ fn write_skinned(args: &Args, decoded: &[Vec<glam::Vec3>], faces: &[[u32; 3]], f
     let rms = cgv::skin::errors::measure_frames(decoded, faces, &played, 0, &diagonal)?.vertex_rms;
     let bytes = std::fs::metadata(&args.output)?.len();
     if args.json {
-        let report = serde_json::json!({"output": &args.output, "frames": decoded.len(), "bones": args.bones,
+        let report = serde_json::json!({"output": &args.output, "frames": decoded.len(), "bones": skin.bones,
             "morph_targets": args.morph_targets, "skin_vertex_rms_of_decoded": rms, "bytes": bytes});
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
@@ -281,7 +328,7 @@ fn write_skinned(args: &Args, decoded: &[Vec<glam::Vec3>], faces: &[[u32; 3]], f
             args.input.display(),
             args.output.display(),
             decoded.len(),
-            args.bones,
+            skin.bones,
             100.0 * rms
         );
     }
