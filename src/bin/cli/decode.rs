@@ -134,14 +134,7 @@ pub fn run(args: Args) -> Result<()> {
     let pb = super::progress(frames, "decoding", args.json);
     let mut stats = Vec::with_capacity(frames);
     if args.skinned {
-        // A skinned file's own bones, each frame's as decoded (none in others).
-        let (mut own, mut decoded) = (None, Vec::with_capacity(frames));
-        for _ in 0..frames {
-            decoded.push(next_vertices(&mut dec, source.as_ref())?.0);
-            own = file_bones(own, dec.vertex_bones());
-            pb.inc(1);
-        }
-        pb.finish_and_clear();
+        let (decoded, own) = decode_with_bones(&mut dec, source.as_ref(), frames, &pb)?;
         return write_skinned(&args, &decoded, &topo.faces, fps, own);
     }
     let mut next = |_i: usize| -> cgv::Result<Vec<glam::Vec3>> {
@@ -272,6 +265,24 @@ fn next_vertices(
         None => x,
     };
     Ok((v, s))
+}
+
+/// `frames` frames' vertices and, of a skinned file, its own bones, each
+/// frame's as decoded (none in other files).
+fn decode_with_bones(
+    dec: &mut FileDecoder,
+    source: Option<&cgv::codec::SourceMeshDecoder>,
+    frames: usize,
+    pb: &indicatif::ProgressBar,
+) -> Result<(Vec<Vec<glam::Vec3>>, Option<cgv::skin::Skinning>)> {
+    let (mut own, mut decoded) = (None, Vec::with_capacity(frames));
+    for _ in 0..frames {
+        decoded.push(next_vertices(dec, source)?.0);
+        own = file_bones(own, dec.vertex_bones());
+        pb.inc(1);
+    }
+    pb.finish_and_clear();
+    Ok((decoded, own))
 }
 
 /// `own` with the frame just decoded by `bones` (a skinned file's) added:
