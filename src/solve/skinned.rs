@@ -82,24 +82,7 @@ impl SkinnedPredictor {
         let fitted: Vec<u32> = (0..grid.len() as u32)
             .filter(|&v| (v as usize % grid.n) % stride == 0 && (v as usize / grid.n) % stride == 0)
             .collect();
-        let mut members = vec![Vec::new(); info.bones as usize];
-        for &v in &fitted {
-            for &(b, w) in influences[v as usize].iter().filter(|i| i.1 > 0.0) {
-                members[b as usize].push((v, w));
-            }
-        }
-        let identity = vec![[0; MOTION_PARAMS]; info.bones as usize];
-        Ok(SkinnedPredictor {
-            info: *info,
-            influences,
-            fitted,
-            members,
-            rest: None,
-            history: [identity.clone(), identity],
-            last_skinned: Default::default(),
-            skinned: None,
-            fixed_rest: false,
-        })
+        SkinnedPredictor::with(info, influences, fitted, false)
     }
 
     /// Version 17: bones on the source mesh's vertices, `weights` holding
@@ -113,30 +96,41 @@ impl SkinnedPredictor {
         }
         let influences: Vec<[(u16, f32); INFLUENCES]> = weights.influences.iter().map(normalized).collect();
         let rest: Vec<Vec3> = weights.rest.iter().map(|p| Vec3::from(p.map(|x| x as f32)) * step).collect();
+        let mut p = SkinnedPredictor::with(info, influences, (0..n as u32).collect(), true)?;
+        let c = p.centroids(&rest);
+        p.rest = Some((rest, c));
+        Ok(p)
+    }
+
+    /// The bones of `info` with each sample's `influences`, the fit reading
+    /// the `fitted` samples; no rest pose yet.
+    fn with(
+        info: &SkinInfo,
+        influences: Vec<[(u16, f32); INFLUENCES]>,
+        fitted: Vec<u32>,
+        fixed_rest: bool,
+    ) -> Result<SkinnedPredictor> {
         let mut members = vec![Vec::new(); info.bones as usize];
-        for (v, inf) in influences.iter().enumerate() {
-            for &(b, w) in inf.iter().filter(|i| i.1 > 0.0) {
+        for &v in &fitted {
+            for &(b, w) in influences[v as usize].iter().filter(|i| i.1 > 0.0) {
                 let group = members.get_mut(b as usize);
                 group
-                    .ok_or_else(|| Error::Argument(format!("vertex {v} names bone {b} of {}", info.bones)))?
-                    .push((v as u32, w));
+                    .ok_or_else(|| Error::Argument(format!("sample {v} names bone {b} of {}", info.bones)))?
+                    .push((v, w));
             }
         }
         let identity = vec![[0; MOTION_PARAMS]; info.bones as usize];
-        let mut p = SkinnedPredictor {
+        Ok(SkinnedPredictor {
             info: *info,
             influences,
-            fitted: (0..n as u32).collect(),
+            fitted,
             members,
             rest: None,
             history: [identity.clone(), identity],
             last_skinned: Default::default(),
             skinned: None,
-            fixed_rest: true,
-        };
-        let c = p.centroids(&rest);
-        p.rest = Some((rest, c));
-        Ok(p)
+            fixed_rest,
+        })
     }
 
     pub fn bones(&self) -> usize {
