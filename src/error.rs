@@ -81,6 +81,11 @@ pub enum Error {
     /// The caller asked for something that cannot be done.
     #[error("invalid argument: {0}")]
     Argument(String),
+    /// A budget (`--kbps`) below the smallest file the codec makes of the
+    /// motion: told apart so that `auto` can try a codec whose smallest
+    /// file is smaller.
+    #[error("invalid argument: {0}")]
+    BudgetTooSmall(String),
     /// A numerical step failed (a singular system, a map that folds over).
     #[error("{0}")]
     Numerical(String),

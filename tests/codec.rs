@@ -637,7 +637,7 @@ fn a_target_error_gives_the_coarsest_qp_within_it_or_is_refused() {
     let e = cgv::codec::encode_to_error(&src, &opts, cgv::codec::CodecChoice::Auto, &image, 1e-6, &mut |_, _, _| {})
         .unwrap_err()
         .to_string();
-    assert!(e.contains("below what this grid reaches") && e.contains("at QP 0"), "{e}");
+    assert!(e.contains("below what this file reaches") && e.contains("at QP 0"), "{e}");
 }
 
 /// Whether an Annex-B access unit holds an IDR picture (NAL type 5).

@@ -73,15 +73,7 @@ impl Ctx<'_> {
     /// decodes alike).
     pub(super) fn on_input(&self, stored: Vec<Vec3>) -> Vec<Vec3> {
         match self.src.appearance() {
-            Some(a) => {
-                let mut v = vec![Vec3::ZERO; self.src.topology().vertex_count];
-                for (&w, p) in a.welded.iter().zip(stored) {
-                    if let Some(slot) = v.get_mut(w as usize) {
-                        *slot = p;
-                    }
-                }
-                v
-            }
+            Some(a) => a.on_sequence(&stored, self.src.topology().vertex_count),
             None => stored,
         }
     }

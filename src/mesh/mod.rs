@@ -35,6 +35,32 @@ pub struct Appearance {
     pub look: crate::format::Appearance,
 }
 
+impl Appearance {
+    /// Positions of the stored vertices indexed as the sequence's: a
+    /// decoded source mesh's, whose copies of a vertex split at a seam
+    /// decode alike.
+    pub fn on_sequence(&self, stored: &[Vec3], vertex_count: usize) -> Frame {
+        let mut v = vec![Vec3::ZERO; vertex_count];
+        for (&w, p) in self.welded.iter().zip(stored) {
+            if let Some(slot) = v.get_mut(w as usize) {
+                *slot = *p;
+            }
+        }
+        v
+    }
+
+    /// For each sequence vertex, the first stored vertex that is it.
+    pub fn stored_of(&self, vertex_count: usize) -> Vec<u32> {
+        let mut first = vec![0u32; vertex_count];
+        for (k, &v) in self.welded.iter().enumerate().rev() {
+            if let Some(slot) = first.get_mut(v as usize) {
+                *slot = k as u32;
+            }
+        }
+        first
+    }
+}
+
 /// Positions of one frame, indexed like the sequence's vertices.
 pub type Frame = Vec<Vec3>;
 

@@ -41,9 +41,10 @@ pub struct Args {
     /// `predictive`: the same prediction corrected by x, y, z at full size
     /// (versions 1-8; scaled corrections also carry H and λ).
     /// `auto` (the default; `cgv` is another name for it): `skinned` for a
-    /// motion of 24 frames or more at a constant QP whose file keeps the
-    /// input's mesh (lower vertex error at equal bits on every motion
-    /// measured, docs/RESULTS.md, "Bones on the vertices"); else normal from
+    /// motion of 24 frames or more whose file keeps the input's mesh (lower
+    /// vertex error at equal bits on every motion measured, docs/RESULTS.md,
+    /// "Bones on the vertices"), unless a --kbps is below its smallest file
+    /// or a --target-error is met at a smaller size without bones; else normal from
     /// 0.25 to 1.3 bits per grid sample per frame (or QP 12 to 30) with one
     /// layer, where it measured better, else predictive (docs/RESULTS.md,
     /// "One scalar channel per frame").
@@ -86,8 +87,9 @@ pub struct Args {
     /// The other way to ask for a size: the smallest file whose surface RMS
     /// is at most this percentage of the bounding-box diagonal (0.05 for
     /// 0.05 %), measured as `cgv eval` does on 12 frames spread over the
-    /// motion; the QP is searched (7 to 12 encodes). A target below
-    /// what the grid reaches at QP 0 is refused with the error it reaches.
+    /// motion (the skinned codec's on your mesh, the others' on the grid);
+    /// the QP is searched (7 to 12 encodes). A target below what the file
+    /// reaches at QP 0 is refused with the error it reaches.
     #[arg(long, value_name = "PERCENT", conflicts_with_all = ["kbps", "qp"])]
     target_error: Option<f64>,
     /// A key frame (λ) every N frames; 0 for the first frame only.
@@ -200,6 +202,13 @@ pub struct Args {
     /// (auto: one for each 150 vertices, 32 to 48).
     #[arg(long, value_name = "auto|N", default_value = "auto", value_parser = parse_bones)]
     bones: BonesArg,
+    /// --codec skinned: its weights `fine` (255 levels) or `coarse` (an
+    /// influence under 5 % dropped, 32 levels: about half the bytes).
+    /// `auto`: coarse from QP 39 on, or under a --kbps below the fine
+    /// file at QP 39, where the residual is too coarse to show the
+    /// difference (docs/RESULTS.md, "Bones on the vertices").
+    #[arg(long, value_enum, default_value = "auto")]
+    weights: Weights,
     /// Frames between H.264 intra frames.
     #[arg(long, default_value_t = 30)]
     gop: u32,
@@ -257,6 +266,11 @@ fn request(args: &Args) -> EncodeRequest {
         fit_places: args.fit_places,
         random_access: args.random_access,
         bones: args.bones.0,
+        coarse_weights: match args.weights {
+            Weights::Auto => None,
+            Weights::Fine => Some(false),
+            Weights::Coarse => Some(true),
+        },
         segments: args.segments.clone(),
         frame_meshes: args.mesh == CaptureMesh::Frames,
         ..EncodeOptions::default()
@@ -464,6 +478,9 @@ fn print_report(
             kbps,
             src.fps()
         );
+        if let Some(why) = &report.auto_passed_over {
+            println!("  auto passed over {why}");
+        }
         print_sizes(report);
         let p = &report.parameterization;
         super::warn_folds(&p.distortion);
@@ -475,32 +492,46 @@ fn print_report(
                 p.area_passes
             );
         }
-        if let Some(t) = target {
-            println!(
-                "  surface RMS {:.4} % of the diagonal (target {:.4} %; mean over frames {:?}) at QP {}, the coarsest within it",
-                100.0 * t.surface_rms,
-                args.target_error.unwrap_or(0.0),
-                t.frames_measured,
-                t.qp
-            );
-        }
-        if let Some(miss) = report.budget_miss {
-            println!("  budget: {:+.2} % from {} kbit/s", 100.0 * miss, args.kbps.unwrap_or_default());
-        }
-        let passes = match (report.passes, target) {
-            (1, _) => String::new(),
-            (n, Some(_)) => format!(" in {n} passes for the target"),
-            (n, None) => format!(" in {n} passes for the budget"),
-        };
-        println!(
-            "  time: parameterize {:.2} s, coding {:.2} s{passes}, total {:.2} s ({:.1} ms/frame)",
-            report.seconds_parameterize,
-            report.seconds_coding,
-            report.seconds_total,
-            1000.0 * report.seconds_total / report.frames as f64
-        );
+        print_rate(args, report, target);
     }
     Ok(())
+}
+
+/// `cgv encode`'s lines on the rate: the target's error, the budget's
+/// miss, the passes and times.
+fn print_rate(args: &Args, report: &cgv::codec::EncodeReport, target: Option<&cgv::codec::TargetReport>) {
+    if let Some(t) = target {
+        println!(
+            "  surface RMS {:.4} % of the diagonal (target {:.4} %; mean over frames {:?}) at QP {}, the coarsest within it",
+            100.0 * t.surface_rms,
+            args.target_error.unwrap_or(0.0),
+            t.frames_measured,
+            t.qp
+        );
+    }
+    if let Some(miss) = report.budget_miss {
+        println!("  budget: {:+.2} % from {} kbit/s", 100.0 * miss, args.kbps.unwrap_or_default());
+    }
+    let passes = match (report.passes, target) {
+        (1, _) => String::new(),
+        (n, Some(_)) => format!(" in {n} passes for the target"),
+        (n, None) => format!(" in {n} passes for the budget"),
+    };
+    println!(
+        "  time: parameterize {:.2} s, coding {:.2} s{passes}, total {:.2} s ({:.1} ms/frame)",
+        report.seconds_parameterize,
+        report.seconds_coding,
+        report.seconds_total,
+        1000.0 * report.seconds_total / report.frames as f64
+    );
+}
+
+/// `--weights`: the skinned codec's weights' precision.
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+enum Weights {
+    Auto,
+    Fine,
+    Coarse,
 }
 
 /// `--bones`: `auto` (the encoder's choice, `None`) or a count.

@@ -15,7 +15,7 @@
 //! bits over) gets a constant QP instead, bisected on the files' sizes,
 //! where that lands nearer.
 
-use super::{encode_prepared_into, EncodeOptions, EncodeReport};
+use super::{encode_prepared_into, EncodeOptions, EncodeReport, COARSE_WEIGHTS_QP};
 use crate::error::{Error, Result};
 use crate::geometry_image::GeometryImage;
 use crate::mesh::FrameSource;
@@ -50,13 +50,34 @@ pub fn encode_on_budget_into<S: Sink>(
     open: &mut dyn FnMut() -> Result<S>,
     progress: &mut dyn FnMut(&str, usize, usize),
 ) -> Result<(S, EncodeReport)> {
+    let opts = &with_weights_for_budget(src, opts, image)?;
     match on_budget(src, opts, image, open, progress) {
-        Err(Error::Argument(_)) if opts.bones.is_none() && opts.video.kbps.is_some() => {
+        Err(Error::BudgetTooSmall(_)) if opts.bones.is_none() && opts.video.kbps.is_some() => {
             let without = EncodeOptions { bones: Some(0), ..opts.clone() };
             on_budget(src, &without, image, open, progress)
         }
         r => r,
     }
+}
+
+/// The skinned codec under a bitrate, its weights left to the rate: coarse
+/// where the budget is below the fine-weighted file at
+/// [`COARSE_WEIGHTS_QP`] (one encode to find out), as a constant QP from
+/// there on would have them.
+fn with_weights_for_budget(
+    src: &dyn FrameSource,
+    opts: &EncodeOptions,
+    image: &GeometryImage,
+) -> Result<EncodeOptions> {
+    let mut o = opts.clone();
+    let Some(kbps) = opts.video.kbps.filter(|_| opts.vertex_bones() && opts.coarse_weights.is_none()) else {
+        return Ok(o);
+    };
+    let seconds = src.frame_count() as f64 / f64::from(src.fps());
+    let fine = EncodeOptions { coarse_weights: Some(false), ..at_constant_qp(opts, COARSE_WEIGHTS_QP) };
+    let size = encode_prepared_into(src, &fine, image, &mut Count::default(), &mut |_, _, _| {})?.bytes;
+    o.coarse_weights = Some(size as f64 > f64::from(kbps) * 1000.0 / 8.0 * seconds);
+    Ok(o)
 }
 
 /// [`encode_on_budget_into`] with the options as they are.
@@ -99,7 +120,7 @@ fn on_budget<S: Sink>(
         if target <= fixed as f64 {
             let way_out =
                 if mesh > 0 { format!(", {mesh} of them the source mesh (--no-source-mesh)") } else { String::new() };
-            return Err(Error::Argument(format!(
+            return Err(Error::BudgetTooSmall(format!(
                 "a budget of {kbps} kbit/s is {target:.0} bytes for this motion, and what is not video alone \
                  takes {fixed}{way_out}: ask for more"
             )));
@@ -136,7 +157,7 @@ fn refuse_or_keep<S: Sink>(
     if size > target {
         let smallest = at_qp(51)?;
         if smallest as f64 > target * (1.0 + BUDGET_TOLERANCE) {
-            return Err(Error::Argument(format!(
+            return Err(Error::BudgetTooSmall(format!(
                 "the smallest file this codec makes of this motion (QP 51) is {:.1} kbit/s, above the budget of {:.1}",
                 kbps(smallest),
                 kbps(target as usize)

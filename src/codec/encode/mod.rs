@@ -33,7 +33,7 @@ pub use choice::CodecChoice;
 pub use request::{EncodeRequest, Encoded, GridChoice, Made};
 pub use simulate::MOTION_MARGIN;
 pub use target::{encode_to_error, prepare_for_error, TargetReport};
-pub use vertex_bones::{skinned_bones, skinned_grid};
+pub use vertex_bones::{skinned_bones, skinned_grid, COARSE_WEIGHTS_QP};
 
 use super::h264::VideoSettings;
 use crate::error::{Error, Result};
@@ -145,6 +145,9 @@ pub struct EncodeOptions {
     /// it, so each is a random-access point (the closed loop restarts
     /// rather than code the jump). Increasing, in 1..frames.
     pub segments: Vec<u32>,
+    /// The skinned codec: its weights stored coarse (`Some(true)`), fine,
+    /// or (`None`) by the rate ([`EncodeOptions::coarse_weights`]).
+    pub coarse_weights: Option<bool>,
 }
 
 impl Default for EncodeOptions {
@@ -172,6 +175,7 @@ impl Default for EncodeOptions {
             bones: None,
             frame_meshes: false,
             segments: Vec::new(),
+            coarse_weights: None,
         }
     }
 }
@@ -255,6 +259,13 @@ impl EncodeOptions {
         self.closed_loop() && self.corrections == CorrectionMode::Motion
     }
 
+    /// The skinned codec's weights coarse: as asked, else at a constant QP
+    /// from [`COARSE_WEIGHTS_QP`] on (a bitrate's encode has it decided
+    /// before it codes, in `budget.rs`).
+    pub fn coarse_weights(&self) -> bool {
+        self.coarse_weights.unwrap_or(self.video.kbps.is_none() && self.video.qp >= COARSE_WEIGHTS_QP)
+    }
+
     fn anchor_count(&self) -> usize {
         self.anchors.unwrap_or(if self.closed_loop() { 0 } else { PAPER_ANCHORS })
     }
@@ -296,6 +307,10 @@ pub struct EncodeReport {
     /// [`BUDGET_TOLERANCE`] only where the rate control could not land a
     /// budget the codec can reach; the closest pass is kept then.
     pub budget_miss: Option<f64>,
+    /// `auto`'s first pick when it was not kept, and why: the skinned
+    /// codec's smallest file above the budget, or a target error it met
+    /// only there with a larger file than the closed loop's.
+    pub auto_passed_over: Option<String>,
 }
 
 /// Encodes a motion into `.cgv` bytes; with a bitrate, the file within
@@ -437,6 +452,7 @@ pub fn encode_prepared_into(
         seconds_total: seconds_parameterize + t_start.elapsed().as_secs_f64(),
         passes: 1,
         budget_miss: None,
+        auto_passed_over: None,
     };
     Ok(report)
 }
@@ -457,7 +473,7 @@ fn fit_vertex_bones(
                 .into(),
         ));
     }
-    vertex_bones::fit(src, plan, n, diagonal, progress).map(Some)
+    vertex_bones::fit(src, plan, (n, opts.coarse_weights()), diagonal, progress).map(Some)
 }
 
 /// The `SMSH` chunk of the input's mesh (and `APPR` after it) with the

@@ -5,7 +5,7 @@
 //! it, so that a new option, its check and its default are written once;
 //! the front ends only parse and print.
 
-use super::target::{encode_to_error, prepare_for_error, TargetReport};
+use super::target::{encode_to_error, prepare_for_error, TargetReport, COARSEST_QP};
 use super::vertex_bones::{skinned_bones, skinned_grid};
 use super::{auto_grid, encode_into, CodecChoice, EncodeOptions, EncodeReport, MIN_BONE_FRAMES};
 use crate::error::{Error, Result};
@@ -87,23 +87,21 @@ impl EncodeRequest {
         Ok(opts)
     }
 
-    /// `auto`'s pick for an articulated-looking motion at a constant QP:
-    /// the skinned codec, whenever the file keeps the input's mesh (which
-    /// its bones act on) and the motion has [`MIN_BONE_FRAMES`] frames to
-    /// repay the weights and rest pose. Measured (N = 128, all frames,
-    /// vertex RMS on the input's vertices at equal bits), against `normal`
-    /// with bones on the grid: samba −58 % BD-rate (48 bones), pcow −69 % (24);
-    /// horse-gallop and horse-collapse lower at every rate it reaches (its
-    /// smallest file is larger: a budget, `--kbps`, keeps `normal`; so
-    /// does a target error, searched on the grid).
+    /// `auto`'s first pick: the skinned codec, whenever the file keeps the
+    /// input's mesh (which its bones act on) and the motion has
+    /// [`MIN_BONE_FRAMES`] frames to repay the weights and rest pose.
+    /// Measured (N = 128, all frames, vertex RMS on the input's vertices at
+    /// equal bits), against `normal` with bones on the grid: samba −58 %
+    /// BD-rate (48 bones), pcow −69 % (24); horse-gallop and horse-collapse
+    /// lower at every rate it reaches. Its smallest file is larger, so a
+    /// budget below it, or a target error it meets only at its smallest
+    /// file, goes to the closed loop ([`encode`](Self::encode)).
     fn auto_skinned(&self, src: &dyn FrameSource) -> Option<EncodeRequest> {
         let b = &self.base;
         let fits = self.codec == CodecChoice::Auto
             && b.source_mesh
             && !b.frame_meshes
             && b.bones != Some(0)
-            && b.video.kbps.is_none()
-            && self.target_error.is_none()
             && src.frame_count() >= MIN_BONE_FRAMES;
         fits.then(|| EncodeRequest {
             codec: CodecChoice::Named(crate::format::Representation::Skinned),
@@ -136,33 +134,56 @@ impl EncodeRequest {
     }
 
     /// Encodes `src`: into sinks that `open` makes, one per coding pass (the
-    /// last is kept), or, for a target error, into memory.
+    /// last is kept), or, for a target error, into memory. `auto` tries the
+    /// skinned codec first where it applies ([`auto_skinned`](Self::auto_skinned))
+    /// and keeps the closed loop's file where the skinned one cannot be
+    /// made within the budget, or meets a target error only at its
+    /// smallest file and the closed loop's is smaller; the report says so.
     pub fn encode<S: Sink>(
         &self,
         src: &dyn FrameSource,
         open: &mut dyn FnMut() -> Result<S>,
         progress: &mut dyn FnMut(&str, usize, usize),
     ) -> Result<Encoded<S>> {
-        if let Some(skinned) = self.auto_skinned(src) {
-            return skinned.encode(src, open, progress);
-        }
+        let Some(skinned) = self.auto_skinned(src) else { return self.encode_as_asked(src, open, progress) };
+        let why = match skinned.encode_as_asked(src, open, progress) {
+            Err(Error::BudgetTooSmall(why)) => why,
+            Ok(made) if made.target.as_ref().is_some_and(|t| t.qp == COARSEST_QP) => {
+                let Ok(mut other) = self.encode_as_asked(src, open, progress) else { return Ok(made) };
+                if other.report.bytes >= made.report.bytes {
+                    return Ok(made);
+                }
+                other.report.auto_passed_over = Some(format!(
+                    "skinned: it meets the target only at its smallest file, {} bytes",
+                    made.report.bytes
+                ));
+                return Ok(other);
+            }
+            made => return made,
+        };
+        let mut other = self.encode_as_asked(src, open, progress)?;
+        other.report.auto_passed_over = Some(format!("skinned: {why}"));
+        Ok(other)
+    }
+
+    /// [`encode`](Self::encode) with the codec as asked (`auto` is the
+    /// closed loop's rules here).
+    fn encode_as_asked<S: Sink>(
+        &self,
+        src: &dyn FrameSource,
+        open: &mut dyn FnMut() -> Result<S>,
+        progress: &mut dyn FnMut(&str, usize, usize),
+    ) -> Result<Encoded<S>> {
         let skinned = self.codec == CodecChoice::Named(crate::format::Representation::Skinned);
         if skinned && self.base.bones.is_none() {
             let mut r = self.clone();
             r.base.bones = Some(skinned_bones(src.topology().vertex_count));
-            return r.encode(src, open, progress);
+            return r.encode_as_asked(src, open, progress);
         }
         // The skinned codec's grid codes a residual at the vertices' places:
         // its size follows the mesh, not the rate.
         let grid = (skinned && self.grid == GridChoice::Auto).then(|| skinned_grid(src.topology().vertex_count));
         let opts = self.options_on(src.fps(), grid)?;
-        if skinned && self.target_error.is_some() {
-            return Err(Error::Argument(
-                "a target error is searched on the grid, which the skinned codec codes a residual on: give it \
-                 --qp or --kbps"
-                    .into(),
-            ));
-        }
         let Some(percent) = self.target_error else {
             let (sink, report) = encode_into(src, &opts, open, progress)?;
             return Ok(Encoded { file: Made::Streamed(sink), options: opts, report, target: None });
@@ -170,7 +191,8 @@ impl EncodeRequest {
         // With a grid chosen for it, N = 128's resampling floor decides.
         let fps = src.fps();
         let regrid = |n| self.options_on(fps, Some(n));
-        let auto = (self.grid == GridChoice::Auto).then_some(&regrid as &dyn Fn(usize) -> Result<EncodeOptions>);
+        let auto =
+            (self.grid == GridChoice::Auto && !skinned).then_some(&regrid as &dyn Fn(usize) -> Result<EncodeOptions>);
         let (opts, image) = prepare_for_error(src, opts, percent / 100.0, auto)?;
         let (bytes, report, target) = encode_to_error(src, &opts, self.codec, &image, percent / 100.0, progress)?;
         Ok(Encoded { file: Made::Bytes(bytes), options: opts, report, target: Some(target) })

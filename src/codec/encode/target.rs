@@ -4,8 +4,8 @@
 //!
 //! The error is measured as `cgv eval` measures it (the symmetric surface
 //! distance between the decoded grid, without the carrier's added faces,
-//! and the input's frame, relative to the first frame's diagonal; mean
-//! over frames), on [`SAMPLE_FRAMES`] frames spread over the motion, so
+//! or the skinned codec's decoded mesh, and the input's frame, relative to
+//! the first frame's diagonal; mean over frames), on [`SAMPLE_FRAMES`] frames spread over the motion, so
 //! that no more than those are held. The file is decoded as a decoder
 //! would, so the figure includes everything the decoder does. The QP is
 //! bisected (an error that falls as the QP falls), then bisected again with
@@ -20,6 +20,8 @@ use crate::metrics::surface;
 
 /// Frames the error is measured on (all of a shorter motion).
 pub const SAMPLE_FRAMES: usize = 12;
+/// H.264's coarsest QP: a file kept there is the codec's smallest.
+pub const COARSEST_QP: u8 = 51;
 
 /// What [`encode_to_error`] made.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -81,22 +83,35 @@ impl Truth {
         Ok(Truth { frames, diagonal })
     }
 
-    /// The surface RMS of a file over the sampled frames, relative to the diagonal.
+    /// The surface RMS of a file over the sampled frames, relative to the
+    /// diagonal: of its grid, or of the input's mesh where the file's bones
+    /// act on it (the skinned codec's grid is a residual).
     fn measure(&self, bytes: &[u8], src: &dyn FrameSource, image: &GeometryImage) -> Result<f64> {
         let file =
             crate::format::read(bytes).map_err(|e| Error::Container { path: src.label().to_path_buf(), source: e })?;
         let solver = file.header.solver;
+        let skinned = file.header.skin.is_some_and(|s| s.on_vertices());
         let mut dec = FileDecoder::new(file, solver)?;
-        let faces = image.surface_faces(src.topology());
+        let source = dec.source_mesh().filter(|_| skinned);
+        let (topology, faces) = (src.topology(), image.surface_faces(src.topology()));
         let mut sum = 0.0;
         let last = self.frames.last().map_or(0, |s| s.0);
         let mut next = self.frames.iter().peekable();
         for f in 0..=last {
             let (x, _) = dec.next_frame()?;
-            if let Some((_, truth)) = next.next_if(|s| s.0 == f) {
-                let x = surface_vertices(&x, dec.loose());
-                sum += surface::symmetric(&x, &faces, truth, &src.topology().faces)?.rms;
-            }
+            let Some((_, truth)) = next.next_if(|s| s.0 == f) else { continue };
+            let d = match &source {
+                Some(m) => {
+                    let stored = m.vertices(&x, dec.loose(), dec.skinned());
+                    let v = match src.appearance() {
+                        Some(a) => a.on_sequence(&stored, topology.vertex_count),
+                        None => stored,
+                    };
+                    surface::symmetric(&v, &topology.faces, truth, &topology.faces)?
+                }
+                None => surface::symmetric(&surface_vertices(&x, dec.loose()), &faces, truth, &topology.faces)?,
+            };
+            sum += d.rms;
         }
         Ok(sum / self.frames.len().max(1) as f64 / self.diagonal.max(f64::MIN_POSITIVE))
     }
@@ -137,14 +152,15 @@ pub fn encode_to_error(
         Ok(Found { bytes, report, error, qp, options: o })
     };
     let (kept, missed) = bisect(target, 0, 30, &mut |qp| try_qp(qp, None))?;
-    let mut kept = kept.ok_or_else(|| refusal(target, missed.as_ref()))?;
+    let mut kept = kept.ok_or_else(|| refusal(target, missed.as_ref(), opts.vertex_bones()))?;
     // The auto rules change the corrections at some QPs (motion from QP
     // 26 on), and the error can jump there (samba at N = 128: 0.067 % at
     // QP 25, 0.168 % at 26): so past such a boundary the coarser QPs are
     // searched again with the kept file's corrections.
     if missed.as_ref().is_some_and(|m| m.qp == kept.qp + 1 && differs(&m.options, &kept.options)) {
         let pin = kept.options.clone();
-        let (coarser, _) = bisect(target, kept.qp, (kept.qp + 52) / 2, &mut |qp| try_qp(qp, Some(&pin)))?;
+        let (coarser, _) =
+            bisect(target, kept.qp, (kept.qp + COARSEST_QP).div_ceil(2), &mut |qp| try_qp(qp, Some(&pin)))?;
         if let Some(c) = coarser.filter(|c| c.bytes.len() < kept.bytes.len()) {
             kept = c;
         }
@@ -187,7 +203,7 @@ fn bisect(
         } else {
             misses = Some(found);
         }
-        let hi = misses.as_ref().map_or(52, |m| m.qp);
+        let hi = misses.as_ref().map_or(COARSEST_QP + 1, |m| m.qp);
         // Known to meet: the coarsest that did, else the floor (0 is not known).
         let lo = meets.as_ref().map(|m| m.qp).or((floor > 0).then_some(floor));
         match lo {
@@ -199,10 +215,11 @@ fn bisect(
     }
 }
 
-fn refusal(target: f64, at_zero: Option<&Found>) -> Error {
+fn refusal(target: f64, at_zero: Option<&Found>, skinned: bool) -> Error {
+    let further = if skinned { "more --bones, or a larger --grid" } else { "a larger --grid, or --layers 2" };
     Error::Argument(format!(
-        "a surface RMS of {:.4} % of the diagonal is below what this grid reaches: {:.4} % at QP 0 \
-         (a larger --grid, or --layers 2, goes further)",
+        "a surface RMS of {:.4} % of the diagonal is below what this file reaches: {:.4} % at QP 0 \
+         ({further}, goes further)",
         100.0 * target,
         100.0 * at_zero.map_or(f64::NAN, |m| m.error)
     ))

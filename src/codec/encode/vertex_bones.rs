@@ -18,6 +18,7 @@ use crate::error::{Error, Result};
 use crate::format::skin::Motion;
 use crate::format::{SkinInfo, SkinWeights};
 use crate::mesh::{Frame, FrameSource, Topology};
+use crate::skin::INFLUENCES;
 use crate::skin::{decompose, SkinOptions};
 use crate::solve::skinned::SkinnedPredictor;
 use glam::Vec3;
@@ -47,9 +48,40 @@ pub fn skinned_grid(vertices: usize) -> usize {
 /// smallest file 0.93 bits/v/f against 0.68 and worse below 1 bit (each
 /// frame's motions cost more there than the residual they save: hence 48
 /// at most); pcow (2,904) 32 against 24 −10 % (worse at its smallest
-/// file), 16 +27 %. A count chosen for the rate is not built.
+/// file), 16 +27 %. The rate sets the weights' precision instead
+/// ([`COARSE_WEIGHTS_QP`]): fewer bones lower the smallest file less and
+/// lose more (horse-gallop at QP 51: 16 bones 0.291 % at 0.59 bits/v/f,
+/// 48 with coarse weights 0.128 % at 0.56).
 pub fn skinned_bones(vertices: usize) -> u16 {
     ((vertices / 150).clamp(32, 48) / 8 * 8) as u16
+}
+
+/// From this QP on, a constant-QP file stores its weights coarse
+/// ([`weight_bytes`]); with a bitrate, where the fine-weighted file at
+/// this QP is over the budget (`budget.rs`). Measured (48 bones, all
+/// frames, vertex RMS on the input's vertices, bits/v/f less the mesh
+/// line): horse-gallop at QP 42 0.613 bits, 0.098 % against fine 0.919,
+/// 0.095 % (−33 % bits at equal error from QP 36 on), samba at QP 39
+/// 0.486, 0.140 % against 0.591, 0.123 % (−11 %), but at QP 33 samba's
+/// coarse weights cost 9 % more at equal error and horse-gallop's gained
+/// nothing at QP 30: where the residual is fine, so must the skinning be.
+pub const COARSE_WEIGHTS_QP: u8 = 39;
+/// Coarse weights: an influence under 5 % is dropped and the rest kept in
+/// 32 levels, which deflate codes in about half the bits.
+const COARSE_DROP: f32 = 0.05;
+const COARSE_LEVELS: f32 = 32.0;
+
+/// A vertex's influences as the file's bytes: 255 levels, or coarse, where
+/// the residual video is coarse enough that the skinning's finer detail
+/// would not show (the decoder divides by their sum either way, so the
+/// format is the same).
+fn weight_bytes(inf: &[(u16, f32); INFLUENCES], coarse: bool) -> [(u8, u8); INFLUENCES] {
+    let kept = inf.map(|(b, w)| (b, if w < COARSE_DROP { 0.0 } else { w }));
+    let sum: f32 = kept.iter().map(|p| p.1).sum();
+    if !coarse || sum <= 0.0 {
+        return quantize(inf);
+    }
+    quantize(&kept.map(|(b, w)| (b, (w / sum * COARSE_LEVELS).round() / COARSE_LEVELS)))
 }
 
 /// The bones of a file with bones on its vertices.
@@ -76,11 +108,12 @@ fn welded(src: &dyn FrameSource) -> Vec<u32> {
     }
 }
 
-/// Fits `bones` bones to `src` and each frame's transforms.
+/// Fits `bones` bones to `src` and each frame's transforms; their
+/// weights stored `coarse` or not ([`weight_bytes`]).
 pub(super) fn fit(
     src: &dyn FrameSource,
     plan: &Plan,
-    bones: u16,
+    (bones, coarse): (u16, bool),
     diagonal: f32,
     progress: &mut dyn FnMut(&str, usize, usize),
 ) -> Result<VertexBones> {
@@ -100,7 +133,8 @@ pub(super) fn fit(
     let farthest = skin.rest.iter().map(|p| p.abs().max_element()).fold(0.0f32, f32::max);
     let step = (diagonal * REST_STEP).max(farthest / 2.0e9);
     let at = |v: &u32| skin.rest.get(*v as usize).copied().unwrap_or_default();
-    let influence = |v: &u32| skin.influences.get(*v as usize).map_or([(0, 255), (0, 0), (0, 0), (0, 0)], quantize);
+    let bytes = |inf: &[(u16, f32); INFLUENCES]| weight_bytes(inf, coarse);
+    let influence = |v: &u32| skin.influences.get(*v as usize).map_or([(0, 255), (0, 0), (0, 0), (0, 0)], bytes);
     let weights = SkinWeights {
         influences: welded.iter().map(influence).collect(),
         rest: welded.iter().map(|v| (at(v) / step).round().to_array().map(|x| x.clamp(-2.1e9, 2.1e9) as i32)).collect(),
@@ -125,10 +159,8 @@ pub(super) fn fit(
         motions.push(predictor.motions().to_vec());
         progress("bone motions", f + 1, n);
     }
-    let mut stored_of = vec![0u32; src.topology().vertex_count];
-    for (k, &v) in welded.iter().enumerate().rev() {
-        stored_of[v as usize] = k as u32;
-    }
+    let count = src.topology().vertex_count;
+    let stored_of = src.appearance().map_or_else(|| (0..count as u32).collect(), |a| a.stored_of(count));
     Ok(VertexBones { info, weights, units, motions, predictor, stored_of })
 }
 
@@ -169,7 +201,18 @@ impl FrameSource for Residual<'_> {
 
 #[cfg(test)]
 mod tests {
-    use super::{skinned_bones, skinned_grid};
+    use super::{skinned_bones, skinned_grid, weight_bytes};
+
+    #[test]
+    fn coarse_weights_drop_small_influences_and_keep_32_levels() {
+        let inf = [(3, 0.62), (7, 0.31), (1, 0.04), (9, 0.03)];
+        assert_eq!(weight_bytes(&inf, false), [(3, 158), (7, 79), (1, 10), (9, 8)]);
+        let coarse = weight_bytes(&inf, true);
+        // 0.62 / 0.93 and 0.31 / 0.93 in 32nds: 21 and 11, as bytes.
+        assert_eq!(coarse, [(3, 167), (7, 88), (1, 0), (9, 0)]);
+        // One bone whole stays whole.
+        assert_eq!(weight_bytes(&[(5, 1.0), (0, 0.0), (0, 0.0), (0, 0.0)], true)[0], (5, 255));
+    }
 
     #[test]
     fn the_skinned_bones_follow_the_vertices() {
@@ -202,7 +245,7 @@ mod probe {
         let diag = Bounds::of(&src.read_frame(0).unwrap()).diagonal();
         let opts = crate::codec::EncodeOptions { random_access: 0.0, ..Default::default() };
         let plan = Plan::new(&opts, src.frame_count(), src.fps()).unwrap();
-        let b = fit(src.as_ref(), &plan, bones, diag, &mut |_, _, _| {}).unwrap();
+        let b = fit(src.as_ref(), &plan, (bones, false), diag, &mut |_, _, _| {}).unwrap();
         let mut sum = 0.0;
         for f in 0..plan.frames {
             let x = src.read_frame(f).unwrap();
