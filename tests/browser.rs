@@ -790,7 +790,7 @@ fn the_three_js_module_plays_a_motion_in_a_scene() {
 /// (after pkg-scripts/web.sh). Each prints the native reconstruction ms per
 /// frame, then per backend the time to first frame, WebCodecs and wasm
 /// reconstruction ms per frame, and the playback rate.
-fn viewer_speed(name: &str, grid: usize, qp: u8, fill_holes: bool, bones: Option<u16>) {
+fn viewer_speed(name: &str, grid: usize, qp: u8, fill_holes: bool, bones: Option<u16>, skinned: bool) {
     let (dir, _server, port) = site("speed");
     let path = common::real_sequence(name);
     let open = cgv::mesh::OpenOptions { fill_holes, ..Default::default() };
@@ -798,6 +798,9 @@ fn viewer_speed(name: &str, grid: usize, qp: u8, fill_holes: bool, bones: Option
     let frames = src.frame_count();
     let mut opts = cgv::codec::EncodeOptions { grid, bones, ..Default::default() };
     opts.video.qp = qp;
+    if skinned {
+        opts.representation = cgv::format::Representation::Skinned;
+    }
     // The correction mode `cgv encode` picks by default.
     opts.corrections = cgv::codec::auto_corrections(&opts.video, grid, src.fps());
     let (bytes, _) = cgv::codec::encode(src.as_ref(), &opts, &mut |_, _, _| {}).unwrap();
@@ -846,21 +849,29 @@ fn viewer_speed(name: &str, grid: usize, qp: u8, fill_holes: bool, bones: Option
 #[test]
 #[ignore]
 fn viewer_speed_on_samba_at_128() {
-    viewer_speed("samba", 128, 30, false, None);
+    viewer_speed("samba", 128, 30, false, None, false);
+}
+
+/// The skinned codec's file (format v17, 48 bones on the vertices) at the
+/// QP where it is about as large as the closed loop's at 30.
+#[test]
+#[ignore]
+fn viewer_speed_on_samba_skinned() {
+    viewer_speed("samba", 128, 36, false, Some(48), true);
 }
 
 /// The same file without bones, for what the skinned prediction costs.
 #[test]
 #[ignore]
 fn viewer_speed_on_samba_at_128_without_bones() {
-    viewer_speed("samba", 128, 30, false, Some(0));
+    viewer_speed("samba", 128, 30, false, Some(0), false);
 }
 
 /// A file that uses cycle predictions (format v4), at the larger grid.
 #[test]
 #[ignore]
 fn viewer_speed_on_horse_gallop_at_256() {
-    viewer_speed("horse-gallop", 256, 30, true, None);
+    viewer_speed("horse-gallop", 256, 30, true, None, false);
 }
 
 /// Page memory over a long motion (a measurement, like the speed runs):
