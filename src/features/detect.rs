@@ -5,6 +5,7 @@
 //! times, by which [`track`](super::track) matches it in the next frame.
 
 use super::hks::Spectrum;
+use super::nearest::nearest_vertices;
 use crate::error::Result;
 use glam::Vec3;
 
@@ -33,7 +34,27 @@ pub struct Feature {
 
 /// The features of a frame (`faces` over `positions`), strongest first.
 pub fn features(faces: &[[u32; 3]], positions: &[Vec3]) -> Result<Vec<Feature>> {
-    let spectrum = Spectrum::of(faces, positions, EIGENPAIRS.min(positions.len().saturating_sub(2)))?;
+    Ok(features_near(faces, positions, None)?.0)
+}
+
+/// A frame's positions and the Laplacian eigenpairs found on them.
+pub type Found<'a> = (&'a [Vec3], &'a Spectrum);
+
+/// [`features`], the eigenpairs started from those of a nearby frame
+/// (`last`; carried to this frame's vertices by their nearest vertex
+/// there), and the eigenpairs for the next frame.
+pub fn features_near(faces: &[[u32; 3]], positions: &[Vec3], last: Option<Found>) -> Result<(Vec<Feature>, Spectrum)> {
+    let k = EIGENPAIRS.min(positions.len().saturating_sub(2));
+    let guess: Option<Vec<Vec<f64>>> = last.map(|(at, s)| {
+        let near = nearest_vertices(positions, at);
+        s.vectors.iter().map(|v| near.iter().map(|&i| v.get(i as usize).copied().unwrap_or(0.0)).collect()).collect()
+    });
+    let spectrum = Spectrum::near(faces, positions, k, guess.as_deref())?;
+    Ok((maxima(faces, positions, &spectrum), spectrum))
+}
+
+/// The signature's local maxima at the detection time, a feature each.
+fn maxima(faces: &[[u32; 3]], positions: &[Vec3], spectrum: &Spectrum) -> Vec<Feature> {
     let times = diffusion_times(&spectrum.values);
     let hks: Vec<Vec<f64>> = times.iter().map(|&t| spectrum.hks(t)).collect();
     let detect = &hks[DETECT_TIME];
@@ -52,14 +73,13 @@ pub fn features(faces: &[[u32; 3]], positions: &[Vec3]) -> Result<Vec<Feature>> 
         }
     }
     let means: Vec<f64> = hks.iter().map(|h| h.iter().sum::<f64>() / h.len().max(1) as f64).collect();
-    Ok(kept
-        .into_iter()
+    kept.into_iter()
         .map(|v| Feature {
             vertex: v,
             position: positions[v as usize],
             descriptor: std::array::from_fn(|k| (hks[k][v as usize] / means[k].max(f64::MIN_POSITIVE)).ln() as f32),
         })
-        .collect())
+        .collect()
 }
 
 /// [`TIMES`] log-spaced times over Sun et al.'s range for these eigenvalues.

@@ -46,6 +46,14 @@ impl Spectrum {
     /// The lowest `k` eigenpairs of the Laplacian of `faces` over
     /// `positions` (a vertex no face uses gets a tiny mass of its own).
     pub fn of(faces: &[[u32; 3]], positions: &[Vec3], k: usize) -> Result<Spectrum> {
+        Spectrum::near(faces, positions, k, None)
+    }
+
+    /// [`of`](Self::of), LOBPCG started from `guess` (k vectors over these
+    /// vertices, a nearby frame's eigenvectors carried over) where given:
+    /// a near-isometric motion moves the low eigenvectors little, and a
+    /// start close to their span converges in a few iterations.
+    pub fn near(faces: &[[u32; 3]], positions: &[Vec3], k: usize, guess: Option<&[Vec<f64>]>) -> Result<Spectrum> {
         let n = positions.len();
         if k + 1 >= n || faces.is_empty() {
             return Err(Error::Argument(format!("{k} eigenpairs of a mesh of {n} vertices and {} faces", faces.len())));
@@ -71,7 +79,12 @@ impl Spectrum {
             }
             Array2::from_shape_fn((n, cols), |(i, j)| root[i] * rhs[j * n + i])
         };
-        let start = Array2::from_shape_fn((n, k), |(i, j)| start_vector(i, j));
+        let guess = guess.filter(|g| g.len() == k && g.iter().all(|v| v.len() == n));
+        let start = match guess {
+            // A little of the hashed start keeps the block full rank.
+            Some(g) => Array2::from_shape_fn((n, k), |(i, j)| root[i] * g[j][i] + 1e-3 * start_vector(i, j)),
+            None => Array2::from_shape_fn((n, k), |(i, j)| start_vector(i, j)),
+        };
         let found = match lobpcg(operator, start, |_| {}, None, TOLERANCE, MAX_ITERATIONS, Order::Largest) {
             Ok(r) => r,
             // The best it reached: the lowest eigenpairs converge first, and
@@ -194,5 +207,29 @@ mod tests {
         let h = s.hks(0.01);
         let (lo, hi) = h.iter().fold((f64::MAX, f64::MIN), |(a, b), &x| (a.min(x), b.max(x)));
         assert!(hi / lo < 1.2, "{lo} .. {hi}");
+    }
+
+    /// Cold against warm starts on consecutive frames of a real motion:
+    /// `CGV_PROBE=/tmp/data/samba/samba cargo test --release --lib warm_start -- --ignored --nocapture`.
+    #[test]
+    #[ignore]
+    fn warm_start_probe() {
+        let dir = std::env::var("CGV_PROBE").unwrap();
+        let src = crate::mesh::open_sequence(&dir, &Default::default()).unwrap();
+        let faces = &src.topology().faces;
+        let mut last: Option<Spectrum> = None;
+        let (mut cold, mut warm) = (0.0, 0.0);
+        for f in 0..8 {
+            let p = src.read_frame(f).unwrap();
+            let t = std::time::Instant::now();
+            let c = Spectrum::of(faces, &p, 32).unwrap();
+            cold += t.elapsed().as_secs_f64();
+            let t = std::time::Instant::now();
+            let w = Spectrum::near(faces, &p, 32, last.as_ref().map(|s| s.vectors.as_slice())).unwrap();
+            warm += t.elapsed().as_secs_f64();
+            let d = c.values.iter().zip(&w.values).map(|(a, b)| (a - b).abs() / a.max(1e-9)).fold(0.0, f64::max);
+            eprintln!("frame {f}: cold {:.3} s, warm {:.3} s so far; values differ by {d:.2e}", cold, warm);
+            last = Some(w);
+        }
     }
 }

@@ -3,6 +3,8 @@
 //!
 //! - [`hks`]: the heat kernel signature, from the Laplacian's low
 //!   eigenpairs;
+//! - [`nearest`]: a frame's vertices nearest another's, to start the
+//!   next frame's eigenpairs from the last's;
 //! - [`detect`]: its local maxima at a short diffusion time, the body's
 //!   extremities;
 //! - [`track`]: features matched between adjacent frames into tracks;
@@ -13,5 +15,6 @@
 pub mod detect;
 pub mod follow;
 pub mod hks;
+pub mod nearest;
 pub mod register;
 pub mod track;

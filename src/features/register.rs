@@ -9,7 +9,7 @@
 //! a registered animation of the capture, which the codec codes as any
 //! other motion.
 
-use super::detect::{features, Feature};
+use super::detect::{features_near, Feature};
 use super::follow::{self, CutTrace};
 use super::track::{place, track, Track};
 use crate::error::{Error, Result};
@@ -127,11 +127,29 @@ pub fn track_capture(label: &Path, frames: &[CaptureFrame]) -> Result<Tracked> {
         return Err(Error::Argument(format!("{}: a capture without frames", label.display())));
     }
     let t0 = std::time::Instant::now();
-    let features: Vec<Vec<Feature>> =
-        frames.par_iter().map(|f| features(&f.faces, &f.positions)).collect::<Result<_>>()?;
+    let features = features_in_runs(frames)?;
     let mut tracked = track_features(label, features, Bounds::of(&frames[0].positions).diagonal())?;
     tracked.seconds = t0.elapsed().as_secs_f64();
     Ok(tracked)
+}
+
+/// Every frame's features, in as many runs of consecutive frames as there
+/// are threads, each frame's eigenpairs started from the frame before's
+/// (`features_near`): LOBPCG then takes a few iterations, not tens.
+fn features_in_runs(frames: &[CaptureFrame]) -> Result<Vec<Vec<Feature>>> {
+    let runs = rayon::current_num_threads().clamp(1, frames.len().max(1));
+    let run = |frames: &[CaptureFrame]| -> Result<Vec<Vec<Feature>>> {
+        let (mut out, mut last) = (Vec::with_capacity(frames.len()), None);
+        for f in frames {
+            let (found, spectrum) = features_near(&f.faces, &f.positions, last.as_ref().map(|(p, s)| (*p, s)))?;
+            out.push(found);
+            last = Some((f.positions.as_slice(), spectrum));
+        }
+        Ok(out)
+    };
+    let parts: Vec<Vec<Vec<Feature>>> =
+        frames.par_chunks(frames.len().div_ceil(runs)).map(run).collect::<Result<_>>()?;
+    Ok(parts.into_iter().flatten().collect())
 }
 
 /// Features found on every frame (`features`, of a capture named `label`
