@@ -158,12 +158,20 @@ fn encode_request(options: Option<&Bound<'_, PyDict>>, fps: f32) -> PyResult<Enc
                     Err(_) => Some(value.extract()?),
                 }
             }
+            "weights" => {
+                o.coarse_weights = match value.extract::<String>()?.as_str() {
+                    "auto" => None,
+                    "fine" => Some(false),
+                    "coarse" => Some(true),
+                    w => return Err(invalid(format!("weights {w:?}: expected \"auto\", \"fine\" or \"coarse\""))),
+                }
+            }
             "target_error" => r.target_error = Some(value.extract::<f64>()?),
             _ => {
                 return Err(PyTypeError::new_err(format!(
                     "encode() got an unexpected keyword {key:?} (known: codec, grid, qp, kbps, gop, keyframes, layers, \
                      max_lag, corrections, correction_shrink, source_mesh, fit_places, random_access, bones, \
-                     target_error)"
+                     weights, target_error)"
                 )))
             }
         }
@@ -247,7 +255,8 @@ fn bytes_of(made: Made) -> Vec<u8> {
 /// fit_places (default False: as `cgv encode --fit-places`),
 /// random_access (seconds between random-access points, default 2; 0 for
 /// frame 0 only), bones (as `cgv encode --bones`: a skinning's bones as the
-/// predictor, 0 for none), target_error (instead of qp or kbps: the smallest file whose surface RMS
+/// predictor, 0 for none), weights (the skinned codec's: "auto", "fine"
+/// or "coarse", as `cgv encode --weights`), target_error (instead of qp or kbps: the smallest file whose surface RMS
 /// is at most this percentage of the diagonal, as `cgv encode
 /// --target-error` finds it).
 #[pyfunction]

@@ -15,6 +15,7 @@
 //! bits over) gets a constant QP instead, bisected on the files' sizes,
 //! where that lands nearer.
 
+use super::target::COARSEST_QP;
 use super::{encode_prepared_into, EncodeOptions, EncodeReport, COARSE_WEIGHTS_QP};
 use crate::error::{Error, Result};
 use crate::geometry_image::GeometryImage;
@@ -155,7 +156,7 @@ fn refuse_or_keep<S: Sink>(
     };
     let size = closest.1.bytes as f64;
     if size > target {
-        let smallest = at_qp(51)?;
+        let smallest = at_qp(COARSEST_QP)?;
         if smallest as f64 > target * (1.0 + BUDGET_TOLERANCE) {
             return Err(Error::BudgetTooSmall(format!(
                 "the smallest file this codec makes of this motion (QP 51) is {:.1} kbit/s, above the budget of {:.1}",
