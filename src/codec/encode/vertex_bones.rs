@@ -19,10 +19,12 @@ use crate::format::skin::Motion;
 use crate::format::{SkinInfo, SkinWeights};
 use crate::mesh::{Frame, FrameSource, Topology};
 use crate::skin::INFLUENCES;
-use crate::skin::{decompose, SkinOptions};
+use crate::skin::{decompose, SkinOptions, Skinning};
 use crate::solve::skinned::SkinnedPredictor;
 use glam::Vec3;
+use std::hash::{Hash, Hasher};
 use std::path::Path;
+use std::sync::{Arc, Mutex};
 
 /// A rest coordinate's unit, in diagonals: 1e-5 (a 16-bit grid would be
 /// 1.5e-5), far below any error the residual video reaches.
@@ -108,6 +110,35 @@ fn welded(src: &dyn FrameSource) -> Vec<u32> {
     }
 }
 
+/// The last decomposition made, by a hash of what it read: a budget's
+/// passes and a target error's search encode one motion 5 to 12 times,
+/// and the decomposition was most of each (samba's 48 bones: 3.4 s). The
+/// decomposition is deterministic, so the same frames, faces and options
+/// give the same bones.
+static LAST: Mutex<Option<(u64, Arc<Skinning>)>> = Mutex::new(None);
+
+/// [`decompose`], or the last one where it read the same.
+fn decomposition(
+    frames: &[Frame],
+    faces: &[[u32; 3]],
+    opts: &SkinOptions,
+    progress: &mut dyn FnMut(&str, usize, usize),
+) -> Result<Arc<Skinning>> {
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    (opts.bones, opts.iterations, opts.rest, opts.affine, faces).hash(&mut h);
+    frames.iter().flatten().for_each(|p| p.to_array().map(f32::to_bits).hash(&mut h));
+    let key = h.finish();
+    if let Some((_, skin)) = LAST.lock().ok().and_then(|l| l.clone()).filter(|l| l.0 == key) {
+        return Ok(skin);
+    }
+    let iterations = opts.iterations;
+    let skin = Arc::new(decompose(frames, faces, opts, &mut |it, _| progress("bones", it, iterations))?);
+    if let Ok(mut last) = LAST.lock() {
+        *last = Some((key, skin.clone()));
+    }
+    Ok(skin)
+}
+
 /// Fits `bones` bones to `src` and each frame's transforms; their
 /// weights stored `coarse` or not ([`weight_bytes`]).
 pub(super) fn fit(
@@ -121,8 +152,7 @@ pub(super) fn fit(
     let picks: Vec<usize> = (0..n.min(VERTEX_SKIN_FRAMES)).map(|k| k * n / n.min(VERTEX_SKIN_FRAMES)).collect();
     let frames = picks.iter().map(|&f| src.read_frame(f)).collect::<Result<Vec<Frame>>>()?;
     let opts = SkinOptions { bones: usize::from(bones), ..Default::default() };
-    let iterations = opts.iterations;
-    let skin = decompose(&frames, &src.topology().faces, &opts, &mut |it, _| progress("bones", it, iterations))?;
+    let skin = decomposition(&frames, &src.topology().faces, &opts, progress)?;
     drop(frames);
     // Each frame's transforms from the decomposition's where it read that
     // frame.
@@ -201,7 +231,36 @@ impl FrameSource for Residual<'_> {
 
 #[cfg(test)]
 mod tests {
-    use super::{skinned_bones, skinned_grid, weight_bytes};
+    #![allow(clippy::unwrap_used)]
+    use super::{decomposition, skinned_bones, skinned_grid, weight_bytes, Frame};
+    use crate::skin::SkinOptions;
+    use glam::Vec3;
+    use std::sync::Arc;
+
+    /// A budget's passes fit the same motion again: the second fit is the
+    /// first one's, a changed frame a new one.
+    #[test]
+    fn the_same_frames_reuse_the_last_decomposition() {
+        let sheet = |bend: f32| -> Frame {
+            (0..16).map(|i| Vec3::new((i % 4) as f32, (i / 4) as f32, bend * ((i % 4) as f32).powi(2))).collect()
+        };
+        let faces: Vec<[u32; 3]> = (0..3u32)
+            .flat_map(|y| {
+                (0..3u32).flat_map(move |x| {
+                    let v = y * 4 + x;
+                    [[v, v + 1, v + 5], [v, v + 5, v + 4]]
+                })
+            })
+            .collect();
+        let opts = SkinOptions { bones: 2, iterations: 2, ..Default::default() };
+        let frames = vec![sheet(0.0), sheet(0.1), sheet(0.2)];
+        let first = decomposition(&frames, &faces, &opts, &mut |_, _, _| {}).unwrap();
+        let again = decomposition(&frames, &faces, &opts, &mut |_, _, _| {}).unwrap();
+        assert!(Arc::ptr_eq(&first, &again));
+        let other = vec![sheet(0.0), sheet(0.1), sheet(0.3)];
+        let new = decomposition(&other, &faces, &opts, &mut |_, _, _| {}).unwrap();
+        assert!(!Arc::ptr_eq(&first, &new));
+    }
 
     #[test]
     fn coarse_weights_drop_small_influences_and_keep_32_levels() {
