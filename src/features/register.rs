@@ -133,11 +133,14 @@ pub fn track_capture(label: &Path, frames: &[CaptureFrame]) -> Result<Tracked> {
     Ok(tracked)
 }
 
-/// Every frame's features, in as many runs of consecutive frames as there
-/// are threads, each frame's eigenpairs started from the frame before's
+/// Frames in a run of [`features_in_runs`]: a fixed length, so that the
+/// features do not depend on the machine's thread count.
+const FEATURE_RUN: usize = 12;
+
+/// Every frame's features, in runs of [`FEATURE_RUN`] consecutive frames
+/// (in parallel), each frame's eigenpairs started from the frame before's
 /// (`features_near`): LOBPCG then takes a few iterations, not tens.
 fn features_in_runs(frames: &[CaptureFrame]) -> Result<Vec<Vec<Feature>>> {
-    let runs = rayon::current_num_threads().clamp(1, frames.len().max(1));
     let run = |frames: &[CaptureFrame]| -> Result<Vec<Vec<Feature>>> {
         let (mut out, mut last) = (Vec::with_capacity(frames.len()), None);
         for f in frames {
@@ -147,8 +150,7 @@ fn features_in_runs(frames: &[CaptureFrame]) -> Result<Vec<Vec<Feature>>> {
         }
         Ok(out)
     };
-    let parts: Vec<Vec<Vec<Feature>>> =
-        frames.par_chunks(frames.len().div_ceil(runs)).map(run).collect::<Result<_>>()?;
+    let parts: Vec<Vec<Vec<Feature>>> = frames.par_chunks(FEATURE_RUN).map(run).collect::<Result<_>>()?;
     Ok(parts.into_iter().flatten().collect())
 }
 
