@@ -174,7 +174,7 @@ fn source_round_trip_with(p: &[Vec3], f: &[[u32; 3]], fit_places: bool) -> ((f64
     let loose_of = image.loose_of(p.len());
     for frame in &src.frames {
         let (grid, _) = dec.next_frame().unwrap();
-        let (rms, max) = cgv::metrics::vertex_error(&mesh.vertices(&grid, dec.loose(), dec.skinned()), frame);
+        let (rms, max) = cgv::metrics::vertex_error(&mesh.vertices(&grid, dec.loose(), dec.at_vertices()), frame);
         coded = (coded.0.max(rms / diag), coded.1.max(max / diag));
         let mut uncoded = points.apply(&image.map.apply(frame));
         let exact: Vec<Vec3> = image.carrier.loose.iter().map(|&v| frame[v as usize]).collect();
@@ -304,7 +304,7 @@ fn a_tiny_part_is_coded_as_its_own_vertices() {
         let mut all = Vec::new();
         for frame in &src.frames {
             let (grid, _) = dec.next_frame().unwrap();
-            let x = mesh.vertices(&grid, dec.loose(), dec.skinned());
+            let x = mesh.vertices(&grid, dec.loose(), dec.at_vertices());
             // The tetrahedron's vertices, coded on the grid's error: within
             // a percent of the diagonal (the step's cap).
             for v in 81..85 {
@@ -317,7 +317,7 @@ fn a_tiny_part_is_coded_as_its_own_vertices() {
         late.seek(3).unwrap();
         for want in &all[3..] {
             let (grid, _) = late.next_frame().unwrap();
-            assert_eq!(&mesh.vertices(&grid, late.loose(), late.skinned()), want, "{codec:?}");
+            assert_eq!(&mesh.vertices(&grid, late.loose(), late.at_vertices()), want, "{codec:?}");
         }
     }
     // Asked not to, the encoder puts the tetrahedron on the grid.
@@ -354,7 +354,7 @@ fn a_figure_with_many_small_parts_round_trips() {
     let diag = cgv::mesh::Bounds::of(&p).diagonal();
     for (t, frame) in src.frames.iter().enumerate() {
         let (grid, _) = dec.next_frame().unwrap();
-        let x = mesh.vertices(&grid, dec.loose(), dec.skinned());
+        let x = mesh.vertices(&grid, dec.loose(), dec.at_vertices());
         let worst = (121..p.len()).map(|v| x[v].distance(frame[v])).fold(0.0, f32::max);
         assert!(worst < 0.01 * diag, "frame {t}: a part's vertex {worst} off (diagonal {diag})");
     }

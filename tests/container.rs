@@ -58,6 +58,7 @@ fn header() -> Header {
         skin: None,
         segments: Vec::new(),
         frame_meshes: false,
+        vertex_residual: None,
     }
 }
 
@@ -84,6 +85,7 @@ fn frame_info(h: &Header, f: u32) -> format::FrameInfo {
         loose,
         bones: None,
         mesh: None,
+        residual: None,
     }
 }
 
@@ -154,9 +156,9 @@ fn bad_magic_and_versions() {
     assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::BadMagic);
     assert_eq!(format::read(b"GIF89a").unwrap_err(), ContainerError::BadMagic);
     let mut bytes = file(&header());
-    bytes[8] = 18;
-    assert_eq!(format::VERSION, 17);
-    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 18 });
+    bytes[8] = 19;
+    assert_eq!(format::VERSION, 18);
+    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 19 });
     bytes[8] = 0;
     assert!(matches!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 0 }));
 }
@@ -423,6 +425,7 @@ fn bad_frame_chunks_are_errors() {
         loose: None,
         bones: None,
         mesh: None,
+        residual: None,
     };
     let mut bad_bytes = good.to_bytes();
     bad_bytes.pop();
@@ -1226,4 +1229,62 @@ fn broken_bones_of(fixture: &str) {
     let n = old.len();
     old[n - 4..].copy_from_slice(&crc.to_le_bytes());
     assert!(format::read(&bones_file(&old, &chunks)).is_err());
+}
+
+/// Version 18's vertex residual, broken in each of its parts: a unit with
+/// an unknown mode, counts for another mesh, a cut word, a unit missing;
+/// and the file declared as version 17. Each is a typed error naming it.
+#[test]
+fn broken_vertex_residuals_are_errors() {
+    let (prefix, chunks) = bones_chunks("v18/walk-skinned-residual.cgv");
+    let file = format::read(&bones_file(&prefix, &chunks)).unwrap();
+    let frame1 = chunks.iter().position(|c| &c.0 == b"FRAM" && c.1 == 1).unwrap();
+    let unit = file.frames[1].residual.clone().expect("frame 1's residual");
+    // The unit ends the frame chunk, after its LEB128 length.
+    let with_unit = |c: &mut Vec<RawChunk>, new: &[u8]| {
+        let p = &mut c[frame1].2;
+        let len_bytes = |n: usize| {
+            if n < 128 {
+                1
+            } else if n < 1 << 14 {
+                2
+            } else {
+                3
+            }
+        };
+        p.truncate(p.len() - unit.len() - len_bytes(unit.len()));
+        let mut n = new.len();
+        loop {
+            let b = (n & 0x7f) as u8;
+            n >>= 7;
+            p.push(if n > 0 { b | 0x80 } else { b });
+            if n == 0 {
+                break;
+            }
+        }
+        p.extend_from_slice(new);
+    };
+    let mut moded = unit.clone();
+    moded[0] = 7;
+    let mut recounted = unit.clone();
+    recounted[3] ^= 1;
+    let cases: [(&str, Vec<u8>, &str); 4] = [
+        ("an unknown mode", moded, "unknown mode 7"),
+        ("counts for another mesh", recounted, "counts sum to"),
+        ("a cut word", unit[..unit.len() - 1].to_vec(), "whole 32-bit words"),
+        ("no unit", Vec::new(), "an empty unit"),
+    ];
+    for (what, new, says) in cases {
+        let mut c = chunks.clone();
+        with_unit(&mut c, &new);
+        let Err(e) = format::read(&bones_file(&prefix, &c)) else { panic!("{what}: read") };
+        assert!(e.to_string().contains("vertex residual") && e.to_string().contains(says), "{what}: {e}");
+    }
+    let mut old = prefix.clone();
+    old[8] -= 1;
+    let crc = crc32fast::hash(&old[8..old.len() - 4]);
+    let n = old.len();
+    old[n - 4..].copy_from_slice(&crc.to_le_bytes());
+    let e = format::read(&bones_file(&old, &chunks)).unwrap_err().to_string();
+    assert!(e.contains("version 18"), "{e}");
 }

@@ -123,7 +123,7 @@ fn a_fold_left_after_every_remedy_still_encodes_and_says_where() {
     let diag = cgv::mesh::Bounds::of(&p).diagonal() as f64;
     for frame in &src.frames {
         let (grid, _) = dec.next_frame().unwrap();
-        let x = mesh.vertices(&grid, dec.loose(), dec.skinned());
+        let x = mesh.vertices(&grid, dec.loose(), dec.at_vertices());
         assert!(x.iter().all(|v| v.is_finite()));
         let (rms, _) = cgv::metrics::vertex_error(&x, frame);
         // The body comes back; the limbs' ends, squeezed into a few samples, do not.

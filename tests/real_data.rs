@@ -175,7 +175,7 @@ fn wolf_codes_its_scrap_as_its_own_vertices() {
     let diag = Bounds::of(&src.frames[0]).diagonal();
     for (i, f) in src.frames.iter().enumerate() {
         let (grid, _) = dec.next_frame().unwrap();
-        let x = mesh.vertices(&grid, dec.loose(), dec.skinned());
+        let x = mesh.vertices(&grid, dec.loose(), dec.at_vertices());
         let (rms, _) = cgv::metrics::vertex_error(&x, f);
         assert!(rms < 0.01 * diag as f64, "frame {i}: vertex RMS {rms} (diagonal {diag})");
         for v in (0..x.len()).filter(|&v| loose_of[v] > 0) {
@@ -256,7 +256,7 @@ fn elephant_maps_without_a_fold_and_round_trips() {
     for f in &src.frames {
         let (grid, _) = dec.next_frame().unwrap();
         let diag = Bounds::of(f).diagonal() as f64;
-        coded += cgv::metrics::vertex_error(&mesh.vertices(&grid, dec.loose(), dec.skinned()), f).0 / diag / 2.0;
+        coded += cgv::metrics::vertex_error(&mesh.vertices(&grid, dec.loose(), dec.at_vertices()), f).0 / diag / 2.0;
         floor += cgv::metrics::vertex_error(&points.apply(&image.map.apply(f)), f).0 / diag / 2.0;
     }
     eprintln!("elephant, 2 frames at N = 128: vertex RMS {:.4} %, floor {:.4} %", 100.0 * coded, 100.0 * floor);

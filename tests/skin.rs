@@ -199,7 +199,7 @@ fn decoded_error(file: cgv::format::CgvFile, src: &cgv::mesh::InMemory) -> f64 {
     let mut sum = 0.0;
     for frame in &src.frames {
         let (grid, _) = dec.next_frame().unwrap();
-        let (rms, _) = cgv::metrics::vertex_error(&mesh.vertices(&grid, dec.loose(), dec.skinned()), frame);
+        let (rms, _) = cgv::metrics::vertex_error(&mesh.vertices(&grid, dec.loose(), dec.at_vertices()), frame);
         sum += (rms / diag).powi(2);
     }
     (sum / src.frames.len() as f64).sqrt()
@@ -410,4 +410,41 @@ fn auto_takes_the_skinned_codec_for_a_budget_or_target_it_can_meet() {
     assert_ne!(loose.report.codec, Representation::Skinned);
     assert!(loose.report.bytes < skinned && loose.target.is_some_and(|t| t.surface_rms <= 0.02));
     assert!(loose.report.auto_passed_over.as_deref().is_some_and(|w| w.contains("only at its smallest")));
+}
+
+/// The vertex residual (format version 18, `--vertex-residual P`): below
+/// the grid's resampling floor at the mesh's own vertices, to about P % of
+/// the diagonal, over the skinned codec and the closed loop alike; codecs
+/// whose decoded grid the encoder does not know refuse it.
+#[test]
+fn the_vertex_residual_takes_the_vertices_below_the_grids_floor() {
+    use cgv::codec::{encode, h264::VideoSettings, EncodeOptions};
+    use cgv::format::Representation;
+    let src = cgv::mesh::builtin::motion(6);
+    let video = VideoSettings { qp: 40, ..Default::default() };
+    for (representation, bones) in [(Representation::Skinned, Some(8)), (Representation::Normal, None)] {
+        let opts = EncodeOptions { representation, grid: 16, video, bones, ..Default::default() };
+        let (plain, _) = encode(&src, &opts, &mut |_, _, _| {}).unwrap();
+        let before = decoded_error(cgv::format::read(&plain).unwrap(), &src);
+        // A quarter of what the grid reaches.
+        let asked = before / 4.0;
+        let opts = EncodeOptions { vertex_residual: Some(100.0 * asked as f32), ..opts };
+        let (bytes, report) = encode(&src, &opts, &mut |_, _, _| {}).unwrap();
+        let file = cgv::format::read(&bytes).unwrap();
+        assert_eq!(file.version, 18);
+        let after = decoded_error(file, &src);
+        eprintln!(
+            "{representation:?}: {:.4} % -> {:.4} % for {} residual bytes",
+            100.0 * before,
+            100.0 * after,
+            report.vertex_residual_bytes
+        );
+        assert!(before > 0.0005, "{representation:?}: the grid alone is {before} off: no floor to go below");
+        assert!(after <= asked * 1.05, "{representation:?}: {after} with a residual of {asked}");
+        assert!(report.vertex_residual_bytes > 0 && bytes.len() > plain.len());
+    }
+    let opts =
+        EncodeOptions { representation: Representation::Conformal, vertex_residual: Some(0.05), ..Default::default() };
+    let err = encode(&src, &opts, &mut |_, _, _| {}).unwrap_err().to_string();
+    assert!(err.contains("vertex residual"), "{err}");
 }

@@ -17,7 +17,7 @@ libfuzzer_sys::fuzz_target!(|data: &[u8]| {
         for _ in 0..dec.frame_count().min(3) {
             let Ok((x, _)) = dec.next_frame() else { break };
             if let Some(s) = &source {
-                let _ = s.vertices(&x, dec.loose(), dec.skinned());
+                let _ = s.vertices(&x, dec.loose(), dec.at_vertices());
             }
         }
     }

@@ -167,11 +167,12 @@ fn encode_request(options: Option<&Bound<'_, PyDict>>, fps: f32) -> PyResult<Enc
                 }
             }
             "target_error" => r.target_error = Some(value.extract::<f64>()?),
+            "vertex_residual" => o.vertex_residual = Some(value.extract::<f32>()?),
             _ => {
                 return Err(PyTypeError::new_err(format!(
                     "encode() got an unexpected keyword {key:?} (known: codec, grid, qp, kbps, gop, keyframes, layers, \
                      max_lag, corrections, correction_shrink, source_mesh, fit_places, random_access, bones, \
-                     weights, target_error)"
+                     weights, target_error, vertex_residual)"
                 )))
             }
         }
@@ -258,7 +259,9 @@ fn bytes_of(made: Made) -> Vec<u8> {
 /// predictor, 0 for none), weights (the skinned codec's: "auto", "fine"
 /// or "coarse", as `cgv encode --weights`), target_error (instead of qp or kbps: the smallest file whose surface RMS
 /// is at most this percentage of the diagonal, as `cgv encode
-/// --target-error` finds it).
+/// --target-error` finds it), vertex_residual (a percentage of the
+/// diagonal: what the video misses at each vertex coded every frame to
+/// about that RMS error, as `cgv encode --vertex-residual`).
 #[pyfunction]
 #[pyo3(signature = (frames, faces, *, fps = 30.0, **options))]
 fn encode<'py>(
@@ -494,7 +497,7 @@ impl Decoder {
             .detach(|| -> cgv::Result<Vec<Vec3>> {
                 let (x, _) = dec.next_frame()?;
                 Ok(match source {
-                    Some(s) => s.vertices(&x, dec.loose(), dec.skinned()),
+                    Some(s) => s.vertices(&x, dec.loose(), dec.at_vertices()),
                     None => x,
                 })
             })
@@ -554,7 +557,7 @@ fn decode<'py>(
             for _ in 0..frames {
                 let (x, _) = dec.next_frame()?;
                 let x = match &source {
-                    Some(s) => s.vertices(&x, dec.loose(), dec.skinned()),
+                    Some(s) => s.vertices(&x, dec.loose(), dec.at_vertices()),
                     None => x,
                 };
                 coords.extend(x.iter().flat_map(|p| p.to_array()));

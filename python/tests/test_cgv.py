@@ -212,3 +212,19 @@ def test_the_skinned_codec_takes_coarse_or_fine_weights(walk):
     assert sizes["coarse"] < sizes["fine"] and sizes["auto"] == sizes["coarse"], sizes
     with pytest.raises(ValueError, match="weights"):
         cgv.encode(positions, faces, fps=fps, codec="skinned", weights="medium")
+
+
+def test_the_vertex_residual_goes_below_the_grids_floor(walk):
+    positions, faces, fps = walk
+    diag = cgv.diagonal(positions[0])
+
+    def error(data):
+        decoded, _ = cgv.decode(data)
+        return np.sqrt(np.mean([cgv.vertex_error(positions[f], decoded[f])[0] ** 2 for f in range(8)])) / diag
+
+    plain = cgv.encode(positions, faces, fps=fps, grid=16, codec="skinned", bones=8, qp=45)
+    refined = cgv.encode(positions, faces, fps=fps, grid=16, codec="skinned", bones=8, qp=45, vertex_residual=0.02)
+    assert error(plain) > 0.0004 and error(refined) <= 0.0002 * 1.05, (error(plain), error(refined))
+    assert len(refined) > len(plain)
+    with pytest.raises(cgv.Error, match="vertex residual"):
+        cgv.encode(positions, faces, fps=fps, codec="conformal", vertex_residual=0.02)

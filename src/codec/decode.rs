@@ -37,10 +37,11 @@ impl UnitDecoder {
         self.sequence.loose()
     }
 
-    /// Version 17: the bones' skinning of the source mesh's vertices at the
-    /// frame decoded last.
-    pub fn skinned(&self) -> Option<&[Vec3]> {
-        self.sequence.skinned()
+    /// What the decoder adds at the source mesh's vertices at the frame
+    /// decoded last: the bones' skinning (version 17), the vertex residual
+    /// (18) or their sum (see [`SequenceDecoder::at_vertices`]).
+    pub fn at_vertices(&self) -> Option<&[Vec3]> {
+        self.sequence.at_vertices()
     }
 
     /// Version 17: the bones on the source mesh's vertices.
@@ -147,10 +148,11 @@ impl FileDecoder {
         self.units.loose()
     }
 
-    /// Version 17: the bones' skinning of the source mesh's vertices at the
-    /// frame decoded last (none without bones on the vertices).
-    pub fn skinned(&self) -> Option<&[Vec3]> {
-        self.units.skinned()
+    /// What the decoder adds at the source mesh's vertices at the frame
+    /// decoded last: the bones' skinning (version 17), the vertex residual
+    /// (18) or their sum; none in files with neither.
+    pub fn at_vertices(&self) -> Option<&[Vec3]> {
+        self.units.at_vertices()
     }
 
     /// Version 17: the bones on the source mesh's vertices (a skinned
@@ -163,7 +165,7 @@ impl FileDecoder {
     /// from them (with `source`, from [`source_mesh`](Self::source_mesh)).
     pub fn next_source_frame(&mut self, source: &SourceMeshDecoder) -> Result<(Vec<Vec3>, Vec<Vec3>, FrameStats)> {
         let (x, stats) = self.next_frame()?;
-        let vertices = source.vertices(&x, self.loose(), self.skinned());
+        let vertices = source.vertices(&x, self.loose(), self.at_vertices());
         Ok((x, vertices, stats))
     }
 

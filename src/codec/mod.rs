@@ -28,6 +28,7 @@ mod encode;
 pub mod h264;
 pub mod loose;
 pub mod reconstruct;
+pub mod vertex_residual;
 
 pub use corrections::{smoothed_normals, Corrections, Layout, FILTER_CHOICES};
 #[cfg(not(target_arch = "wasm32"))]

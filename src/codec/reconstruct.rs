@@ -10,8 +10,10 @@
 
 use super::corrections::{Corrections, Pictures};
 use super::loose::LooseVertices;
+use super::vertex_residual::VertexResidual;
 use crate::error::{Error, Result};
 use crate::format::stream::{POSITION, SEED};
+use crate::format::vertex_residual::ResidualUnit;
 use crate::format::{
     CodecKind, CorrectionMode, FrameInfo, Header, LooseFrame, PredictorCode, SkinWeights, SolverKind, SourceMesh,
     StreamName,
@@ -295,6 +297,11 @@ pub struct SequenceDecoder {
     /// Version 17: bones on the source mesh's vertices, and their skinning
     /// of the frame decoded last.
     vertex_bones: Option<SkinnedPredictor>,
+    /// Version 18: the residual at the source mesh's vertices.
+    vertex_residual: Option<VertexResidual>,
+    /// What the decoder adds at the source mesh's vertices when it adds
+    /// both the skinning and the residual.
+    added: Vec<Vec3>,
     next: u32,
 }
 
@@ -309,7 +316,18 @@ impl SequenceDecoder {
         let grid = Grid::new(header.grid as usize)?;
         let reconstructor = Reconstructor::new(&header, solver)?;
         let loose = LooseVertices::for_header(&header);
-        Ok(SequenceDecoder { header, grid, reconstructor, loose, vertex_bones: None, next: 0 })
+        let vertices = header.source_mesh.map_or(0, |m| m.vertices as usize);
+        let vertex_residual = header.vertex_residual.map(|r| VertexResidual::new(r.step, vertices));
+        Ok(SequenceDecoder {
+            header,
+            grid,
+            reconstructor,
+            loose,
+            vertex_bones: None,
+            vertex_residual,
+            added: Vec::new(),
+            next: 0,
+        })
     }
 
     pub fn header(&self) -> &Header {
@@ -338,9 +356,7 @@ impl SequenceDecoder {
                 h.random_access.unwrap_or(h.frames)
             )));
         }
-        self.reconstructor.reset();
-        self.loose.reset();
-        self.vertex_bones.iter_mut().for_each(SkinnedPredictor::reset);
+        self.restart();
         self.next = f;
         Ok(())
     }
@@ -371,10 +387,9 @@ impl SequenceDecoder {
             return Err(Error::Argument("a file with bones decoded without its skin weights".into()));
         }
         if f > 0 && h.is_random_access_point(f) {
-            self.reconstructor.reset();
-            self.loose.reset();
-            self.vertex_bones.iter_mut().for_each(SkinnedPredictor::reset);
+            self.restart();
         }
+        let h = &self.header;
         if let Some(b) = &mut self.vertex_bones {
             let unit = info.bones.as_deref().unwrap_or_default();
             b.decode(unit).map_err(|e| Error::Argument(format!("frame {f}: {e}")))?;
@@ -390,8 +405,32 @@ impl SequenceDecoder {
             (None, None) => {}
             _ => return Err(Error::Argument(format!("frame {f}'s loose vertices do not match the header's"))),
         }
+        self.decode_vertex_residual(info)?;
         self.next += 1;
         Ok(out)
+    }
+
+    /// Every stream and the decoder's state start afresh, as at frame 0.
+    fn restart(&mut self) {
+        self.reconstructor.reset();
+        self.loose.reset();
+        self.vertex_bones.iter_mut().for_each(SkinnedPredictor::reset);
+        self.vertex_residual.iter_mut().for_each(VertexResidual::reset);
+    }
+
+    /// Version 18: the frame's vertex residual, and with bones on the
+    /// vertices their sum with the skinning ([`Self::at_vertices`]).
+    fn decode_vertex_residual(&mut self, info: &FrameInfo) -> Result<()> {
+        let Some(r) = &mut self.vertex_residual else { return Ok(()) };
+        let (f, values) = (self.next, 3 * r.residual().len());
+        let unit = info.residual.as_deref().ok_or_else(|| Error::Argument(format!("frame {f}: no vertex residual")))?;
+        let unit = ResidualUnit::parse(unit, values, 0).map_err(|e| Error::Argument(format!("frame {f}: {e}")))?;
+        r.apply(&unit);
+        if let Some(s) = self.vertex_bones.as_ref().and_then(SkinnedPredictor::skinned) {
+            self.added.clear();
+            self.added.extend(s.iter().zip(r.residual()).map(|(s, r)| *s + *r));
+        }
+        Ok(())
     }
 
     /// Version 13: the file's skin weights (its `SKIN` chunk), needed
@@ -411,11 +450,18 @@ impl SequenceDecoder {
         self.reconstructor.has_skin() || self.vertex_bones.is_some()
     }
 
-    /// Version 17: the bones' skinning of the source mesh's vertices at the
-    /// frame decoded last (none in files without bones on the vertices),
-    /// for [`SourceMeshDecoder::vertices`].
-    pub fn skinned(&self) -> Option<&[Vec3]> {
-        self.vertex_bones.as_ref().and_then(SkinnedPredictor::skinned)
+    /// What the decoder adds at the source mesh's vertices to the grid's
+    /// rebuild, at the frame decoded last, for
+    /// [`SourceMeshDecoder::vertices`]: the bones' skinning (version 17),
+    /// the vertex residual (version 18), or their sum; none in files with
+    /// neither.
+    pub fn at_vertices(&self) -> Option<&[Vec3]> {
+        let skinned = self.vertex_bones.as_ref().and_then(SkinnedPredictor::skinned);
+        match (skinned, &self.vertex_residual) {
+            (Some(_), Some(_)) => Some(&self.added),
+            (None, Some(r)) => Some(r.residual()),
+            (s, None) => s,
+        }
     }
 
     /// Version 17: the bones on the source mesh's vertices (their rest
@@ -458,12 +504,13 @@ impl SourceMeshDecoder {
     }
 
     /// The input's vertices on one decoded grid frame, with its loose
-    /// vertices ([`SequenceDecoder::loose`]) and, version 17, the bones'
-    /// skinning of the vertices ([`SequenceDecoder::skinned`]), to which
-    /// the grid frame (what the bones missed) adds.
-    pub fn vertices(&self, grid_frame: &[Vec3], loose: &[Vec3], skinned: Option<&[Vec3]>) -> Vec<Vec3> {
+    /// vertices ([`SequenceDecoder::loose`]) and what the decoder adds at
+    /// the vertices ([`SequenceDecoder::at_vertices`]: version 17's
+    /// skinning, to which the grid frame, what the bones missed, adds, and
+    /// version 18's residual).
+    pub fn vertices(&self, grid_frame: &[Vec3], loose: &[Vec3], added: Option<&[Vec3]>) -> Vec<Vec3> {
         let mut x = self.points.apply(grid_frame);
-        if let Some(s) = skinned {
+        if let Some(s) = added {
             x.iter_mut().zip(s).for_each(|(x, s)| *x += *s);
         }
         place_loose(&mut x, &self.loose_of, loose);
@@ -517,6 +564,8 @@ pub fn decoder_memory(h: &Header, solver: SolverKind) -> u64 {
         (CodecKind::Cgv, SolverKind::Paper) => (4 + 2 * 8) * 3 * 8 * n,
     };
     let source = h.source_mesh.map_or(0, |m| u64::from(m.vertices) * 44 + u64::from(m.faces) * 24);
+    // Version 18: the residual, its sum with the skinning, and a unit's values.
+    let residual = h.vertex_residual.map_or(0, |_| h.source_mesh.map_or(0, |m| u64::from(m.vertices) * 36));
     let loose = u64::from(h.loose_vertices().unwrap_or(0)) * 3 * 12;
     let look = h.appearance.as_ref().map_or(0, |a| {
         let vertices = h.source_mesh.map_or(0, |m| u64::from(m.vertices));
@@ -530,5 +579,5 @@ pub fn decoder_memory(h: &Header, solver: SolverKind) -> u64 {
         Some(_) => n * 32 + n * 4 + 4 * frame,
         None => 0,
     };
-    streams + past + source + look + loose + skin
+    streams + past + source + look + loose + skin + residual
 }

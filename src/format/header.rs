@@ -156,6 +156,9 @@ pub struct FrameInfo {
     /// Version 16, in every frame of a file with frame meshes: the frame's
     /// own mesh unit ([`super::frame_mesh`]), as the file has it (checked).
     pub mesh: Option<Vec<u8>>,
+    /// Version 18, in every frame of a file with a vertex residual: its
+    /// unit ([`super::vertex_residual`]), as the file has it (checked).
+    pub residual: Option<Vec<u8>>,
 }
 
 impl FrameInfo {
@@ -236,6 +239,7 @@ impl FrameInfo {
             loose: None,
             bones: None,
             mesh: None,
+            residual: None,
         })
     }
 }
@@ -352,6 +356,11 @@ pub struct Header {
     /// capture's, [`super::frame_mesh`]) in place of one source mesh.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub frame_meshes: bool,
+    /// Version 18: every frame codes what the video missed at the source
+    /// mesh's vertices, on this step ([`super::vertex_residual`]; absent:
+    /// nothing).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub vertex_residual: Option<super::vertex_residual::VertexResidualInfo>,
 }
 
 fn is_scaled(m: &CorrectionMode) -> bool {
@@ -366,7 +375,8 @@ fn is_zero(v: &u8) -> bool {
 pub const SEAM_RULE: &str = "octahedral-half-turn";
 
 impl Header {
-    /// The oldest format version that can hold this header: 17 for bones
+    /// The oldest format version that can hold this header: 18 for a
+    /// vertex residual, 17 for bones
     /// on the source mesh's vertices, 16 for frame
     /// meshes, 15 for segments, 14 for a packed skin, 13 for a skin,
     /// 12 for a
@@ -378,7 +388,9 @@ impl Header {
     /// predictions, 3 for a CGV file without H, 2 for motion corrections,
     /// else 1.
     pub fn min_version(&self) -> u16 {
-        if self.skin.is_some_and(|s| s.on_vertices()) {
+        if self.vertex_residual.is_some() {
+            18
+        } else if self.skin.is_some_and(|s| s.on_vertices()) {
             17
         } else if self.frame_meshes {
             16

@@ -412,8 +412,8 @@ fn shift(e: ContainerError, by: usize) -> ContainerError {
 }
 
 /// The units a frame chunk has after its access units, as the header says:
-/// the bones (version 13), the loose vertices (11) and the frame's own
-/// mesh (16), each checked and kept in `info`; `at` moves past them.
+/// the bones (version 13), the loose vertices (11), the frame's own
+/// mesh (16) and the vertex residual (18), each checked and kept in `info`; `at` moves past them.
 fn side_units(
     header: &Header,
     frame: u32,
@@ -450,6 +450,16 @@ fn side_units(
         }
         crate::format::frame_mesh::parse_unit(&p[*at..*at + len], frame, offset)?;
         info.mesh = Some(p[*at..*at + len].to_vec());
+        *at += len;
+    }
+    if header.vertex_residual.is_some() {
+        let len = read_len(p, at).ok_or_else(|| bad("vertex residual: bad unit length".into()))?;
+        if len > p.len() - *at {
+            return Err(bad(format!("vertex residual: a unit of {len} bytes overruns its frame chunk")));
+        }
+        let values = header.source_mesh.map_or(0, |m| 3 * m.vertices as usize);
+        crate::format::vertex_residual::ResidualUnit::parse(&p[*at..*at + len], values, offset)?;
+        info.residual = Some(p[*at..*at + len].to_vec());
         *at += len;
     }
     Ok(())

@@ -67,7 +67,7 @@ pub fn write_index(offsets: &[u64]) -> Vec<u8> {
 /// the same way version 13's bones unit and version 11's loose vertices.
 pub fn write_frame(frame: u32, info: &FrameInfo, units: &[&[u8]]) -> Vec<u8> {
     let mut payload = info.to_bytes();
-    let side_units = info.bones.as_deref().into_iter().chain(info.loose.as_deref()).chain(info.mesh.as_deref());
+    let side_units = [&info.bones, &info.loose, &info.mesh, &info.residual].into_iter().flatten().map(Vec::as_slice);
     for au in units.iter().copied().chain(side_units) {
         leb128::write(&mut payload, au.len() as u64);
         payload.extend_from_slice(au);

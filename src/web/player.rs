@@ -111,13 +111,16 @@ impl Player {
         if loose.len() != 3 * count {
             return Err(JsError::new(&format!("{} values for {count} loose vertices", loose.len())));
         }
-        let bones = self.dec.as_ref().is_some_and(|d| d.header().skin.is_some_and(|s| s.on_vertices()));
-        let want = if bones { 3 * source.topology.vertex_count } else { 0 };
+        let adds = self.dec.as_ref().is_some_and(|d| {
+            let h = d.header();
+            h.skin.is_some_and(|s| s.on_vertices()) || h.vertex_residual.is_some()
+        });
+        let want = if adds { 3 * source.topology.vertex_count } else { 0 };
         if skinned.len() != want {
             return Err(JsError::new(&format!("{} skinned values for {want}", skinned.len())));
         }
         let skinned = positions(skinned);
-        let skinned = bones.then_some(&skinned[..]);
+        let skinned = adds.then_some(&skinned[..]);
         Ok(source
             .vertices(&positions(grid_frame), &positions(loose), skinned)
             .iter()
@@ -271,15 +274,16 @@ impl Player {
         self.dec.as_ref().map_or_else(Vec::new, |d| d.loose().iter().flat_map(|p| p.to_array()).collect())
     }
 
-    /// Version 17: the bones' skinning of the source mesh's vertices (x, y,
-    /// z each) at the frame [`decode_next`](Self::decode_next) rebuilt
-    /// last; keep it with that frame for
-    /// [`source_vertices`](Self::source_vertices). Empty in files without
-    /// bones on the vertices.
+    /// What the decoder adds at the source mesh's vertices (x, y, z each)
+    /// at the frame [`decode_next`](Self::decode_next) rebuilt last: the
+    /// bones' skinning (version 17), the vertex residual (18) or their
+    /// sum; keep it with that frame for
+    /// [`source_vertices`](Self::source_vertices). Empty in files with
+    /// neither. (Named for the first of them, which came first.)
     pub fn skinned_vertices(&self) -> Vec<f32> {
         self.dec
             .as_ref()
-            .and_then(|d| d.skinned())
+            .and_then(|d| d.at_vertices())
             .map_or_else(Vec::new, |s| s.iter().flat_map(|p| p.to_array()).collect())
     }
 

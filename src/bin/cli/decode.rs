@@ -261,7 +261,7 @@ fn next_vertices(
 ) -> cgv::Result<(Vec<glam::Vec3>, cgv::codec::FrameStats)> {
     let (x, s) = dec.next_frame()?;
     let v = match source {
-        Some(m) => m.vertices(&x, dec.loose(), dec.skinned()),
+        Some(m) => m.vertices(&x, dec.loose(), dec.at_vertices()),
         None => x,
     };
     Ok((v, s))

@@ -209,6 +209,15 @@ pub struct Args {
     /// difference (docs/RESULTS.md, "Bones on the vertices").
     #[arg(long, value_enum, default_value = "auto")]
     weights: Weights,
+    /// Code what the video misses at each vertex of your mesh, every
+    /// frame, to about this RMS error (percent of the bounding-box
+    /// diagonal: 0.05 for 0.05 %; format version 18). The grid's
+    /// resampling leaves a floor at your vertices (pcow: 0.09 %) that no
+    /// QP goes below; this goes below it, for a few bits a vertex a frame
+    /// (docs/RESULTS.md, "The vertex residual"). With the skinned, gv,
+    /// normal or predictive codec and the source mesh.
+    #[arg(long, value_name = "PERCENT")]
+    vertex_residual: Option<f32>,
     /// Frames between H.264 intra frames.
     #[arg(long, default_value_t = 30)]
     gop: u32,
@@ -273,6 +282,7 @@ fn request(args: &Args) -> EncodeRequest {
         },
         segments: args.segments.clone(),
         frame_meshes: args.mesh == CaptureMesh::Frames,
+        vertex_residual: args.vertex_residual,
         ..EncodeOptions::default()
     };
     EncodeRequest {
@@ -418,6 +428,12 @@ fn print_sizes(report: &cgv::codec::EncodeReport) {
     );
     if report.skin_bytes > 0 {
         println!("  bone weights    {:>10} bytes (--bones: the skin's weights, once)", report.skin_bytes);
+    }
+    if report.vertex_residual_bytes > 0 {
+        println!(
+            "  vertex residual {:>10} bytes (--vertex-residual: what the video missed at each vertex, every frame)",
+            report.vertex_residual_bytes
+        );
     }
     if report.frame_mesh_bytes > 0 {
         println!(

@@ -275,6 +275,14 @@ fn cgv_info(args: &Args) -> Result<()> {
             skin.bones, h.frames
         );
     }
+    if let Some(r) = h.vertex_residual {
+        let bytes: usize = file.frames.iter().map(|f| f.residual.as_ref().map_or(0, Vec::len)).sum();
+        let diagonal = f64::from(h.source.diagonal).max(f64::MIN_POSITIVE);
+        println!(
+            "  residual      at each vertex, every frame, in steps of {:.4} % of the diagonal ({bytes} bytes)",
+            100.0 * f64::from(r.step) / diagonal
+        );
+    }
     if h.stream(StreamName::Dx).is_some() {
         println!(
             "  corrections   {}",

@@ -74,7 +74,7 @@ fn decode_frame(
     }
     pb.finish_and_clear();
     let source = source.map(|s| {
-        let vertices = s.vertices(&x, dec.loose(), dec.skinned());
+        let vertices = s.vertices(&x, dec.loose(), dec.at_vertices());
         (s, vertices)
     });
     Ok((grid, x, source))

@@ -9,9 +9,11 @@ use super::{EncodeOptions, SEED_MIN_QP, SEED_QP_OFFSET};
 use crate::codec::corrections::Pictures;
 use crate::codec::h264::{Decoder as H264Decoder, Encoder as H264Encoder};
 use crate::codec::loose::{step_for as loose_step, LooseVertices};
-use crate::codec::reconstruct::{frame_values, Predictive, Values};
+use crate::codec::reconstruct::{frame_values, Predictive, SourceMeshDecoder, Values};
+use crate::codec::vertex_residual::VertexResidual;
 use crate::error::{Error, Result};
 use crate::format::stream::{CORRECTION, POSITION};
+use crate::format::vertex_residual::VertexResidualInfo;
 use crate::format::{self, Coverage, FrameInfo, Header, Offsets, SkinWeights, SourceMesh, StreamInfo, StreamName};
 use crate::geometry_image::GeometryImage;
 use crate::grid::{Grid, Stencils};
@@ -34,6 +36,8 @@ pub(super) struct Coded {
     pub skin_bytes: usize,
     /// The frames' own meshes' bytes (version 16).
     pub frame_mesh_bytes: usize,
+    /// The vertex residual's bytes (version 18).
+    pub vertex_residual_bytes: usize,
     pub seconds_coding: f64,
 }
 
@@ -44,6 +48,43 @@ pub(super) struct Chunks<'a> {
     pub source: Option<&'a [u8]>,
     pub skin: Option<&'a SkinWeights>,
     pub bone_units: Option<&'a [Vec<u8>]>,
+    /// Version 18: the vertex residual's coder.
+    pub residual: Option<ResidualCoding>,
+}
+
+/// Version 18: codes each frame's vertex residual against the frame as
+/// the decoder rebuilds it at the source mesh's vertices.
+pub(super) struct ResidualCoding {
+    /// The source mesh as the decoder reads it.
+    mesh: SourceMeshDecoder,
+    /// Each stored vertex's vertex in the input's frames (none: the same).
+    welded: Option<Vec<u32>>,
+    coder: VertexResidual,
+    step: f32,
+}
+
+impl ResidualCoding {
+    pub fn new(grid: Grid, mesh: &SourceMesh, welded: Option<Vec<u32>>, step: f32) -> ResidualCoding {
+        let coder = VertexResidual::new(step, mesh.places.len());
+        ResidualCoding { mesh: SourceMeshDecoder::new(grid, mesh), welded, coder, step }
+    }
+
+    pub fn info(&self) -> VertexResidualInfo {
+        VertexResidualInfo { step: self.step }
+    }
+
+    /// The frame's unit: `input` (the source's frame: with bones on the
+    /// vertices, what they miss) less the decoded grid rebuilt at the
+    /// vertices.
+    fn code(&mut self, input: &[Vec3], grid: &[Vec3]) -> Vec<u8> {
+        let rebuilt = self.mesh.vertices(grid, &[], None);
+        let truth = |k: usize| {
+            let v = self.welded.as_ref().map_or(Some(k), |w| w.get(k).map(|&v| v as usize));
+            v.and_then(|v| input.get(v)).copied().unwrap_or_default()
+        };
+        let target: Vec<Vec3> = rebuilt.iter().enumerate().map(|(k, r)| truth(k) - *r).collect();
+        self.coder.code(&target)
+    }
 }
 
 /// A sink and the length of what went into it: the index names offsets.
@@ -129,7 +170,8 @@ pub(super) fn code(
         predictive.set_skin(header, weights)?;
     }
     let mut streams = open_streams(header, opts, plan)?;
-    let (mut seconds_coding, mut side_bytes, mut frame_mesh_bytes) = (0.0, 0, 0);
+    let (mut seconds_coding, mut side_bytes, mut frame_mesh_bytes, mut residual_bytes) = (0.0, 0, 0, 0);
+    let mut residual = chunks.residual;
     // The corrections (and their second layers) are coded after the rest,
     // which the prediction reads.
     let (pre, post): (Vec<usize>, Vec<usize>) = (0..streams.len()).partition(|&k| {
@@ -150,6 +192,7 @@ pub(super) fn code(
         if plan.is_rap(fi) {
             index.push(out.len as u64);
             restart(&mut streams, &mut predictive, &mut loose)?;
+            residual.iter_mut().for_each(|r| r.coder.reset());
         }
         let mut coder = FrameCoder {
             header,
@@ -167,6 +210,14 @@ pub(super) fn code(
         } else {
             None
         };
+        if let Some(r) = &mut residual {
+            let grid = match decoded.as_deref() {
+                Some(x) => x,
+                None => &decoded_gv(header, &coder)?,
+            };
+            info.residual = Some(r.code(&input, grid));
+            residual_bytes += info.residual.as_ref().map_or(0, Vec::len);
+        }
         if header.loose_vertices().is_some() {
             let truth: Vec<Vec3> = loose_ids.iter().map(|&v| input[v as usize]).collect();
             info.loose = Some(code_loose(&mut loose, (header, st, map), &coder, decoded, &truth, &g)?);
@@ -175,7 +226,8 @@ pub(super) fn code(
         info.bones = chunks.bone_units.and_then(|u| u.get(fi).cloned()).or(info.bones);
         seconds_coding += t.elapsed().as_secs_f64();
         let (side, mesh) = put_frame(&mut out, fi, &info, &coder.units, &mut streams)?;
-        (side_bytes, frame_mesh_bytes) = (side_bytes + side, frame_mesh_bytes + mesh);
+        let residual = info.residual.as_ref().map_or(0, Vec::len);
+        (side_bytes, frame_mesh_bytes) = (side_bytes + side - residual, frame_mesh_bytes + mesh);
         progress("encoding", fi + 1, plan.frames);
     }
     put_end(&mut out, header, &index)?;
@@ -187,8 +239,15 @@ pub(super) fn code(
         source_mesh_bytes,
         skin_bytes,
         frame_mesh_bytes,
+        vertex_residual_bytes: residual_bytes,
         seconds_coding,
     })
+}
+
+/// GV's decoded grid frame: its x, y, z as the decoder reads them.
+fn decoded_gv(header: &Header, coder: &FrameCoder) -> Result<Vec<Vec3>> {
+    let vals = frame_values(header, &coder.decoded, 0.0)?;
+    Values::new(header, &vals).xyz(POSITION).ok_or_else(|| Error::Video("a GV frame without x, y, z".into()))
 }
 
 /// After the last frame: the random-access index (where the file has

@@ -85,5 +85,6 @@ pub(super) fn header(
         skin: None,
         segments: plan.segments.clone(),
         frame_meshes: opts.frame_meshes,
+        vertex_residual: None,
     }
 }

@@ -148,6 +148,11 @@ pub struct EncodeOptions {
     /// The skinned codec: its weights stored coarse (`Some(true)`), fine,
     /// or (`None`) by the rate ([`EncodeOptions::coarse_weights`]).
     pub coarse_weights: Option<bool>,
+    /// Format version 18: code what the video misses at each of the source
+    /// mesh's vertices, to about this RMS error (percent of the bounding
+    /// box's diagonal; the step is twice it), every frame
+    /// (`crate::codec::vertex_residual`). None: not at all.
+    pub vertex_residual: Option<f32>,
 }
 
 impl Default for EncodeOptions {
@@ -176,6 +181,7 @@ impl Default for EncodeOptions {
             frame_meshes: false,
             segments: Vec::new(),
             coarse_weights: None,
+            vertex_residual: None,
         }
     }
 }
@@ -209,6 +215,17 @@ impl EncodeOptions {
         }
         if self.frame_meshes && self.source_mesh {
             return bad("frame meshes replace the source mesh: ask for one or the other".into());
+        }
+        if let Some(p) = self.vertex_residual {
+            if !(p.is_finite() && p > 0.0) {
+                return bad(format!("a vertex residual of {p} %: give a positive percentage of the diagonal"));
+            }
+            let grid_known = self.codec() == CodecKind::Gv || self.closed_loop();
+            if !self.source_mesh || self.frame_meshes || !grid_known {
+                return bad("a vertex residual needs the source mesh and the skinned, gv, normal or predictive codec \
+                            (whose decoded grid the encoder knows)"
+                    .into());
+            }
         }
         if self.max_steps > MAX_STEPS {
             return bad(format!("max_steps {} is above {MAX_STEPS}", self.max_steps));
@@ -295,6 +312,9 @@ pub struct EncodeReport {
     pub rest_pose_bytes: usize,
     /// Bytes of the frames' own meshes (format version 16; 0 without).
     pub frame_mesh_bytes: usize,
+    /// Bytes of the vertex residual (format version 18; 0 without), not
+    /// in `side_bytes`.
+    pub vertex_residual_bytes: usize,
     pub parameterization: Parameterization,
     pub seconds_parameterize: f64,
     pub seconds_coding: f64,
@@ -415,14 +435,17 @@ pub fn encode_prepared_into(
     let skin = bones.as_ref().map(|b| &b.predictor);
     let simulation = simulate::simulate(src, &plan, opts, (&image.map, &st), skin)?;
     let bones = bones.filter(|_| simulation.bones);
+    let residual = residual_coding(opts, source.as_ref(), (image, src), diagonal)?;
     let (source_chunk, source_info) = source.map_or((None, None), |(chunk, info)| (Some(chunk), Some(info)));
     let mut header = header::header(&plan, src, opts, (&analysis, &simulation), diagonal, source_info);
+    header.vertex_residual = residual.as_ref().map(|r| r.info());
     header.appearance = src.appearance().filter(|_| opts.source_mesh).map(|a| a.look.info());
     header.skin = bones.as_ref().map(|b| b.info).or(vertex_bones.as_ref().map(|b| b.info));
     let chunks = code::Chunks {
         source: source_chunk.as_deref(),
         skin: bones.as_ref().map(|b| &b.weights).or(vertex_bones.as_ref().map(|b| &b.weights)),
         bone_units: vertex_bones.as_ref().map(|b| &b.units[..]),
+        residual,
     };
     let code::Coded {
         bytes,
@@ -431,6 +454,7 @@ pub fn encode_prepared_into(
         source_mesh_bytes,
         skin_bytes,
         frame_mesh_bytes,
+        vertex_residual_bytes,
         seconds_coding,
     } = code::code(src, opts, (&plan, &header), (image, chunks), &st, sink, progress)?;
     let rest_pose_bytes = vertex_bones.as_ref().map_or(0, |b| format::skin::rest_bytes(&b.weights.rest).len());
@@ -446,6 +470,7 @@ pub fn encode_prepared_into(
         skin_bytes,
         rest_pose_bytes,
         frame_mesh_bytes,
+        vertex_residual_bytes,
         parameterization: image.param.clone(),
         seconds_parameterize,
         seconds_coding,
@@ -455,6 +480,34 @@ pub fn encode_prepared_into(
         auto_passed_over: None,
     };
     Ok(report)
+}
+
+/// Version 18: what codes the vertex residual, where the options ask for
+/// one: the source mesh as the decoder will read it (from its chunk) and
+/// its step.
+fn residual_coding(
+    opts: &EncodeOptions,
+    source: Option<&(Vec<u8>, format::SourceMeshInfo)>,
+    (image, src): (&GeometryImage, &dyn FrameSource),
+    diagonal: f32,
+) -> Result<Option<code::ResidualCoding>> {
+    let (Some(percent), Some((chunk, info))) = (opts.vertex_residual, source) else { return Ok(None) };
+    let label = || src.label().display().to_string();
+    if !image.carrier.loose.is_empty() {
+        return Err(Error::Argument(format!(
+            "{}: a vertex residual for a mesh with loose parts (they code their own vertices): leave out \
+             --vertex-residual",
+            label()
+        )));
+    }
+    let container = |e: format::ContainerError| Error::Container { path: src.label().into(), source: e };
+    let (smsh, _) = format::parse_chunk(chunk, 0)
+        .map_err(container)?
+        .ok_or_else(|| Error::Argument(format!("{}: the source mesh chunk is cut short", label())))?;
+    let mesh = format::SourceMesh::parse(smsh.payload, info, 0).map_err(container)?;
+    let step = 2.0 * percent / 100.0 * diagonal;
+    let welded = src.appearance().map(|a| a.welded.clone());
+    Ok(Some(code::ResidualCoding::new(image.map.grid, &mesh, welded, step)))
 }
 
 /// The skinned codec's bones on the vertices (none for the others).

@@ -102,7 +102,7 @@ impl Truth {
             let Some((_, truth)) = next.next_if(|s| s.0 == f) else { continue };
             let d = match &source {
                 Some(m) => {
-                    let stored = m.vertices(&x, dec.loose(), dec.skinned());
+                    let stored = m.vertices(&x, dec.loose(), dec.at_vertices());
                     let v = match src.appearance() {
                         Some(a) => a.on_sequence(&stored, topology.vertex_count),
                         None => stored,
