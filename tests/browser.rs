@@ -239,6 +239,9 @@ fn site(name: &str) -> (PathBuf, Guard, u16) {
     std::fs::copy(root.join("tests/fixtures/v11/ball-hat-loose.cgv"), dir.join("hat.cgv")).unwrap();
     std::fs::copy(root.join("tests/fixtures/v13/walk-bones.cgv"), dir.join("bones.cgv")).unwrap();
     std::fs::copy(root.join("tests/fixtures/v17/walk-skinned.cgv"), dir.join("skinned.cgv")).unwrap();
+    for f in ["walk-skinned-residual.cgv", "walk-normal-residual.cgv"] {
+        std::fs::copy(root.join("tests/fixtures/v18").join(f), dir.join(f)).unwrap();
+    }
     // The built-in figure with its UVs and procedural checks, encoded now.
     let textured = dir.join("walk-textured.cgv");
     let out = Command::new(env!("CARGO_BIN_EXE_cgv"))
@@ -428,25 +431,31 @@ fn viewer_plays_renders_and_recovers_in_headless_chromium() {
     assert!(worst < 1e-4, "frame {k} of the v13 fixture's input vertices differ by {worst} in the page");
 
     // A version-17 file: bones on the vertices plus the grid's residual
-    // give the frozen input vertices in the page too.
-    browser.js("document.getElementById('a').load('skinned.cgv'); return true;", json!([]));
-    let held = "const p = document.getElementById('a'); \
-        const ks = Object.keys(p.frames || {}).map(Number).filter((k) => p.frames[k]); \
-        if (ks.length < 6) return null; const k = ks[ks.length - 1]; \
-        const loose = p.frames[k].loose || new Float32Array(0); \
-        return { k, v: Array.from(p.player.source_vertices(p.frames[k], loose, p.frames[k].skinned)) };";
-    browser.wait("the v17 fixture's frames", &held.replace("return {", "return !!{"), 60);
-    let got = browser.js(held, json!([]));
-    let k = got["k"].as_u64().unwrap() as usize;
-    let want = std::fs::read(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/v17/walk-skinned.cgv.source.positions"),
-    )
-    .unwrap();
-    let want: Vec<f32> = want.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
-    let got: Vec<f64> = got["v"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
-    let frame = &want[k * got.len()..(k + 1) * got.len()];
-    let worst = got.iter().zip(frame).map(|(a, b)| (a - *b as f64).abs()).fold(0.0, f64::max);
-    assert!(worst < 1e-4, "frame {k} of the v17 fixture's input vertices differ by {worst} in the page");
+    // give the frozen input vertices in the page too; and version 18's
+    // vertex residual over them or over the closed loop.
+    let pages = [
+        ("skinned.cgv", "v17/walk-skinned.cgv"),
+        ("walk-skinned-residual.cgv", "v18/walk-skinned-residual.cgv"),
+        ("walk-normal-residual.cgv", "v18/walk-normal-residual.cgv"),
+    ];
+    for (page, fixture) in pages {
+        browser.js(&format!("document.getElementById('a').load('{page}'); return true;"), json!([]));
+        let held = "const p = document.getElementById('a'); \
+            const ks = Object.keys(p.frames || {}).map(Number).filter((k) => p.frames[k]); \
+            if (ks.length < 6) return null; const k = ks[ks.length - 1]; \
+            const loose = p.frames[k].loose || new Float32Array(0); \
+            return { k, v: Array.from(p.player.source_vertices(p.frames[k], loose, p.frames[k].skinned)) };";
+        browser.wait(&format!("{fixture}'s frames"), &held.replace("return {", "return !!{"), 60);
+        let got = browser.js(held, json!([]));
+        let k = got["k"].as_u64().unwrap() as usize;
+        let positions = format!("tests/fixtures/{fixture}.source.positions");
+        let want = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join(positions)).unwrap();
+        let want: Vec<f32> = want.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+        let got: Vec<f64> = got["v"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+        let frame = &want[k * got.len()..(k + 1) * got.len()];
+        let worst = got.iter().zip(frame).map(|(a, b)| (a - *b as f64).abs()).fold(0.0, f64::max);
+        assert!(worst < 1e-4, "frame {k} of {fixture}'s input vertices differ by {worst} in the page");
+    }
 
     // A version-9 file: x, y, z corrections at 16 x 16 beside a 32 x 32
     // normal picture, each stream's WebCodecs decoder at its own size.

@@ -413,7 +413,8 @@ export class MotionStream extends EventTarget {
         const x = this.player.decode_next();
         // A tiny part's vertices (format v11) belong to this frame: they go with it.
         x.loose = this.player.loose_vertices();
-        // So does the bones' skinning of the mesh's vertices (format v17).
+        // So does what the decoder adds at the mesh's vertices: the bones'
+        // skinning (format v17) and the vertex residual (v18).
         x.skinned = this.player.skinned_vertices();
         const t2 = performance.now();
         const st = this.stats, k = st.decoded;
