@@ -447,4 +447,18 @@ fn the_vertex_residual_takes_the_vertices_below_the_grids_floor() {
         EncodeOptions { representation: Representation::Conformal, vertex_residual: Some(0.05), ..Default::default() };
     let err = encode(&src, &opts, &mut |_, _, _| {}).unwrap_err().to_string();
     assert!(err.contains("vertex residual"), "{err}");
+    // A target error a third of the grid's vertex RMS at QP 0 is met with
+    // a vertex residual, measured on the decoded mesh.
+    let opts =
+        EncodeOptions { representation: Representation::Skinned, grid: 16, bones: Some(8), ..Default::default() };
+    let image = cgv::codec::prepare(&src, &opts).unwrap();
+    let skinned = cgv::codec::CodecChoice::Named(Representation::Skinned);
+    let at_qp0 = EncodeOptions { video: VideoSettings { qp: 0, ..Default::default() }, ..opts.clone() };
+    let (floor, _) = encode(&src, &at_qp0, &mut |_, _, _| {}).unwrap();
+    let floor = decoded_error(cgv::format::read(&floor).unwrap(), &src);
+    let target = floor / 3.0;
+    let (bytes, _, t) = cgv::codec::encode_to_error(&src, &opts, skinned, &image, target, &mut |_, _, _| {}).unwrap();
+    let got = decoded_error(cgv::format::read(&bytes).unwrap(), &src);
+    eprintln!("target {target:.6} (a third of QP 0's vertex RMS {floor:.6}): {t:?}, vertex RMS {got:.6}");
+    assert!(t.vertex_residual.is_some() && t.surface_rms <= target, "{t:?}");
 }

@@ -517,12 +517,15 @@ fn print_report(
 /// miss, the passes and times.
 fn print_rate(args: &Args, report: &cgv::codec::EncodeReport, target: Option<&cgv::codec::TargetReport>) {
     if let Some(t) = target {
+        let how = match t.vertex_residual {
+            Some(p) => format!("QP {} and a {p:.4} % vertex residual, the coarsest of those tried within it", t.qp),
+            None => format!("QP {}, the coarsest within it", t.qp),
+        };
         println!(
-            "  surface RMS {:.4} % of the diagonal (target {:.4} %; mean over frames {:?}) at QP {}, the coarsest within it",
+            "  surface RMS {:.4} % of the diagonal (target {:.4} %; mean over frames {:?}) at {how}",
             100.0 * t.surface_rms,
             args.target_error.unwrap_or(0.0),
             t.frames_measured,
-            t.qp
         );
     }
     if let Some(miss) = report.budget_miss {

@@ -10,10 +10,14 @@
 //! would, so the figure includes everything the decoder does. The QP is
 //! bisected (an error that falls as the QP falls), then bisected again with
 //! the kept file's corrections where the auto rules change them: 7 to 12
-//! encodes (docs/RESULTS.md, "`--target-error`").
+//! encodes (docs/RESULTS.md, "`--target-error`"). Where the file keeps the
+//! input's mesh, a vertex residual (format v18) is tried too, at
+//! [`RESIDUAL_QP`]: below the grid's floor it is the only way to the
+//! target, and above it often the smaller file (2 to 3 more encodes).
 
 use crate::codec::{encode_prepared, CodecChoice, EncodeOptions, EncodeReport, FileDecoder};
 use crate::error::{Error, Result};
+use crate::format::Representation;
 use crate::geometry_image::{surface_vertices, GeometryImage};
 use crate::mesh::{Bounds, Frame, FrameSource};
 use crate::metrics::surface;
@@ -22,6 +26,18 @@ use crate::metrics::surface;
 pub const SAMPLE_FRAMES: usize = 12;
 /// H.264's coarsest QP: a file kept there is the codec's smallest.
 pub const COARSEST_QP: u8 = 51;
+/// The video's QP under a vertex residual, by codec: the skinned codec's
+/// residual video is cheap and the vertex residual's bits follow its
+/// error little (pcow's first 48 frames, N = 128, a 0.1 % residual: QP
+/// 36 / 42 / 48 / 51 5.93 / 5.71 / 5.66 / 5.79 bits/v/f, all 0.094 to 0.099
+/// % vertex RMS); the closed loop's grid carries the whole motion, and a
+/// fine one leaves the residual less (face-poses, 0.1 %: QP 20 / 30 / 40,
+/// 9.7 / 15.1 / 17.1 bits/v/f).
+pub const RESIDUAL_QP: [(Representation, u8); 2] = [(Representation::Skinned, 45), (Representation::Normal, 20)];
+/// Steps of the vertex residual's search: from the target itself (its
+/// vertex RMS about the target, its surface RMS below), coarser while the
+/// target holds.
+const RESIDUAL_STEPS: [f64; 4] = [1.0, 1.5, 2.25, 3.375];
 
 /// What [`encode_to_error`] made.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -30,6 +46,9 @@ pub struct TargetReport {
     pub surface_rms: f64,
     /// The QP of the file kept.
     pub qp: u8,
+    /// The vertex residual of the file kept (percent of the diagonal), if
+    /// it has one.
+    pub vertex_residual: Option<f32>,
     /// The frames it was measured on.
     pub frames_measured: Vec<usize>,
     /// Encodes the search took.
@@ -85,14 +104,15 @@ impl Truth {
 
     /// The surface RMS of a file over the sampled frames, relative to the
     /// diagonal: of its grid, or of the input's mesh where the file's bones
-    /// act on it (the skinned codec's grid is a residual).
+    /// act on it (the skinned codec's grid is a residual) or it has a
+    /// vertex residual.
     fn measure(&self, bytes: &[u8], src: &dyn FrameSource, image: &GeometryImage) -> Result<f64> {
         let file =
             crate::format::read(bytes).map_err(|e| Error::Container { path: src.label().to_path_buf(), source: e })?;
         let solver = file.header.solver;
-        let skinned = file.header.skin.is_some_and(|s| s.on_vertices());
+        let on_mesh = file.header.skin.is_some_and(|s| s.on_vertices()) || file.header.vertex_residual.is_some();
         let mut dec = FileDecoder::new(file, solver)?;
-        let source = dec.source_mesh().filter(|_| skinned);
+        let source = dec.source_mesh().filter(|_| on_mesh);
         let (topology, faces) = (src.topology(), image.surface_faces(src.topology()));
         let mut sum = 0.0;
         let last = self.frames.last().map_or(0, |s| s.0);
@@ -141,7 +161,7 @@ pub fn encode_to_error(
         (o.video.qp, o.video.kbps) = (qp, None);
         let mut o = codec.apply(o, Some(opts.solver))?;
         if let Some(p) = pin {
-            (o.corrections, o.representation) = (p.corrections, p.representation);
+            (o.corrections, o.representation, o.vertex_residual) = (p.corrections, p.representation, p.vertex_residual);
         }
         let label = format!("QP {qp} for {:.4} %", 100.0 * target);
         let (bytes, report) =
@@ -152,12 +172,22 @@ pub fn encode_to_error(
         Ok(Found { bytes, report, error, qp, options: o })
     };
     let (kept, missed) = bisect(target, 0, 30, &mut |qp| try_qp(qp, None))?;
-    let mut kept = kept.ok_or_else(|| refusal(target, missed.as_ref(), opts.vertex_bones()))?;
+    let residual = match residual_qp(opts, codec, image) {
+        Some(qp) => with_residual(target, &mut |p| try_qp(qp, Some(&residual_options(opts, codec, qp, p)?)))?,
+        None => None,
+    };
+    let (kept, residual) = match (kept, residual) {
+        (Some(k), Some(r)) if r.bytes.len() < k.bytes.len() => (r, true),
+        (Some(k), _) => (k, false),
+        (None, Some(r)) => (r, true),
+        (None, None) => return Err(refusal(target, missed.as_ref(), opts.vertex_bones())),
+    };
+    let mut kept = kept;
     // The auto rules change the corrections at some QPs (motion from QP
     // 26 on), and the error can jump there (samba at N = 128: 0.067 % at
     // QP 25, 0.168 % at 26): so past such a boundary the coarser QPs are
     // searched again with the kept file's corrections.
-    if missed.as_ref().is_some_and(|m| m.qp == kept.qp + 1 && differs(&m.options, &kept.options)) {
+    if !residual && missed.as_ref().is_some_and(|m| m.qp == kept.qp + 1 && differs(&m.options, &kept.options)) {
         let pin = kept.options.clone();
         let (coarser, _) =
             bisect(target, kept.qp, (kept.qp + COARSEST_QP).div_ceil(2), &mut |qp| try_qp(qp, Some(&pin)))?;
@@ -165,11 +195,48 @@ pub fn encode_to_error(
             kept = c;
         }
     }
-    let Found { bytes, mut report, error: surface_rms, qp, .. } = kept;
+    let Found { bytes, mut report, error: surface_rms, qp, options } = kept;
     // The times add up every pass, measuring included.
     (report.passes, report.seconds_coding) = (encodes, coding);
     report.seconds_total = report.seconds_parameterize + start.elapsed().as_secs_f64();
-    Ok((bytes, report, TargetReport { surface_rms, qp, frames_measured: sample(src.frame_count()), encodes }))
+    let frames_measured = sample(src.frame_count());
+    let vertex_residual = options.vertex_residual;
+    Ok((bytes, report, TargetReport { surface_rms, qp, vertex_residual, frames_measured, encodes }))
+}
+
+/// The video's QP for a vertex residual, where the file can have one (it
+/// keeps the input's mesh, without loose parts, and the options leave the
+/// residual to the encoder).
+fn residual_qp(opts: &EncodeOptions, codec: CodecChoice, image: &GeometryImage) -> Option<u8> {
+    if !opts.source_mesh || opts.frame_meshes || opts.vertex_residual.is_some() || !image.carrier.loose.is_empty() {
+        return None;
+    }
+    let o = codec.apply(opts.clone(), Some(opts.solver)).ok()?;
+    let grid_known = o.codec() == crate::format::CodecKind::Gv || o.closed_loop();
+    let qp = RESIDUAL_QP.iter().find(|(r, _)| *r == o.representation).map_or(RESIDUAL_QP[1].1, |(_, q)| *q);
+    grid_known.then_some(qp)
+}
+
+/// The options of a try at `qp` with a vertex residual of `percent`.
+fn residual_options(opts: &EncodeOptions, codec: CodecChoice, qp: u8, percent: f64) -> Result<EncodeOptions> {
+    let mut o = opts.clone();
+    (o.video.qp, o.video.kbps) = (qp, None);
+    let o = codec.apply(o, Some(opts.solver))?;
+    Ok(EncodeOptions { vertex_residual: Some(percent as f32), ..o })
+}
+
+/// The coarsest vertex residual of [`RESIDUAL_STEPS`] times the target that
+/// meets it (`encode(percent)`), if any does.
+fn with_residual(target: f64, encode: &mut dyn FnMut(f64) -> Result<Found>) -> Result<Option<Found>> {
+    let mut kept = None;
+    for step in RESIDUAL_STEPS {
+        let found = encode(100.0 * target * step)?;
+        if found.error > target {
+            break;
+        }
+        kept = Some(found);
+    }
+    Ok(kept)
 }
 
 /// One encode and its measured error.
