@@ -262,27 +262,7 @@ fn cgv_info(args: &Args) -> Result<()> {
         );
     }
     println!("  anchors       {:?}", h.anchors);
-    if let Some(skin) = h.skin.filter(|s| s.on_vertices()) {
-        println!(
-            "  bones         {} on the source mesh's vertices (four weights each, rest pose in the file)",
-            skin.bones
-        );
-    } else if let Some(skin) = &h.skin {
-        let skinned = file.frames.iter().filter(|f| f.predictor.extrapolation.is_skinned()).count();
-        let side = h.grid >> skin.shrink;
-        println!(
-            "  bones         {} (weights on a {side} x {side} grid; {skinned} of {} frames predicted by them)",
-            skin.bones, h.frames
-        );
-    }
-    if let Some(r) = h.vertex_residual {
-        let bytes: usize = file.frames.iter().map(|f| f.residual.as_ref().map_or(0, Vec::len)).sum();
-        let diagonal = f64::from(h.source.diagonal).max(f64::MIN_POSITIVE);
-        println!(
-            "  residual      at each vertex, every frame, in steps of {:.4} % of the diagonal ({bytes} bytes)",
-            100.0 * f64::from(r.step) / diagonal
-        );
-    }
+    print_bones_and_residual(&file);
     if h.stream(StreamName::Dx).is_some() {
         println!(
             "  corrections   {}",
@@ -314,6 +294,32 @@ fn cgv_info(args: &Args) -> Result<()> {
         print_passes(&file.frames, "relaxed", "tangential relaxation passes", |f| f.relax);
     }
     Ok(())
+}
+
+/// The bones (versions 13 and 17) and the vertex residual (18), if any.
+fn print_bones_and_residual(file: &cgv::format::CgvFile) {
+    let h = &file.header;
+    if let Some(skin) = h.skin.filter(|s| s.on_vertices()) {
+        println!(
+            "  bones         {} on the source mesh's vertices (four weights each, rest pose in the file)",
+            skin.bones
+        );
+    } else if let Some(skin) = &h.skin {
+        let skinned = file.frames.iter().filter(|f| f.predictor.extrapolation.is_skinned()).count();
+        let side = h.grid >> skin.shrink;
+        println!(
+            "  bones         {} (weights on a {side} x {side} grid; {skinned} of {} frames predicted by them)",
+            skin.bones, h.frames
+        );
+    }
+    if let Some(r) = h.vertex_residual {
+        let bytes: usize = file.frames.iter().map(|f| f.residual.as_ref().map_or(0, Vec::len)).sum();
+        let diagonal = f64::from(h.source.diagonal).max(f64::MIN_POSITIVE);
+        println!(
+            "  residual      at each vertex, every frame, in steps of {:.4} % of the diagonal ({bytes} bytes)",
+            100.0 * f64::from(r.step) / diagonal
+        );
+    }
 }
 
 /// How the encoder chose to predict each frame (see src/solve/predictor.rs).

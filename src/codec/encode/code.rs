@@ -23,6 +23,7 @@ use crate::resample::SourcePoints;
 use glam::Vec3;
 
 /// What the coded file is made of (its bytes went to the sink).
+#[derive(Default)]
 pub(super) struct Coded {
     /// The file's size.
     pub bytes: usize,
@@ -74,16 +75,19 @@ impl ResidualCoding {
     }
 
     /// The frame's unit: `input` (the source's frame: with bones on the
-    /// vertices, what they miss) less the decoded grid rebuilt at the
-    /// vertices.
-    fn code(&mut self, input: &[Vec3], grid: &[Vec3]) -> Vec<u8> {
-        let rebuilt = self.mesh.vertices(grid, &[], None);
+    /// vertices, what they miss) less the decoded grid (the closed loop's
+    /// `decoded`, else GV's from `coder`) rebuilt at the vertices.
+    fn code(&mut self, input: &[Vec3], decoded: Option<&[Vec3]>, coder: &FrameCoder) -> Result<Vec<u8>> {
+        let rebuilt = match decoded {
+            Some(grid) => self.mesh.vertices(grid, &[], None),
+            None => self.mesh.vertices(&decoded_gv(coder.header, coder)?, &[], None),
+        };
         let truth = |k: usize| {
             let v = self.welded.as_ref().map_or(Some(k), |w| w.get(k).map(|&v| v as usize));
             v.and_then(|v| input.get(v)).copied().unwrap_or_default()
         };
         let target: Vec<Vec3> = rebuilt.iter().enumerate().map(|(k, r)| truth(k) - *r).collect();
-        self.coder.code(&target)
+        Ok(self.coder.code(&target))
     }
 }
 
@@ -170,7 +174,7 @@ pub(super) fn code(
         predictive.set_skin(header, weights)?;
     }
     let mut streams = open_streams(header, opts, plan)?;
-    let (mut seconds_coding, mut side_bytes, mut frame_mesh_bytes, mut residual_bytes) = (0.0, 0, 0, 0);
+    let mut coded = Coded { source_mesh_bytes, skin_bytes, ..Default::default() };
     let mut residual = chunks.residual;
     // The corrections (and their second layers) are coded after the rest,
     // which the prediction reads.
@@ -210,38 +214,21 @@ pub(super) fn code(
         } else {
             None
         };
-        if let Some(r) = &mut residual {
-            let grid = match decoded.as_deref() {
-                Some(x) => x,
-                None => &decoded_gv(header, &coder)?,
-            };
-            info.residual = Some(r.code(&input, grid));
-            residual_bytes += info.residual.as_ref().map_or(0, Vec::len);
-        }
+        info.residual = residual.as_mut().map(|r| r.code(&input, decoded.as_deref(), &coder)).transpose()?;
         if header.loose_vertices().is_some() {
             let truth: Vec<Vec3> = loose_ids.iter().map(|&v| input[v as usize]).collect();
             info.loose = Some(code_loose(&mut loose, (header, st, map), &coder, decoded, &truth, &g)?);
         }
         info.mesh = header.frame_meshes.then(|| frame_mesh_unit(src, fi, map.grid, &g)).transpose()?;
         info.bones = chunks.bone_units.and_then(|u| u.get(fi).cloned()).or(info.bones);
-        seconds_coding += t.elapsed().as_secs_f64();
-        let (side, mesh) = put_frame(&mut out, fi, &info, &coder.units, &mut streams)?;
-        let residual = info.residual.as_ref().map_or(0, Vec::len);
-        (side_bytes, frame_mesh_bytes) = (side_bytes + side - residual, frame_mesh_bytes + mesh);
+        coded.seconds_coding += t.elapsed().as_secs_f64();
+        put_frame(&mut out, fi, &info, &coder.units, (&mut streams, &mut coded))?;
         progress("encoding", fi + 1, plan.frames);
     }
     put_end(&mut out, header, &index)?;
-    let stream_bytes = streams.iter().map(|s| (s.info.label(), s.bytes)).collect();
-    Ok(Coded {
-        bytes: out.len,
-        stream_bytes,
-        side_bytes,
-        source_mesh_bytes,
-        skin_bytes,
-        frame_mesh_bytes,
-        vertex_residual_bytes: residual_bytes,
-        seconds_coding,
-    })
+    coded.stream_bytes = streams.iter().map(|s| (s.info.label(), s.bytes)).collect();
+    coded.bytes = out.len;
+    Ok(coded)
 }
 
 /// GV's decoded grid frame: its x, y, z as the decoder reads them.
@@ -260,24 +247,26 @@ fn put_end(out: &mut Written, header: &Header, index: &[u64]) -> Result<()> {
 }
 
 /// Writes frame `f`'s chunk (its side data `info` and access units
-/// `units`, one slot a stream) and counts each stream's bytes; returns the
-/// chunk's bytes besides the access units and the frame mesh, and the
-/// frame mesh's.
+/// `units`, one slot a stream) and counts its bytes: each stream's, the
+/// frame mesh's, the vertex residual's and the rest of the chunk's.
 fn put_frame(
     out: &mut Written,
     f: usize,
     info: &FrameInfo,
     units: &[Option<Vec<u8>>],
-    streams: &mut [Stream],
-) -> Result<(usize, usize)> {
+    (streams, tally): (&mut [Stream], &mut Coded),
+) -> Result<()> {
     let coded: Vec<&[u8]> = units.iter().flatten().map(Vec::as_slice).collect();
     let chunk = format::write_frame(f as u32, info, &coded);
     for (k, au) in units.iter().enumerate() {
         streams[k].bytes += au.as_ref().map_or(0, Vec::len);
     }
     let mesh = info.mesh.as_ref().map_or(0, Vec::len);
-    out.put(&chunk)?;
-    Ok((chunk.len() - coded.iter().map(|u| u.len()).sum::<usize>() - mesh, mesh))
+    let residual = info.residual.as_ref().map_or(0, Vec::len);
+    tally.side_bytes += chunk.len() - coded.iter().map(|u| u.len()).sum::<usize>() - mesh - residual;
+    tally.frame_mesh_bytes += mesh;
+    tally.vertex_residual_bytes += residual;
+    out.put(&chunk)
 }
 
 /// Low bits a frame mesh's places leave zero: 10 bits a coordinate (8 steps
