@@ -17,6 +17,9 @@ pub struct EvalCodec {
     representation: Representation,
     /// `None`: the best of the variants.
     corrections: Option<CorrectionMode>,
+    /// A vertex residual (format v18) whose step is searched for the rate
+    /// point's size, the video at the fixed QP `--target-error` uses.
+    residual: bool,
 }
 
 /// Names `--codecs` accepts besides the codecs' own: those of the first
@@ -50,7 +53,7 @@ pub const SPIKE: f64 = 3.0;
 
 impl EvalCodec {
     const fn of(representation: Representation, corrections: Option<CorrectionMode>) -> EvalCodec {
-        EvalCodec { representation, corrections }
+        EvalCodec { representation, corrections, residual: false }
     }
     /// Geometry video: x, y, z.
     pub const GV: EvalCodec = EvalCodec::of(Representation::Gv, None);
@@ -70,12 +73,17 @@ impl EvalCodec {
     /// (format v17): measured on the input's vertices, its grid being a
     /// residual, not a surface.
     pub const SKINNED: EvalCodec = EvalCodec::of(Representation::Skinned, None);
+    /// The same with a vertex residual (format v18): the rate point's size
+    /// is met by the residual's step, the video at
+    /// [`crate::codec::RESIDUAL_QP`]'s QP for the skinned codec.
+    pub const SKINNED_RESIDUAL: EvalCodec =
+        EvalCodec { representation: Representation::Skinned, corrections: None, residual: true };
 
     /// What `cgv eval` runs unless told otherwise.
     pub const ALL: [EvalCodec; 4] = [EvalCodec::GV, EvalCodec::CONFORMAL, EvalCodec::PREDICTIVE, EvalCodec::NORMAL];
 
     /// Every codec `--codecs` names, in the order reports list them.
-    pub const NAMED: [EvalCodec; 9] = [
+    pub const NAMED: [EvalCodec; 10] = [
         EvalCodec::GV,
         EvalCodec::CONFORMAL,
         EvalCodec::PREDICTIVE,
@@ -85,6 +93,7 @@ impl EvalCodec {
         EvalCodec::NORMAL_SCALED,
         EvalCodec::NORMAL_MOTION,
         EvalCodec::SKINNED,
+        EvalCodec::SKINNED_RESIDUAL,
     ];
 
     /// The encodes a best-of entry matches at each rate point (codec,
@@ -93,7 +102,7 @@ impl EvalCodec {
     /// corrections the bones carry the motion alone, which is the lowest
     /// rates' best use of bits (a skinned mesh's size).
     pub fn variants(self, bones: bool) -> Option<Vec<(EvalCodec, u32)>> {
-        if self.corrections.is_some() || !self.closed_loop() {
+        if self.corrections.is_some() || !self.closed_loop() || self.residual {
             return None;
         }
         let with = |c| EvalCodec::of(self.representation, Some(c));
@@ -103,6 +112,11 @@ impl EvalCodec {
             v.extend(BONE_INTERVALS.map(|k| (motion, k)));
         }
         Some(v)
+    }
+
+    /// Whether its files carry a vertex residual whose step is searched.
+    pub(super) fn residual(self) -> bool {
+        self.residual
     }
 
     /// Whether the codec lays its corrections out along the normal.
@@ -145,6 +159,7 @@ impl EvalCodec {
     pub fn name(self) -> &'static str {
         use CorrectionMode::{Motion, Scaled};
         match (self.representation, self.corrections) {
+            (Representation::Skinned, _) if self.residual => "skinned-residual",
             (Representation::Predictive, Some(Scaled)) => "predictive-scaled",
             (Representation::Predictive, Some(Motion)) => "predictive-motion",
             (Representation::Normal, Some(Scaled)) => "normal-scaled",

@@ -25,6 +25,7 @@ mod frame_metrics;
 pub mod peers;
 pub mod plot;
 pub mod report;
+mod residual_search;
 pub mod skinning;
 pub mod source;
 
@@ -115,6 +116,9 @@ pub struct CodecResult {
     pub correction_interval: Option<u32>,
     pub qp: u8,
     pub layers: u8,
+    /// The vertex residual (percent of the diagonal; format v18), if any.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub vertex_residual: Option<f32>,
     /// The rate-control target (kbit/s at the sequence's rate) when a
     /// constant QP could not match the size.
     pub rate_control_kbps: Option<f32>,
@@ -239,6 +243,8 @@ struct Try {
     qp: u8,
     layers: u8,
     rc: Option<f32>,
+    /// The vertex residual (percent of the diagonal), if any.
+    residual: Option<f32>,
     bytes: Vec<u8>,
     /// The bytes compared: the file's, less its source mesh (carried only
     /// where the loose vertices need it; the same for every codec).
@@ -440,7 +446,19 @@ impl Ctx<'_> {
     /// `interval`: the motion mode's correction interval (1 unless a
     /// [`EvalCodec::variants`] entry asks for another).
     fn encode(&self, codec: EvalCodec, interval: u32, qp: u8, layers: u8, rc: Option<(u8, f32)>) -> Result<Try> {
+        self.encode_with_residual(codec, (interval, qp, layers), rc, None)
+    }
+
+    /// [`Self::encode`] with a vertex residual of `residual` percent.
+    fn encode_with_residual(
+        &self,
+        codec: EvalCodec,
+        (interval, qp, layers): (u32, u8, u8),
+        rc: Option<(u8, f32)>,
+        residual: Option<f32>,
+    ) -> Result<Try> {
         let mut o = codec.options(&self.opts.base);
+        o.vertex_residual = residual;
         o.correction_interval = interval;
         o.video.qp = qp;
         o.video.qp_max = rc.map(|r| r.0);
@@ -456,7 +474,8 @@ impl Ctx<'_> {
         let t = std::time::Instant::now();
         let (bytes, report) = encode_prepared(self.src, &o, self.prepared, &mut |_, _, _| {})?;
         let size = bytes.len() - report.source_mesh_bytes;
-        Ok(Try { qp, layers, rc: rc.map(|r| r.1), bytes, size, encode_seconds: t.elapsed().as_secs_f64() })
+        let encode_seconds = t.elapsed().as_secs_f64();
+        Ok(Try { qp, layers, rc: rc.map(|r| r.1), residual, bytes, size, encode_seconds })
     }
 
     /// Finds the encode whose size is nearest `target` (see the module doc
@@ -541,6 +560,10 @@ impl Ctx<'_> {
     }
 
     fn job(&self, codec: EvalCodec, target: usize) -> Result<CodecResult> {
+        if codec.residual() {
+            let (t, matched, tries) = self.search_residual(codec, target)?;
+            return self.measure(codec, t, matched, tries);
+        }
         let Some(variants) = codec.variants(self.opts.base.bones != Some(0)) else {
             let (t, matched, tries) = self.search(codec, self.opts.base.correction_interval, target)?;
             return self.measure(codec, t, matched, tries);
@@ -633,6 +656,7 @@ impl Ctx<'_> {
             qp: t.qp,
             layers: t.layers,
             rate_control_kbps: t.rc,
+            vertex_residual: t.residual,
             matched,
             bytes,
             kbps: bytes as f64 * 8.0 / 1000.0 / seconds,

@@ -37,7 +37,10 @@ pub struct Args {
     /// skinned (--bones bones on the input's own vertices, by default one
     /// for each 150 vertices from 32 to 48,
     /// what they miss as x, y, z; its errors are on the input's vertices
-    /// and surface, its grid being a residual). predictive and normal keep, at each rate point, the best of their
+    /// and surface, its grid being a residual), skinned-residual (the same
+    /// with a vertex residual, format v18, whose step meets each rate
+    /// point's size, the video at QP 45: below the grid's floor at the
+    /// vertices). predictive and normal keep, at each rate point, the best of their
     /// correction modes; predictive-scaled, predictive-motion,
     /// normal-scaled and normal-motion run one mode only. The first
     /// round's names still work: paper is conformal, cgv predictive,

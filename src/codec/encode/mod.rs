@@ -32,7 +32,7 @@ pub use budget::{encode_on_budget, encode_on_budget_into, BUDGET_TOLERANCE, MAX_
 pub use choice::CodecChoice;
 pub use request::{EncodeRequest, Encoded, GridChoice, Made};
 pub use simulate::MOTION_MARGIN;
-pub use target::{encode_to_error, prepare_for_error, TargetReport};
+pub use target::{encode_to_error, prepare_for_error, residual_qp_of, TargetReport, RESIDUAL_QP};
 pub use vertex_bones::{skinned_bones, skinned_grid, COARSE_WEIGHTS_QP};
 
 use super::h264::VideoSettings;

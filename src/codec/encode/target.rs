@@ -213,8 +213,13 @@ fn residual_qp(opts: &EncodeOptions, codec: CodecChoice, image: &GeometryImage) 
     }
     let o = codec.apply(opts.clone(), Some(opts.solver)).ok()?;
     let grid_known = o.codec() == crate::format::CodecKind::Gv || o.closed_loop();
-    let qp = RESIDUAL_QP.iter().find(|(r, _)| *r == o.representation).map_or(RESIDUAL_QP[1].1, |(_, q)| *q);
-    grid_known.then_some(qp)
+    grid_known.then(|| residual_qp_of(o.representation))
+}
+
+/// [`RESIDUAL_QP`]'s QP for a representation (the closed loop's for any
+/// not listed).
+pub fn residual_qp_of(r: Representation) -> u8 {
+    RESIDUAL_QP.iter().find(|(c, _)| *c == r).map_or(RESIDUAL_QP[1].1, |(_, q)| *q)
 }
 
 /// The options of a try at `qp` with a vertex residual of `percent`.
