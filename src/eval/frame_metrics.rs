@@ -68,13 +68,4 @@ impl Ctx<'_> {
         })
     }
 
-    /// A decoded source mesh's vertices indexed as the input's (a textured
-    /// input's stored mesh splits vertices along UV seams; each copy
-    /// decodes alike).
-    pub(super) fn on_input(&self, stored: Vec<Vec3>) -> Vec<Vec3> {
-        match self.src.appearance() {
-            Some(a) => a.on_sequence(&stored, self.src.topology().vertex_count),
-            None => stored,
-        }
-    }
 }

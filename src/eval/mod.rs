@@ -631,7 +631,7 @@ impl Ctx<'_> {
             let sums = (&mut kg, &mut source);
             per_frame.push(match &own {
                 Some(m) => {
-                    let v = self.on_input(m.vertices(&x, dec.loose(), dec.at_vertices()));
+                    let v = self.src.on_input(m.vertices(&x, dec.loose(), dec.at_vertices()));
                     self.vertex_metrics(f, &input, &v, sums)?
                 }
                 None => self.grid_metrics(f, &input, (&x, dec.loose()), sums, (&st, &faces))?,

@@ -32,6 +32,15 @@ pub trait FrameSource: Send + Sync {
     fn frame_mesh(&self, _i: usize) -> Option<&FrameMesh> {
         None
     }
+    /// A decoded source mesh's vertices (the file's stored order) indexed
+    /// as this sequence's: a textured input's stored mesh splits vertices
+    /// along UV seams, each copy decoding alike.
+    fn on_input(&self, stored: Vec<Vec3>) -> Frame {
+        match self.appearance() {
+            Some(a) => a.on_sequence(&stored, self.topology().vertex_count),
+            None => stored,
+        }
+    }
 }
 
 /// One frame's own mesh and where each of its vertices lies in the

@@ -122,11 +122,7 @@ impl Truth {
             let Some((_, truth)) = next.next_if(|s| s.0 == f) else { continue };
             let d = match &source {
                 Some(m) => {
-                    let stored = m.vertices(&x, dec.loose(), dec.at_vertices());
-                    let v = match src.appearance() {
-                        Some(a) => a.on_sequence(&stored, topology.vertex_count),
-                        None => stored,
-                    };
+                    let v = src.on_input(m.vertices(&x, dec.loose(), dec.at_vertices()));
                     surface::symmetric(&v, &topology.faces, truth, &topology.faces)?
                 }
                 None => surface::symmetric(&surface_vertices(&x, dec.loose()), &faces, truth, &topology.faces)?,
