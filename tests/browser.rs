@@ -242,6 +242,7 @@ fn site(name: &str) -> (PathBuf, Guard, u16) {
     for f in ["walk-skinned-residual.cgv", "walk-normal-residual.cgv"] {
         std::fs::copy(root.join("tests/fixtures/v18").join(f), dir.join(f)).unwrap();
     }
+    std::fs::copy(root.join("tests/fixtures/v16/walk-capture-frame-meshes.cgv"), dir.join("capture.cgv")).unwrap();
     // The built-in figure with its UVs and procedural checks, encoded now.
     let textured = dir.join("walk-textured.cgv");
     let out = Command::new(env!("CARGO_BIN_EXE_cgv"))
@@ -456,6 +457,37 @@ fn viewer_plays_renders_and_recovers_in_headless_chromium() {
         let worst = got.iter().zip(frame).map(|(a, b)| (a - *b as f64).abs()).fold(0.0, f64::max);
         assert!(worst < 1e-4, "frame {k} of {fixture}'s input vertices differ by {worst} in the page");
     }
+
+    // A version-16 file (a capture, `--mesh frames`): each frame drawn as
+    // its own mesh, rebuilt in the page to the frozen vertices.
+    browser.js("document.getElementById('a').load('capture.cgv'); return true;", json!([]));
+    let all =
+        "const p = document.getElementById('a'); return (p.frames || []).filter((x) => x && x.mesh).length === 4;";
+    browser.wait("the v16 fixture's 4 frame meshes", all, 60);
+    browser.js("const p = document.getElementById('a'); p.pause(); p.show(3); return true;", json!([]));
+    std::thread::sleep(Duration::from_millis(300));
+    assert_eq!(browser.js(surface, json!([])), json!("frame"), "{}", browser.js(STATE, json!([])));
+    let meshes = browser.js(
+        "const p = document.getElementById('a'); \
+         return [0, 1, 2, 3].map((k) => ({ v: Array.from(p.frames[k].mesh.vertices), f: p.frames[k].mesh.faces.length }));",
+        json!([]),
+    );
+    let faces: Vec<u64> = meshes.as_array().unwrap().iter().map(|m| m["f"].as_u64().unwrap() / 3).collect();
+    assert_eq!(faces, [1466, 1814, 1722, 1392], "the capture's faces a frame in the page");
+    let got: Vec<f64> = meshes
+        .as_array()
+        .unwrap()
+        .iter()
+        .flat_map(|m| m["v"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()))
+        .collect();
+    let frozen = "tests/fixtures/v16/walk-capture-frame-meshes.cgv.frame-meshes.positions";
+    let want = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join(frozen)).unwrap();
+    let want: Vec<f32> = want.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+    assert_eq!(got.len(), want.len(), "the frame meshes' vertices");
+    let worst = got.iter().zip(&want).map(|(a, b)| (a - *b as f64).abs()).fold(0.0, f64::max);
+    assert!(worst < 1e-4, "the v16 fixture's frame meshes differ by {worst} in the page");
+    let (fig, _) = figure_pixels(&browser.screenshot(&art.join("frame-mesh.png")));
+    assert!(fig > 2000, "the frame's own mesh shows {fig} figure pixels");
 
     // A version-9 file: x, y, z corrections at 16 x 16 beside a 32 x 32
     // normal picture, each stream's WebCodecs decoder at its own size.
@@ -782,6 +814,19 @@ fn the_three_js_module_plays_a_motion_in_a_scene() {
         }
         assert!(shots[0].1 != shots[1].1, "{file}: frames 0 and 2 look the same (see {})", art.display());
     }
+    // A capture (format v16): each frame its own mesh, its own vertex count.
+    browser.go(&format!("http://127.0.0.1:{port}/three/index.html?src=../capture.cgv"));
+    browser.wait("capture.cgv in three.js", "return !!window.cgvMesh || !!window.cgvError;", 90);
+    for (f, vertices) in [(0, 735), (2, 863)] {
+        browser.js(&format!("window.cgvTime = {f} / 30 + 0.001; return true;"), json!([]));
+        browser.wait(&format!("capture frame {f}"), &format!("return window.cgvMesh.frame === {f};"), 30);
+        std::thread::sleep(Duration::from_millis(200));
+        let s = browser.js(THREE_STATE, json!([]));
+        assert_eq!(s["vertices"], json!(vertices), "capture frame {f}: its own mesh: {s}");
+        let lit = bright(&browser.screenshot(&art.join(format!("capture-{f}.png"))));
+        assert!(lit > 1000, "capture frame {f}: {lit} lit pixels (see {})", art.display());
+    }
+    browser.js("window.cgvTime = undefined; return true;", json!([]));
     // Fox (format v8): the input's mesh with its texture, orange fur in the picture.
     browser.go(&format!("http://127.0.0.1:{port}/three/index.html?src=../fox.cgv"));
     browser.wait("fox.cgv in three.js", "return !!window.cgvMesh || !!window.cgvError;", 90);

@@ -289,18 +289,23 @@ export class CgvPlayer extends HTMLElement {
       // its mesh is a surface, shown shaded.
       const skinned = this.header?.skin?.rest_step != null;
       const mode = skinned ? 'shaded' : this.mode;
-      const mesh = !!sm && (skinned || (mode === 'shaded' && this.getAttribute('mesh') !== 'grid'));
+      const own = mode === 'shaded' && this.getAttribute('mesh') !== 'grid';
+      // A capture's file (format v16) carries each frame's own mesh.
+      const fm = own ? this.frames[f].mesh : undefined;
+      const mesh = fm ? 'frame' : !!sm && (skinned || own) ? 'source' : 'grid';
       if (!s || s.frame !== this.frames[f] || s.mode !== this.mode || s.ref !== ref || s.mesh !== mesh) {
-        if (!s || s.mesh !== mesh || s.texture !== this.texture) {
-          this.view.set_mesh(mesh ? this.player.source_faces() : new Uint32Array(0), mesh ? sm.vertices : 0);
+        if (!s || s.mesh !== mesh || s.texture !== this.texture || mesh === 'frame') {
+          if (mesh === 'frame') this.view.set_mesh(fm.faces, fm.vertices.length / 3);
+          else this.view.set_mesh(mesh === 'source' ? this.player.source_faces() : new Uint32Array(0), mesh === 'source' ? sm.vertices : 0);
           const t = this.texture;
-          if (mesh && t) this.view.set_texture(t.uvs, t.baseColor, t.rgba, t.width, t.height);
+          if (mesh === 'source' && t) this.view.set_texture(t.uvs, t.baseColor, t.rgba, t.width, t.height);
         }
         this.view.set_reference(ref || new Float32Array(0));
-        this.view.set_frame(mesh ? this.player.source_vertices(this.frames[f], this.frames[f].loose, this.frames[f].skinned) : this.frames[f], mode);
+        const x = this.frames[f];
+        this.view.set_frame(mesh === 'frame' ? fm.vertices : mesh === 'source' ? this.player.source_vertices(x, x.loose, x.skinned) : x, mode);
         this.shown = { frame: this.frames[f], mode: this.mode, ref, mesh, texture: this.texture };
-        this.dataset.textured = mesh && this.texture?.width > 0 ? 'yes' : 'no';
-        this.dataset.surface = mesh ? 'source' : 'grid';
+        this.dataset.textured = mesh === 'source' && this.texture?.width > 0 ? 'yes' : 'no';
+        this.dataset.surface = mesh;
         this.view.draw();
       }
     } catch (e) {

@@ -416,6 +416,12 @@ export class MotionStream extends EventTarget {
         // So does what the decoder adds at the mesh's vertices: the bones'
         // skinning (format v17) and the vertex residual (v18).
         x.skinned = this.player.skinned_vertices();
+        // A capture's own mesh of this frame (format v16), while its bytes are here.
+        if (h.frame_meshes) {
+          const m = this.player.frame_mesh(f, x);
+          x.mesh = { faces: m.faces, vertices: m.vertices };
+          m.free();
+        }
         const t2 = performance.now();
         const st = this.stats, k = st.decoded;
         st.decodeMs = (st.decodeMs * k + (t1 - t)) / (k + 1);

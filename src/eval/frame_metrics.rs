@@ -67,5 +67,4 @@ impl Ctx<'_> {
             source_vertex_rms: source.add_vertices(input, v),
         })
     }
-
 }

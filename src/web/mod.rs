@@ -5,14 +5,15 @@
 //! the browser has no WebGPU adapter.
 //!
 //! JavaScript sees two classes: [`Player`] (bytes in, positions out) and
-//! [`View`] (a canvas, a camera, a colour mode); `player.rs` is the decoder
-//! alone, `view.rs` (the `render` feature) draws.
+//! [`View`] (a canvas, a camera, a colour mode), and the [`FrameMesh`]
+//! values a player returns; `player.rs` is the decoder alone, `view.rs`
+//! (the `render` feature) draws.
 
 mod player;
 #[cfg(feature = "render")]
 mod view;
 
-pub use player::Player;
+pub use player::{FrameMesh, Player};
 #[cfg(feature = "render")]
 pub use view::View;
 

@@ -287,6 +287,31 @@ impl Player {
             .map_or_else(Vec::new, |s| s.iter().flat_map(|p| p.to_array()).collect())
     }
 
+    /// Version 16: frame `frame`'s own mesh (a capture's, `cgv encode
+    /// --mesh frames`): its faces and its vertices rebuilt on that frame's
+    /// decoded grid frame (as [`decode_next`](Self::decode_next) returned
+    /// it); both empty in files without frame meshes. Ask right after
+    /// decoding the frame: the player may drop a frame's bytes once it is
+    /// behind.
+    pub fn frame_mesh(&self, frame: u32, grid_frame: &[f32]) -> std::result::Result<FrameMesh, JsError> {
+        let dec = self.dec.as_ref().ok_or_else(|| JsError::new("the header has not arrived"))?;
+        let info =
+            self.reader.file().filter(|_| self.reader.frame_arrived(frame)).and_then(|f| f.frames.get(frame as usize));
+        let Some(unit) = info.and_then(|i| i.mesh.as_deref()) else {
+            return Ok(FrameMesh { faces: Vec::new(), vertices: Vec::new() });
+        };
+        let n = dec.grid().len();
+        if grid_frame.len() != 3 * n {
+            return Err(JsError::new(&format!("{} values for a grid of {n} samples", grid_frame.len())));
+        }
+        let mesh = crate::format::frame_mesh::parse_unit(unit, frame, 0).map_err(js)?;
+        let vertices = SourceMeshDecoder::new(dec.grid(), &mesh).vertices(&positions(grid_frame), &[], None);
+        Ok(FrameMesh {
+            faces: mesh.faces.iter().flatten().copied().collect(),
+            vertices: vertices.iter().flat_map(|p| p.to_array()).collect(),
+        })
+    }
+
     /// Rebuilds the next frame from the pictures supplied: x, y, z per grid sample.
     pub fn decode_next(&mut self) -> std::result::Result<Vec<f32>, JsError> {
         let dec = self.dec.as_mut().ok_or_else(|| JsError::new("the header has not arrived"))?;
@@ -301,4 +326,13 @@ impl Player {
         let (x, _) = dec.push_frame(info, &lumas).map_err(js)?;
         Ok(x.iter().flat_map(|p| p.to_array()).collect())
     }
+}
+
+/// A frame's own mesh ([`Player::frame_mesh`]).
+#[wasm_bindgen(getter_with_clone)]
+pub struct FrameMesh {
+    /// Three vertex indices a face.
+    pub faces: Vec<u32>,
+    /// x, y, z a vertex.
+    pub vertices: Vec<f32>,
 }

@@ -106,10 +106,16 @@ export class CgvMesh extends THREE.Mesh {
   showFrame(f) {
     if (f === this.frame || !this.stream.frames[f]) return;
     const grid = this.stream.frames[f];
-    const x = this.useSource ? this.stream.player.source_vertices(grid, grid.loose, grid.skinned) : grid;
-    const position = this.geometry.getAttribute('position');
-    position.array.set(x);
-    position.needsUpdate = true;
+    if (grid.mesh) {
+      // A capture's file (format v16): each frame its own mesh.
+      this.geometry.setIndex(new THREE.BufferAttribute(grid.mesh.faces, 1));
+      this.geometry.setAttribute('position', new THREE.BufferAttribute(grid.mesh.vertices, 3));
+    } else {
+      const x = this.useSource ? this.stream.player.source_vertices(grid, grid.loose, grid.skinned) : grid;
+      const position = this.geometry.getAttribute('position');
+      position.array.set(x);
+      position.needsUpdate = true;
+    }
     this.geometry.computeVertexNormals();
     this.geometry.computeBoundingSphere();
     this.frame = f;
