@@ -119,6 +119,12 @@ pub struct CodecResult {
     /// The vertex residual (percent of the diagonal; format v18), if any.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub vertex_residual: Option<f32>,
+    /// The source mesh line of this codec's own files, where they carry
+    /// the mesh (the skinned codec's: faces, places and rest pose; not in
+    /// `bytes`); the others' files are compared without it, and with the
+    /// report's `source_mesh_bytes` added where the user's mesh comes back.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub own_mesh_bytes: Option<usize>,
     /// The rate-control target (kbit/s at the sequence's rate) when a
     /// constant QP could not match the size.
     pub rate_control_kbps: Option<f32>,
@@ -245,6 +251,8 @@ struct Try {
     rc: Option<f32>,
     /// The vertex residual (percent of the diagonal), if any.
     residual: Option<f32>,
+    /// The file's own source mesh line (0 where it carries none).
+    mesh_bytes: usize,
     bytes: Vec<u8>,
     /// The bytes compared: the file's, less its source mesh (carried only
     /// where the loose vertices need it; the same for every codec).
@@ -474,8 +482,8 @@ impl Ctx<'_> {
         let t = std::time::Instant::now();
         let (bytes, report) = encode_prepared(self.src, &o, self.prepared, &mut |_, _, _| {})?;
         let size = bytes.len() - report.source_mesh_bytes;
-        let encode_seconds = t.elapsed().as_secs_f64();
-        Ok(Try { qp, layers, rc: rc.map(|r| r.1), residual, bytes, size, encode_seconds })
+        let (encode_seconds, mesh_bytes) = (t.elapsed().as_secs_f64(), report.source_mesh_bytes);
+        Ok(Try { qp, layers, rc: rc.map(|r| r.1), residual, mesh_bytes, bytes, size, encode_seconds })
     }
 
     /// Finds the encode whose size is nearest `target` (see the module doc
@@ -657,6 +665,7 @@ impl Ctx<'_> {
             layers: t.layers,
             rate_control_kbps: t.rc,
             vertex_residual: t.residual,
+            own_mesh_bytes: (t.mesh_bytes > 0).then_some(t.mesh_bytes),
             matched,
             bytes,
             kbps: bytes as f64 * 8.0 / 1000.0 / seconds,

@@ -104,8 +104,12 @@ pub struct PeerBdRate {
 #[derive(Debug, Clone, Serialize)]
 pub struct Peers {
     pub report: PeerReport,
-    /// The codec compared (ours: cgv, else the one cgv mode evaluated).
+    /// The codec whose curve the BD-rates and the chart take: the first
+    /// of `codecs`.
     pub codec: EvalCodec,
+    /// Our codecs the evaluation ran (the baselines GV and conformal only
+    /// when nothing else ran): at each peer point, the fewest bits of them.
+    pub codecs: Vec<EvalCodec>,
     pub comparisons: Vec<PeerComparison>,
     pub bd_rates: Vec<PeerBdRate>,
 }
@@ -178,8 +182,10 @@ impl PeerReport {
 }
 
 /// The first of our codecs the report holds, best first.
-fn our_codec(r: &Report) -> Option<EvalCodec> {
-    [
+fn our_codecs(r: &Report) -> Vec<EvalCodec> {
+    let ran: Vec<EvalCodec> = [
+        EvalCodec::SKINNED_RESIDUAL,
+        EvalCodec::SKINNED,
         EvalCodec::NORMAL,
         EvalCodec::PREDICTIVE,
         EvalCodec::NORMAL_MOTION,
@@ -190,17 +196,61 @@ fn our_codec(r: &Report) -> Option<EvalCodec> {
         EvalCodec::GV,
     ]
     .into_iter()
-    .find(|c| r.points.iter().any(|p| p.results.iter().any(|x| x.codec == *c)))
+    .filter(|c| r.points.iter().any(|p| p.results.iter().any(|x| x.codec == *c)))
+    .collect();
+    // The baselines are ours only when nothing else ran.
+    let own: Vec<EvalCodec> =
+        ran.iter().copied().filter(|c| ![EvalCodec::GV, EvalCodec::CONFORMAL].contains(c)).collect();
+    if own.is_empty() {
+        ran.into_iter().take(1).collect()
+    } else {
+        own
+    }
 }
 
-/// Our whole file's bits per input vertex per frame: the motion and the mesh.
+/// One codec's (bits, error) curves: surface RMS with the input's mesh and
+/// without it, vertex RMS on the input's vertices.
+struct Curves {
+    surface: Vec<(f64, f64)>,
+    grid: Vec<(f64, f64)>,
+    vertex: Vec<(f64, f64)>,
+}
+
+impl Curves {
+    fn of(r: &Report, codec: EvalCodec) -> Curves {
+        let ours: Vec<&CodecResult> = r.points.iter().flat_map(|p| &p.results).filter(|c| c.codec == codec).collect();
+        Curves {
+            surface: ours.iter().filter_map(|c| c.surface_rms.map(|e| (shipped_bits(r, c), e))).collect(),
+            grid: ours.iter().filter_map(|c| c.surface_rms.map(|e| (c.bits_per_input_vertex, e))).collect(),
+            vertex: ours.iter().map(|c| (shipped_bits(r, c), c.source.vertex_rms)).collect(),
+        }
+    }
+}
+
+/// The fewest bits of several codecs' reaches: a reached error before one
+/// beyond a curve, the lower error of two beyond.
+fn fewest(reaches: impl Iterator<Item = Reach>) -> Reach {
+    let rank = |r: &Reach| match *r {
+        Reach::At { bits } | Reach::AtMost { bits } => (0, bits),
+        Reach::Beyond { best, .. } => (1, best),
+        Reach::Unknown => (2, 0.0),
+    };
+    reaches.min_by(|a, b| rank(a).partial_cmp(&rank(b)).unwrap_or(std::cmp::Ordering::Equal)).unwrap_or(Reach::Unknown)
+}
+
+/// Our whole file's bits per input vertex per frame: the motion and the
+/// mesh (the codec's own mesh line where its files carry one).
 pub fn shipped_bits(r: &Report, c: &CodecResult) -> f64 {
-    (c.bytes + r.source_mesh_bytes) as f64 * 8.0 / (r.frames * r.input_vertices).max(1) as f64
+    shipped_bytes(r, c) as f64 * 8.0 / (r.frames * r.input_vertices).max(1) as f64
 }
 
 /// Our kbit/s at 30 fps for the whole file (the chart's peer panel).
 pub fn shipped_kbps_30fps(r: &Report, c: &CodecResult) -> f64 {
-    (c.bytes + r.source_mesh_bytes) as f64 * 8.0 / 1000.0 * 30.0 / r.frames.max(1) as f64
+    shipped_bytes(r, c) as f64 * 8.0 / 1000.0 * 30.0 / r.frames.max(1) as f64
+}
+
+fn shipped_bytes(r: &Report, c: &CodecResult) -> usize {
+    c.bytes + c.own_mesh_bytes.unwrap_or(r.source_mesh_bytes)
 }
 
 /// The fewest bits at which a curve of (bits, error) points reaches
@@ -230,12 +280,14 @@ pub fn bits_at(curve: &[(f64, f64)], error: f64) -> Reach {
 /// Joins `peers` to the report: where each peer point is on our curve, and
 /// BD-rates on surface RMS against each peer.
 pub fn compare(r: &Report, peers: PeerReport) -> Option<Peers> {
-    let codec = our_codec(r)?;
+    let codecs = our_codecs(r);
+    let codec = *codecs.first()?;
+    let curves: Vec<Curves> = codecs.iter().map(|&c| Curves::of(r, c)).collect();
+    let at = |e: Option<f64>, curve: &dyn Fn(&Curves) -> &[(f64, f64)]| match e {
+        Some(e) => fewest(curves.iter().map(|c| bits_at(curve(c), e))),
+        None => Reach::Unknown,
+    };
     let ours: Vec<&CodecResult> = r.points.iter().flat_map(|p| &p.results).filter(|c| c.codec == codec).collect();
-    let surface: Vec<(f64, f64)> = ours.iter().filter_map(|c| c.surface_rms.map(|e| (shipped_bits(r, c), e))).collect();
-    let grid: Vec<(f64, f64)> =
-        ours.iter().filter_map(|c| c.surface_rms.map(|e| (c.bits_per_input_vertex, e))).collect();
-    let vertex: Vec<(f64, f64)> = ours.iter().map(|c| (shipped_bits(r, c), c.source.vertex_rms)).collect();
     let comparisons = peers
         .curves
         .iter()
@@ -246,9 +298,9 @@ pub fn compare(r: &Report, peers: PeerReport) -> Option<Peers> {
             peer_bits_per_input_vertex: p.bits_per_input_vertex,
             surface_rms: p.surface_rms,
             vertex_rms: p.vertex_rms,
-            grid_at_surface_rms: p.surface_rms.map_or(Reach::Unknown, |e| bits_at(&grid, e)),
-            ours_at_surface_rms: p.surface_rms.map_or(Reach::Unknown, |e| bits_at(&surface, e)),
-            ours_at_vertex_rms: bits_at(&vertex, p.vertex_rms),
+            grid_at_surface_rms: at(p.surface_rms, &|c| &c.grid),
+            ours_at_surface_rms: at(p.surface_rms, &|c| &c.surface),
+            ours_at_vertex_rms: at(Some(p.vertex_rms), &|c| &c.vertex),
         })
         .collect();
     let ours_kbps: Vec<(f64, f64)> =
@@ -269,7 +321,7 @@ pub fn compare(r: &Report, peers: PeerReport) -> Option<Peers> {
             }
         })
         .collect();
-    Some(Peers { report: peers, codec, comparisons, bd_rates })
+    Some(Peers { report: peers, codec, codecs, comparisons, bd_rates })
 }
 
 #[cfg(test)]
@@ -290,6 +342,21 @@ mod tests {
         // A point that does worse with more bits does not hide a crossing.
         let bumpy = [(1.0, 1e-2), (2.0, 2e-2), (4.0, 1e-3)];
         assert!(matches!(bits_at(&bumpy, 5e-3), Reach::At { bits } if bits > 2.0 && bits < 4.0));
+    }
+
+    #[test]
+    fn the_fewest_bits_of_several_codecs_are_ours() {
+        // One codec cheap at high errors, one that reaches low ones.
+        let (cheap, fine) = ([(1.0, 1e-2), (4.0, 2e-3)], [(2.0, 1e-2), (6.0, 2e-4)]);
+        let both = |e: f64| fewest([bits_at(&cheap, e), bits_at(&fine, e)].into_iter());
+        assert!(matches!(both(1e-2), Reach::AtMost { bits } if bits == 1.0));
+        // At 2e-3 both reach it, the fine one in fewer bits (2 * 3^0.41).
+        let Reach::At { bits: fine_bits } = bits_at(&fine, 2e-3) else { panic!("reached") };
+        assert!(fine_bits < 4.0 && matches!(both(2e-3), Reach::At { bits } if bits == fine_bits));
+        // Beyond the cheap one's curve, the fine one reads it.
+        assert!(matches!(both(1e-3), Reach::At { bits } if bits > fine_bits && bits < 6.0));
+        assert!(matches!(both(1e-4), Reach::Beyond { best, .. } if best == 2e-4));
+        assert!(matches!(fewest(std::iter::empty()), Reach::Unknown));
     }
 
     #[test]

@@ -110,7 +110,7 @@ fn on_budget<S: Sink>(
         passes = pass + 1;
         let (size, video) = (report.bytes, report.stream_bytes.iter().map(|s| s.1).sum::<usize>());
         let fixed = size - video;
-        let mesh = report.source_mesh_bytes;
+        let (mesh, residual) = (report.source_mesh_bytes, report.vertex_residual_bytes);
         let scaled = o.video.kbps.unwrap_or(kbps) as f64 * (target - fixed as f64) / video.max(1) as f64;
         if best.as_ref().is_none_or(|b| miss(size) < miss(b.1.bytes)) {
             best = Some((sink, report));
@@ -119,8 +119,11 @@ fn on_budget<S: Sink>(
             break;
         }
         if target <= fixed as f64 {
-            let way_out =
+            let mut way_out =
                 if mesh > 0 { format!(", {mesh} of them the source mesh (--no-source-mesh)") } else { String::new() };
+            if residual > 0 {
+                way_out += &format!(", {residual} the vertex residual (a larger --vertex-residual, or none)");
+            }
             return Err(Error::BudgetTooSmall(format!(
                 "a budget of {kbps} kbit/s is {target:.0} bytes for this motion, and what is not video alone \
                  takes {fixed}{way_out}: ask for more"
