@@ -276,6 +276,18 @@ fn v18_vertex_residual_fixtures_decode_as_frozen() {
         let delta = |k: usize| f.frames[k].residual.as_ref().is_some_and(|u| u[0] == 1);
         assert!((0..frames as usize).any(delta), "{name}");
         check(name, SolverKind::Predictive, 1e-5);
+        // A seek back to the point at frame 3, after the last frame, decodes
+        // the frames after it as a decode from frame 0 does (the residual
+        // restarts there).
+        let vertices = |dec: &mut FileDecoder, k: usize| -> Vec<Vec<glam::Vec3>> {
+            let source = dec.source_mesh().unwrap();
+            (0..k).map(|_| dec.next_source_frame(&source).unwrap().1).collect()
+        };
+        let whole = vertices(&mut FileDecoder::new(f.clone(), SolverKind::Predictive).unwrap(), frames as usize);
+        let mut late = FileDecoder::new(f.clone(), SolverKind::Predictive).unwrap();
+        vertices(&mut late, frames as usize);
+        late.seek(3).unwrap();
+        assert_eq!(vertices(&mut late, frames as usize - 3), whole[3..], "{name}");
         check_source(name, f);
     }
 }

@@ -389,6 +389,9 @@ impl SequenceDecoder {
         if f > 0 && h.is_random_access_point(f) {
             self.restart();
         }
+        // Read before the decoder's state moves: a unit that does not decode
+        // leaves it where it was.
+        let residual = self.vertex_residual_unit(info)?;
         let h = &self.header;
         if let Some(b) = &mut self.vertex_bones {
             let unit = info.bones.as_deref().unwrap_or_default();
@@ -405,7 +408,7 @@ impl SequenceDecoder {
             (None, None) => {}
             _ => return Err(Error::Argument(format!("frame {f}'s loose vertices do not match the header's"))),
         }
-        self.decode_vertex_residual(info)?;
+        self.apply_vertex_residual(residual);
         self.next += 1;
         Ok(out)
     }
@@ -418,19 +421,26 @@ impl SequenceDecoder {
         self.vertex_residual.iter_mut().for_each(VertexResidual::reset);
     }
 
-    /// Version 18: the frame's vertex residual, and with bones on the
-    /// vertices their sum with the skinning ([`Self::at_vertices`]).
-    fn decode_vertex_residual(&mut self, info: &FrameInfo) -> Result<()> {
-        let Some(r) = &mut self.vertex_residual else { return Ok(()) };
+    /// Version 18: the frame's vertex residual unit, decoded (none in files
+    /// without one).
+    fn vertex_residual_unit(&self, info: &FrameInfo) -> Result<Option<ResidualUnit>> {
+        let Some(r) = &self.vertex_residual else { return Ok(None) };
         let (f, values) = (self.next, 3 * r.residual().len());
         let unit = info.residual.as_deref().ok_or_else(|| Error::Argument(format!("frame {f}: no vertex residual")))?;
         let unit = ResidualUnit::parse(unit, values, 0).map_err(|e| Error::Argument(format!("frame {f}: {e}")))?;
+        Ok(Some(unit))
+    }
+
+    /// Version 18: the frame's residual, and with bones on the vertices its
+    /// sum with the skinning ([`Self::at_vertices`]: the decoded vertex is
+    /// the grid's rebuild plus that sum).
+    fn apply_vertex_residual(&mut self, unit: Option<ResidualUnit>) {
+        let (Some(r), Some(unit)) = (&mut self.vertex_residual, unit) else { return };
         r.apply(&unit);
         if let Some(s) = self.vertex_bones.as_ref().and_then(SkinnedPredictor::skinned) {
             self.added.clear();
             self.added.extend(s.iter().zip(r.residual()).map(|(s, r)| *s + *r));
         }
-        Ok(())
     }
 
     /// Version 13: the file's skin weights (its `SKIN` chunk), needed

@@ -50,10 +50,11 @@ impl VertexResidual {
     }
 
     /// Encoder: the unit that brings the residual to `target` (a vector a
-    /// vertex: the true vertex less the decoded one) within half a step,
-    /// as the residual itself or its change from the last frame's,
-    /// whichever codes smaller; applies it and returns its bytes.
-    pub fn code(&mut self, target: &[Vec3]) -> Vec<u8> {
+    /// vertex: the true vertex less the decoded one) within half a step
+    /// (where no value is clamped at [`MAX_VALUE`]), as the residual itself
+    /// or its change from the last frame's, whichever codes smaller;
+    /// applies it and returns its bytes (`None` if the range coder fails).
+    pub fn code(&mut self, target: &[Vec3]) -> Option<Vec<u8>> {
         let max = MAX_VALUE as f32;
         let values = |from: &dyn Fn(usize) -> Vec3| -> Vec<i32> {
             (0..self.residual.len())
@@ -66,10 +67,10 @@ impl VertexResidual {
         };
         let intra = ResidualUnit { mode: Mode::Intra, values: values(&|_| Vec3::ZERO) };
         let delta = ResidualUnit { mode: Mode::Delta, values: values(&|v| self.residual[v]) };
-        let (a, b) = (intra.to_bytes(), delta.to_bytes());
+        let (a, b) = (intra.to_bytes()?, delta.to_bytes()?);
         let (unit, bytes) = if b.len() < a.len() { (delta, b) } else { (intra, a) };
         self.apply(&unit);
-        bytes
+        Some(bytes)
     }
 }
 
@@ -88,7 +89,7 @@ mod tests {
             // A slowly changing residual: later frames code its change.
             let target: Vec<Vec3> =
                 (0..50).map(|v| Vec3::new((v as f32 * 0.37).sin(), 0.2 * f as f32, (v as f32).cos()) * 0.05).collect();
-            let bytes = enc.code(&target);
+            let bytes = enc.code(&target).unwrap();
             dec.apply(&ResidualUnit::parse(&bytes, 150, 0).unwrap());
             assert_eq!(enc.residual(), dec.residual(), "frame {f}");
             let worst =

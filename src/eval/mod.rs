@@ -120,8 +120,9 @@ pub struct CodecResult {
     #[serde(skip_serializing_if = "Option::is_none")]
     pub vertex_residual: Option<f32>,
     /// The source mesh line of this codec's own files, where they carry
-    /// the mesh (the skinned codec's: faces, places and rest pose; not in
-    /// `bytes`); the others' files are compared without it, and with the
+    /// the mesh (the skinned codec's: faces, places and the rest pose, as
+    /// `cgv encode` reports it, though the rest pose lies in the SKIN
+    /// chunk; not in `bytes`); the others' files are compared without it, and with the
     /// report's `source_mesh_bytes` added where the user's mesh comes back.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub own_mesh_bytes: Option<usize>,

@@ -181,7 +181,8 @@ impl PeerReport {
     }
 }
 
-/// The first of our codecs the report holds, best first.
+/// Our codecs the report holds, the one BD-rates and the chart take
+/// first; the baselines (GV, conformal) only when nothing else ran.
 fn our_codecs(r: &Report) -> Vec<EvalCodec> {
     let ran: Vec<EvalCodec> = [
         EvalCodec::SKINNED_RESIDUAL,

@@ -25,8 +25,8 @@ impl Ctx<'_> {
         let qp = crate::codec::residual_qp_of(crate::format::Representation::Skinned);
         let interval = self.opts.base.correction_interval;
         let mut best: Option<Try> = None;
-        // (log step, log size) of the finest step still too large and the
-        // coarsest too small.
+        // (log step, log size) of the coarsest step whose file is still too
+        // large and the finest whose file is too small.
         let (mut lo, mut hi): (Option<LogPoint>, Option<LogPoint>) = (None, None);
         let (mut p, mut tries) = (0.1f64, 0);
         while tries < TRIES {

@@ -451,6 +451,13 @@ impl Header {
         self.codec == CodecKind::Gv || self.is_closed_loop()
     }
 
+    /// Whether a decoder adds something at the source mesh's vertices to
+    /// the grid's rebuild: the bones' skinning (version 17) or the vertex
+    /// residual (18).
+    pub fn adds_at_vertices(&self) -> bool {
+        self.skin.is_some_and(|s| s.on_vertices()) || self.vertex_residual.is_some()
+    }
+
     /// Version 11: how many loose vertices each frame carries, if any.
     pub fn loose_vertices(&self) -> Option<u32> {
         self.source_mesh.and_then(|m| m.loose)

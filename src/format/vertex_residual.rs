@@ -17,8 +17,12 @@
 //! counts   2K+1 LEB128 how many values are -K, ..., K (their sum is 3V)
 //! words    u32 LE ...  the 3V values, x, y, z of vertex after vertex,
 //!                      range coded (constriction 0.5's RangeEncoder<u32,
-//!                      u64>) with the model `model` makes of the counts
+//!                      u64>) with the model `model` makes of the counts;
+//!                      words past those the values need are not read
 //! ```
+//!
+//! A reader checks the unit's frame ([`ResidualUnit::check`]) and the
+//! decoder decodes its values ([`ResidualUnit::parse`]): once, not twice.
 //!
 //! Range coding with the frame's own histogram comes within the
 //! histogram's few bytes of the values' entropy; deflate of their bytes
@@ -89,8 +93,9 @@ fn model(counts: &[u64]) -> Option<DefaultContiguousCategoricalEntropyModel> {
 
 impl ResidualUnit {
     /// The unit's bytes (values beyond [`MAX_VALUE`] are the caller's to
-    /// clamp; they are clamped here too).
-    pub fn to_bytes(&self) -> Vec<u8> {
+    /// clamp; they are clamped here too). `None` only if the range coder
+    /// fails, which a model giving every value a nonzero share rules out.
+    pub fn to_bytes(&self) -> Option<Vec<u8>> {
         let max = MAX_VALUE as i32;
         let values: Vec<i32> = self.values.iter().map(|&v| v.clamp(-max, max)).collect();
         let k = values.iter().map(|v| v.unsigned_abs()).max().unwrap_or(0);
@@ -102,22 +107,36 @@ impl ResidualUnit {
         leb128::write(&mut out, u64::from(k));
         counts.iter().for_each(|&c| leb128::write(&mut out, c));
         // One value alone needs no words: the counts say it all.
-        let Some(model) = model(&counts).filter(|_| counts.iter().filter(|&&c| c > 0).count() > 1) else {
-            return out;
-        };
+        if counts.iter().filter(|&&c| c > 0).count() <= 1 {
+            return Some(out);
+        }
         let mut coder = DefaultRangeEncoder::new();
         let symbols = values.iter().map(|&v| (v + k as i32) as usize);
-        // Every symbol has a nonzero probability: encoding cannot fail.
-        if coder.encode_iid_symbols(symbols, model.as_view()).is_ok() {
-            let Ok(words) = coder.into_compressed();
-            out.extend(words.iter().flat_map(|w| w.to_le_bytes()));
-        }
-        out
+        coder.encode_iid_symbols(symbols, model(&counts)?.as_view()).ok()?;
+        let Ok(words) = coder.into_compressed();
+        out.extend(words.iter().flat_map(|w| w.to_le_bytes()));
+        Some(out)
     }
 
     /// Reads a unit of `count` values (3 V) from a frame chunk at byte
-    /// `offset` (named in errors).
+    /// `offset` (named in errors): [`Self::check`], then the values.
     pub fn parse(payload: &[u8], count: usize, offset: usize) -> Result<ResidualUnit, ContainerError> {
+        let (mode, counts, at) = Self::check(payload, count, offset)?;
+        let k = counts.len() / 2;
+        let words: Vec<u32> =
+            payload[at..].chunks_exact(4).map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]])).collect();
+        let values = decode_values(words, &counts, k).ok_or_else(|| ContainerError::Chunk {
+            offset,
+            msg: "vertex residual: the coded values do not decode".into(),
+        })?;
+        Ok(ResidualUnit { mode, values })
+    }
+
+    /// What a reader checks of a unit without range decoding it (the
+    /// decoder's [`Self::parse`] does): its mode, its largest value and
+    /// counts, and whole words after them. Returns the mode, the counts and
+    /// where the words start.
+    pub fn check(payload: &[u8], count: usize, offset: usize) -> Result<(Mode, Vec<u64>, usize), ContainerError> {
         let bad = |msg: String| ContainerError::Chunk { offset, msg: format!("vertex residual: {msg}") };
         let mode = match payload.first() {
             Some(0) => Mode::Intra,
@@ -136,13 +155,13 @@ impl ResidualUnit {
         if total != count as u64 {
             return Err(bad(format!("counts sum to {total}, not the {count} values of the mesh's vertices")));
         }
-        let words = &payload[at..];
-        if words.len() % 4 != 0 {
-            return Err(bad(format!("{} bytes of coded values, not whole 32-bit words", words.len())));
+        if k > 0 && counts[0] + counts[2 * k] == 0 {
+            return Err(bad(format!("K = {k} is not the largest value")));
         }
-        let words: Vec<u32> = words.chunks_exact(4).map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]])).collect();
-        let values = decode_values(words, &counts, k).ok_or_else(|| bad("the coded values do not decode".into()))?;
-        Ok(ResidualUnit { mode, values })
+        if (payload.len() - at) % 4 != 0 {
+            return Err(bad(format!("{} bytes of coded values, not whole 32-bit words", payload.len() - at)));
+        }
+        Ok((mode, counts, at))
     }
 }
 
@@ -179,7 +198,7 @@ mod tests {
         // Mostly 0 and ±1, as a residual a step finer than the video's error is.
         let values: Vec<i32> = (0..3000).map(|i: i32| ((i * 7919) % 13 - 6) / 4).collect();
         let unit = ResidualUnit { mode: Mode::Delta, values };
-        let bytes = unit.to_bytes();
+        let bytes = unit.to_bytes().unwrap();
         assert_eq!(ResidualUnit::parse(&bytes, 3000, 0).unwrap(), unit);
         let mut hist = std::collections::HashMap::new();
         unit.values.iter().for_each(|v| *hist.entry(*v).or_insert(0.0) += 1.0);
@@ -191,12 +210,14 @@ mod tests {
     #[test]
     fn broken_units_are_errors() {
         let unit = ResidualUnit { mode: Mode::Intra, values: vec![0, 1, -1, 2000, 0, 0] };
-        let bytes = unit.to_bytes();
+        let bytes = unit.to_bytes().unwrap();
         // Clamped to the largest value a unit may hold.
         assert_eq!(ResidualUnit::parse(&bytes, 6, 0).unwrap().values[3], MAX_VALUE as i32);
         assert!(ResidualUnit::parse(&bytes, 9, 0).is_err(), "counts for another mesh");
         assert!(ResidualUnit::parse(&[], 6, 0).is_err());
         assert!(ResidualUnit::parse(&[2, 0, 6], 6, 0).is_err(), "unknown mode");
+        // K = 1 with no value at ±1: not the largest value.
+        assert!(ResidualUnit::parse(&[0, 1, 0, 6, 0], 6, 0).is_err(), "a K past the values");
         assert!(ResidualUnit::parse(&bytes[..bytes.len() - 1], 6, 0).is_err(), "a cut word");
         for cut in 0..bytes.len() {
             let _ = ResidualUnit::parse(&bytes[..cut], 6, 0);
@@ -209,6 +230,6 @@ mod tests {
         }
         // All zero: the counts say so and no word follows.
         let zero = ResidualUnit { mode: Mode::Intra, values: vec![0; 6] };
-        assert_eq!(ResidualUnit::parse(&zero.to_bytes(), 6, 0).unwrap(), zero);
+        assert_eq!(ResidualUnit::parse(&zero.to_bytes().unwrap(), 6, 0).unwrap(), zero);
     }
 }

@@ -111,10 +111,7 @@ impl Player {
         if loose.len() != 3 * count {
             return Err(JsError::new(&format!("{} values for {count} loose vertices", loose.len())));
         }
-        let adds = self.dec.as_ref().is_some_and(|d| {
-            let h = d.header();
-            h.skin.is_some_and(|s| s.on_vertices()) || h.vertex_residual.is_some()
-        });
+        let adds = self.dec.as_ref().is_some_and(|d| d.header().adds_at_vertices());
         let want = if adds { 3 * source.topology.vertex_count } else { 0 };
         if skinned.len() != want {
             return Err(JsError::new(&format!("{} skinned values for {want}", skinned.len())));

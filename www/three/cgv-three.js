@@ -107,7 +107,9 @@ export class CgvMesh extends THREE.Mesh {
     if (f === this.frame || !this.stream.frames[f]) return;
     const grid = this.stream.frames[f];
     if (grid.mesh) {
-      // A capture's file (format v16): each frame its own mesh.
+      // A capture's file (format v16): each frame its own mesh (the last
+      // frame's buffers released first).
+      this.geometry.dispose();
       this.geometry.setIndex(new THREE.BufferAttribute(grid.mesh.faces, 1));
       this.geometry.setAttribute('position', new THREE.BufferAttribute(grid.mesh.vertices, 3));
     } else {

@@ -87,7 +87,7 @@ impl ResidualCoding {
             v.and_then(|v| input.get(v)).copied().unwrap_or_default()
         };
         let target: Vec<Vec3> = rebuilt.iter().enumerate().map(|(k, r)| truth(k) - *r).collect();
-        Ok(self.coder.code(&target))
+        self.coder.code(&target).ok_or_else(|| Error::Numerical("the vertex residual's range coder failed".into()))
     }
 }
 

@@ -220,8 +220,7 @@ impl EncodeOptions {
             if !(p.is_finite() && p > 0.0) {
                 return bad(format!("a vertex residual of {p} %: give a positive percentage of the diagonal"));
             }
-            let grid_known = self.codec() == CodecKind::Gv || self.closed_loop();
-            if !self.source_mesh || self.frame_meshes || !grid_known {
+            if !self.source_mesh || self.frame_meshes || !self.grid_known() {
                 return bad("a vertex residual needs the source mesh and the skinned, gv, normal or predictive codec \
                             (whose decoded grid the encoder knows)"
                     .into());
@@ -247,6 +246,13 @@ impl EncodeOptions {
     pub(crate) fn closed_loop(&self) -> bool {
         matches!(self.representation, Representation::Predictive | Representation::Normal)
             && self.solver == SolverKind::Predictive
+    }
+
+    /// Whether the encoder decodes the grid as the decoder will (GV and the
+    /// closed loop; not the paper's solver), which a vertex residual and
+    /// loose vertices are coded against.
+    pub(crate) fn grid_known(&self) -> bool {
+        self.codec() == CodecKind::Gv || self.closed_loop()
     }
 
     /// The header's `codec` field for this representation.

@@ -13,7 +13,7 @@
 //! encodes (docs/RESULTS.md, "`--target-error`"). Where the file keeps the
 //! input's mesh, a vertex residual (format v18) is tried too, at
 //! [`RESIDUAL_QP`]: below the grid's floor it is the only way to the
-//! target, and above it often the smaller file (2 to 3 more encodes).
+//! target, and above it often the smaller file (1 to 4 more encodes).
 
 use crate::codec::{encode_prepared, CodecChoice, EncodeOptions, EncodeReport, FileDecoder};
 use crate::error::{Error, Result};
@@ -110,7 +110,7 @@ impl Truth {
         let file =
             crate::format::read(bytes).map_err(|e| Error::Container { path: src.label().to_path_buf(), source: e })?;
         let solver = file.header.solver;
-        let on_mesh = file.header.skin.is_some_and(|s| s.on_vertices()) || file.header.vertex_residual.is_some();
+        let on_mesh = file.header.adds_at_vertices();
         let mut dec = FileDecoder::new(file, solver)?;
         let source = dec.source_mesh().filter(|_| on_mesh);
         let (topology, faces) = (src.topology(), image.surface_faces(src.topology()));
@@ -208,8 +208,7 @@ fn residual_qp(opts: &EncodeOptions, codec: CodecChoice, image: &GeometryImage) 
         return None;
     }
     let o = codec.apply(opts.clone(), Some(opts.solver)).ok()?;
-    let grid_known = o.codec() == crate::format::CodecKind::Gv || o.closed_loop();
-    grid_known.then(|| residual_qp_of(o.representation))
+    o.grid_known().then(|| residual_qp_of(o.representation))
 }
 
 /// [`RESIDUAL_QP`]'s QP for a representation (the closed loop's for any
