@@ -327,6 +327,21 @@ fn a_tiny_part_is_coded_as_its_own_vertices() {
     };
     let (bytes, _) = encode(&src, &grid_only, &mut |_, _, _| {}).unwrap();
     assert_eq!(cgv::format::read(&bytes).unwrap().header.loose_vertices(), None);
+    // With a vertex residual (format v18) every vertex comes within about
+    // its step, the tetrahedron's too (its own step no coarser).
+    let fine = EncodeOptions { vertex_residual: Some(0.02), ..opts.clone() };
+    let (bytes, _) = encode(&src, &fine, &mut |_, _, _| {}).unwrap();
+    let file = cgv::format::read(&bytes).unwrap();
+    assert!(file.header.loose_vertices() == Some(4) && file.header.vertex_residual.is_some());
+    let mut dec = FileDecoder::new(file, Predictive).unwrap();
+    let mesh = dec.source_mesh().unwrap();
+    for frame in &src.frames {
+        let (grid, _) = dec.next_frame().unwrap();
+        let x = mesh.vertices(&grid, dec.loose(), dec.at_vertices());
+        let worst = x.iter().zip(frame).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
+        // Half a step (0.02 % of the diagonal) along each axis, at most.
+        assert!(worst <= 0.0004 * diag * 3f32.sqrt() / 2.0 * 1.01, "{worst} against the diagonal {diag}");
+    }
 }
 
 #[test]

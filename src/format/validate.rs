@@ -80,16 +80,14 @@ impl Header {
         self.validate_random_access()
     }
 
-    /// Version 18: a residual at the source mesh's vertices (without loose
-    /// vertices, which code their own), over a grid the encoder decoded
-    /// as the decoder will (GV or the closed loop).
+    /// Version 18: a residual at the source mesh's vertices, over a grid
+    /// the encoder decoded as the decoder will (GV or the closed loop).
     fn validate_vertex_residual(&self) -> Result<(), ContainerError> {
         let Some(r) = &self.vertex_residual else { return Ok(()) };
         r.validate().map_err(ContainerError::Header)?;
-        let loose = self.source_mesh.is_some_and(|m| m.loose.is_some());
-        if self.source_mesh.is_none() || loose || !self.loose_follow_grid() {
+        if self.source_mesh.is_none() || !self.loose_follow_grid() {
             return Err(ContainerError::Header(
-                "a vertex residual needs a source mesh without loose vertices, in a GV or closed-loop file".into(),
+                "a vertex residual needs a source mesh, in a GV or closed-loop file".into(),
             ));
         }
         Ok(())

@@ -215,7 +215,8 @@ pub struct Args {
     /// resampling leaves a floor at your vertices (pcow: 0.09 %) that no
     /// QP goes below; this goes below it, for a few bits a vertex a frame
     /// (docs/RESULTS.md, "The vertex residual"). With the skinned, gv,
-    /// normal or predictive codec and the source mesh.
+    /// normal or predictive codec and the source mesh; loose parts are
+    /// coded as finely.
     #[arg(long, value_name = "PERCENT")]
     vertex_residual: Option<f32>,
     /// Frames between H.264 intra frames.

@@ -86,7 +86,10 @@ impl ResidualCoding {
             let v = self.welded.as_ref().map_or(Some(k), |w| w.get(k).map(|&v| v as usize));
             v.and_then(|v| input.get(v)).copied().unwrap_or_default()
         };
-        let target: Vec<Vec3> = rebuilt.iter().enumerate().map(|(k, r)| truth(k) - *r).collect();
+        // A loose vertex takes its own decoded place: nothing to code there.
+        let loose = |k: usize| self.mesh.loose_of.get(k).is_some_and(|&l| l > 0);
+        let target: Vec<Vec3> =
+            rebuilt.iter().enumerate().map(|(k, r)| if loose(k) { Vec3::ZERO } else { truth(k) - *r }).collect();
         self.coder.code(&target).ok_or_else(|| Error::Numerical("the vertex residual's range coder failed".into()))
     }
 }
@@ -217,7 +220,8 @@ pub(super) fn code(
         info.residual = residual.as_mut().map(|r| r.code(&input, decoded.as_deref(), &coder)).transpose()?;
         if header.loose_vertices().is_some() {
             let truth: Vec<Vec3> = loose_ids.iter().map(|&v| input[v as usize]).collect();
-            info.loose = Some(code_loose(&mut loose, (header, st, map), &coder, decoded, &truth, &g)?);
+            let finest = residual.as_ref().map(|r| r.step);
+            info.loose = Some(code_loose(&mut loose, (header, st, map), &coder, (decoded, finest), &truth, &g)?);
         }
         info.mesh = header.frame_meshes.then(|| frame_mesh_unit(src, fi, map.grid, &g)).transpose()?;
         info.bones = chunks.bone_units.and_then(|u| u.get(fi).cloned()).or(info.bones);
@@ -326,12 +330,14 @@ fn write_prefix(out: &mut Written, src: &dyn FrameSource, header: &Header, chunk
 }
 
 /// A frame's loose vertices coded against their prediction on the decoded
-/// grid (`decoded`, the closed loop's; GV's is decoded here).
+/// grid (`decoded`, the closed loop's; GV's is decoded here), on a step no
+/// coarser than `finest` (the vertex residual's, where the file has one:
+/// the loose vertices come as close as the others).
 fn code_loose(
     loose: &mut LooseVertices,
     (header, st, map): (&Header, &Stencils, &crate::resample::SampleMap),
     coder: &FrameCoder,
-    mut decoded: Option<Vec<Vec3>>,
+    (mut decoded, finest): (Option<Vec<Vec3>>, Option<f32>),
     truth: &[Vec3],
     g: &[Vec3],
 ) -> Result<Vec<u8>> {
@@ -350,7 +356,8 @@ fn code_loose(
         (true, None) => return Err(Error::Video("loose vertices follow a grid the encoder did not decode".into())),
         (false, _) => &[],
     };
-    Ok(loose.code(truth, loose_step(normal, diagonal), grid).to_bytes())
+    let step = loose_step(normal, diagonal).min(finest.unwrap_or(f32::INFINITY));
+    Ok(loose.code(truth, step, grid).to_bytes())
 }
 
 /// The typical error of the decoded grid along the true surface's normal

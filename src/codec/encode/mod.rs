@@ -499,13 +499,6 @@ fn residual_coding(
 ) -> Result<Option<code::ResidualCoding>> {
     let (Some(percent), Some((chunk, info))) = (opts.vertex_residual, source) else { return Ok(None) };
     let label = || src.label().display().to_string();
-    if !image.carrier.loose.is_empty() {
-        return Err(Error::Argument(format!(
-            "{}: a vertex residual for a mesh with loose parts (they code their own vertices): leave out \
-             --vertex-residual",
-            label()
-        )));
-    }
     let container = |e: format::ContainerError| Error::Container { path: src.label().into(), source: e };
     let (smsh, _) = format::parse_chunk(chunk, 0)
         .map_err(container)?

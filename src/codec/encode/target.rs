@@ -168,7 +168,7 @@ pub fn encode_to_error(
         Ok(Found { bytes, report, error, qp, options: o })
     };
     let (kept, missed) = bisect(target, 0, 30, &mut |qp| try_qp(qp, None))?;
-    let residual = match residual_qp(opts, codec, image) {
+    let residual = match residual_qp(opts, codec) {
         Some(qp) => with_residual(target, &mut |p| try_qp(qp, Some(&residual_options(opts, codec, qp, p)?)))?,
         None => None,
     };
@@ -201,10 +201,10 @@ pub fn encode_to_error(
 }
 
 /// The video's QP for a vertex residual, where the file can have one (it
-/// keeps the input's mesh, without loose parts, and the options leave the
-/// residual to the encoder).
-fn residual_qp(opts: &EncodeOptions, codec: CodecChoice, image: &GeometryImage) -> Option<u8> {
-    if !opts.source_mesh || opts.frame_meshes || opts.vertex_residual.is_some() || !image.carrier.loose.is_empty() {
+/// keeps the input's mesh and the options leave the residual to the
+/// encoder).
+fn residual_qp(opts: &EncodeOptions, codec: CodecChoice) -> Option<u8> {
+    if !opts.source_mesh || opts.frame_meshes || opts.vertex_residual.is_some() {
         return None;
     }
     let o = codec.apply(opts.clone(), Some(opts.solver)).ok()?;
