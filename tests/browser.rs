@@ -314,6 +314,22 @@ const done = arguments[arguments.length - 1];
 })().catch((e) => done({ error: String(e && e.stack || e) }));
 "#;
 
+/// A fixture's frozen positions (`tests/fixtures/NAME`: f32 LE, x, y, z).
+fn frozen(name: &str) -> Vec<f32> {
+    let bytes = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures").join(name)).unwrap();
+    bytes.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect()
+}
+
+/// How far the page's input vertices of frame `k` (`{k, v}`, as the
+/// players' `source_vertices` gave them) lie from `fixture`'s frozen ones.
+fn off_frozen(got: &serde_json::Value, fixture: &str) -> (usize, f64) {
+    let k = got["k"].as_u64().unwrap() as usize;
+    let want = frozen(&format!("{fixture}.source.positions"));
+    let got: Vec<f64> = got["v"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+    let frame = &want[k * got.len()..(k + 1) * got.len()];
+    (k, got.iter().zip(frame).map(|(a, b)| (a - *b as f64).abs()).fold(0.0, f64::max))
+}
+
 #[test]
 fn viewer_plays_renders_and_recovers_in_headless_chromium() {
     let (dir, _server, port) = site("viewer");
@@ -399,42 +415,16 @@ fn viewer_plays_renders_and_recovers_in_headless_chromium() {
         if (ks.length < 3) return null; const k = ks[ks.length - 1]; \
         return { k, v: Array.from(p.player.source_vertices(p.frames[k], p.frames[k].loose, p.frames[k].skinned)) };";
     browser.wait("the v11 fixture's frames", &held.replace("return {", "return !!{"), 60);
-    let got = browser.js(held, json!([]));
-    let k = got["k"].as_u64().unwrap() as usize;
-    let want = std::fs::read(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/v11/ball-hat-loose.cgv.source.positions"),
-    )
-    .unwrap();
-    let want: Vec<f32> = want.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
-    let got: Vec<f64> = got["v"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
-    let frame = &want[k * got.len()..(k + 1) * got.len()];
-    let worst = got.iter().zip(frame).map(|(a, b)| (a - *b as f64).abs()).fold(0.0, f64::max);
+    let (k, worst) = off_frozen(&browser.js(held, json!([])), "v11/ball-hat-loose.cgv");
     assert!(worst < 1e-4, "frame {k} of the v11 fixture's input vertices differ by {worst} in the page");
 
     // A version-13 file: frames predicted by bones give the frozen input
-    // vertices in the page too (the skin weights reach the wasm decoder).
-    browser.js("document.getElementById('a').load('bones.cgv'); return true;", json!([]));
-    let held = "const p = document.getElementById('a'); \
-        const ks = Object.keys(p.frames || {}).map(Number).filter((k) => p.frames[k]); \
-        if (ks.length < 6) return null; const k = ks[ks.length - 1]; \
-        const loose = p.frames[k].loose || new Float32Array(0); \
-        return { k, v: Array.from(p.player.source_vertices(p.frames[k], loose, p.frames[k].skinned)) };";
-    browser.wait("the v13 fixture's frames", &held.replace("return {", "return !!{"), 60);
-    let got = browser.js(held, json!([]));
-    let k = got["k"].as_u64().unwrap() as usize;
-    let want =
-        std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/v13/walk-bones.cgv.source.positions"))
-            .unwrap();
-    let want: Vec<f32> = want.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
-    let got: Vec<f64> = got["v"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
-    let frame = &want[k * got.len()..(k + 1) * got.len()];
-    let worst = got.iter().zip(frame).map(|(a, b)| (a - *b as f64).abs()).fold(0.0, f64::max);
-    assert!(worst < 1e-4, "frame {k} of the v13 fixture's input vertices differ by {worst} in the page");
-
-    // A version-17 file: bones on the vertices plus the grid's residual
-    // give the frozen input vertices in the page too; and version 18's
-    // vertex residual over them or over the closed loop.
+    // vertices in the page too (the skin weights reach the wasm decoder);
+    // so do a version-17 file (bones on the vertices plus the grid's
+    // residual) and version 18's vertex residual over them or over the
+    // closed loop.
     let pages = [
+        ("bones.cgv", "v13/walk-bones.cgv"),
         ("skinned.cgv", "v17/walk-skinned.cgv"),
         ("walk-skinned-residual.cgv", "v18/walk-skinned-residual.cgv"),
         ("walk-normal-residual.cgv", "v18/walk-normal-residual.cgv"),
@@ -447,14 +437,7 @@ fn viewer_plays_renders_and_recovers_in_headless_chromium() {
             const loose = p.frames[k].loose || new Float32Array(0); \
             return { k, v: Array.from(p.player.source_vertices(p.frames[k], loose, p.frames[k].skinned)) };";
         browser.wait(&format!("{fixture}'s frames"), &held.replace("return {", "return !!{"), 60);
-        let got = browser.js(held, json!([]));
-        let k = got["k"].as_u64().unwrap() as usize;
-        let positions = format!("tests/fixtures/{fixture}.source.positions");
-        let want = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join(positions)).unwrap();
-        let want: Vec<f32> = want.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
-        let got: Vec<f64> = got["v"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
-        let frame = &want[k * got.len()..(k + 1) * got.len()];
-        let worst = got.iter().zip(frame).map(|(a, b)| (a - *b as f64).abs()).fold(0.0, f64::max);
+        let (k, worst) = off_frozen(&browser.js(held, json!([])), fixture);
         assert!(worst < 1e-4, "frame {k} of {fixture}'s input vertices differ by {worst} in the page");
     }
 
@@ -480,9 +463,7 @@ fn viewer_plays_renders_and_recovers_in_headless_chromium() {
         .iter()
         .flat_map(|m| m["v"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()))
         .collect();
-    let frozen = "tests/fixtures/v16/walk-capture-frame-meshes.cgv.frame-meshes.positions";
-    let want = std::fs::read(Path::new(env!("CARGO_MANIFEST_DIR")).join(frozen)).unwrap();
-    let want: Vec<f32> = want.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]])).collect();
+    let want = frozen("v16/walk-capture-frame-meshes.cgv.frame-meshes.positions");
     assert_eq!(got.len(), want.len(), "the frame meshes' vertices");
     let worst = got.iter().zip(&want).map(|(a, b)| (a - *b as f64).abs()).fold(0.0, f64::max);
     assert!(worst < 1e-4, "the v16 fixture's frame meshes differ by {worst} in the page");

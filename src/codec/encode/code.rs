@@ -75,13 +75,12 @@ impl ResidualCoding {
     }
 
     /// The frame's unit: `input` (the source's frame: with bones on the
-    /// vertices, what they miss) less the decoded grid (the closed loop's
-    /// `decoded`, else GV's from `coder`) rebuilt at the vertices.
-    fn code(&mut self, input: &[Vec3], decoded: Option<&[Vec3]>, coder: &FrameCoder) -> Result<Vec<u8>> {
-        let rebuilt = match decoded {
-            Some(grid) => self.mesh.vertices(grid, &[], None),
-            None => self.mesh.vertices(&decoded_gv(coder.header, coder)?, &[], None),
-        };
+    /// vertices, what they miss) less the decoded grid rebuilt at the
+    /// vertices.
+    fn code(&mut self, input: &[Vec3], decoded: Option<&[Vec3]>) -> Result<Vec<u8>> {
+        let grid =
+            decoded.ok_or_else(|| Error::Video("a vertex residual over a grid the encoder did not decode".into()))?;
+        let rebuilt = self.mesh.vertices(grid, &[], None);
         let truth = |k: usize| {
             let v = self.welded.as_ref().map_or(Some(k), |w| w.get(k).map(|&v| v as usize));
             v.and_then(|v| input.get(v)).copied().unwrap_or_default()
@@ -214,14 +213,16 @@ pub(super) fn code(
         let mut info = FrameInfo { anchors: anchor_xyz, seed_origin: origin, ..Default::default() };
         let decoded = if plan.closed_loop {
             Some(close_loop(&mut coder, &mut streams, &post, &mut predictive, &mut info, (opts, plan), &anchors, &g)?)
+        } else if residual.is_some() || header.loose_vertices().is_some() {
+            decoded_gv(header, &coder)?
         } else {
             None
         };
-        info.residual = residual.as_mut().map(|r| r.code(&input, decoded.as_deref(), &coder)).transpose()?;
+        info.residual = residual.as_mut().map(|r| r.code(&input, decoded.as_deref())).transpose()?;
         if header.loose_vertices().is_some() {
             let truth: Vec<Vec3> = loose_ids.iter().map(|&v| input[v as usize]).collect();
             let finest = residual.as_ref().map(|r| r.step);
-            info.loose = Some(code_loose(&mut loose, (header, st, map), &coder, (decoded, finest), &truth, &g)?);
+            info.loose = Some(code_loose(&mut loose, (header, st, map), (decoded, finest), &truth, &g)?);
         }
         info.mesh = header.frame_meshes.then(|| frame_mesh_unit(src, fi, map.grid, &g)).transpose()?;
         info.bones = chunks.bone_units.and_then(|u| u.get(fi).cloned()).or(info.bones);
@@ -235,10 +236,13 @@ pub(super) fn code(
     Ok(coded)
 }
 
-/// GV's decoded grid frame: its x, y, z as the decoder reads them.
-fn decoded_gv(header: &Header, coder: &FrameCoder) -> Result<Vec<Vec3>> {
+/// A frame's decoded grid outside the closed loop: GV's x, y, z as the
+/// decoder reads them (none in a file without them: the paper's solver
+/// runs only in the decoder). The vertex residual and the loose vertices
+/// are coded against it.
+fn decoded_gv(header: &Header, coder: &FrameCoder) -> Result<Option<Vec<Vec3>>> {
     let vals = frame_values(header, &coder.decoded, 0.0)?;
-    Values::new(header, &vals).xyz(POSITION).ok_or_else(|| Error::Video("a GV frame without x, y, z".into()))
+    Ok(Values::new(header, &vals).xyz(POSITION))
 }
 
 /// After the last frame: the random-access index (where the file has
@@ -330,23 +334,16 @@ fn write_prefix(out: &mut Written, src: &dyn FrameSource, header: &Header, chunk
 }
 
 /// A frame's loose vertices coded against their prediction on the decoded
-/// grid (`decoded`, the closed loop's; GV's is decoded here), on a step no
+/// grid (`decoded`: the closed loop's or GV's, [`decoded_gv`]), on a step no
 /// coarser than `finest` (the vertex residual's, where the file has one:
 /// the loose vertices come as close as the others).
 fn code_loose(
     loose: &mut LooseVertices,
     (header, st, map): (&Header, &Stencils, &crate::resample::SampleMap),
-    coder: &FrameCoder,
-    (mut decoded, finest): (Option<Vec<Vec3>>, Option<f32>),
+    (decoded, finest): (Option<Vec<Vec3>>, Option<f32>),
     truth: &[Vec3],
     g: &[Vec3],
 ) -> Result<Vec<u8>> {
-    if decoded.is_none() {
-        // GV: the coordinates as decoded (only files with loose vertices
-        // need them here).
-        let vals = frame_values(header, &coder.decoded, 0.0)?;
-        decoded = Values::new(header, &vals).xyz(POSITION);
-    }
     let diagonal = f64::from(header.source.diagonal);
     // The paper's solver runs only in the decoder: its grid error is
     // unknown here, and a thousandth of the diagonal stands in.
