@@ -239,8 +239,8 @@ fn site(name: &str) -> (PathBuf, Guard, u16) {
     std::fs::copy(root.join("tests/fixtures/v11/ball-hat-loose.cgv"), dir.join("hat.cgv")).unwrap();
     std::fs::copy(root.join("tests/fixtures/v13/walk-bones.cgv"), dir.join("bones.cgv")).unwrap();
     std::fs::copy(root.join("tests/fixtures/v17/walk-skinned.cgv"), dir.join("skinned.cgv")).unwrap();
-    for f in ["walk-skinned-residual.cgv", "walk-normal-residual.cgv"] {
-        std::fs::copy(root.join("tests/fixtures/v18").join(f), dir.join(f)).unwrap();
+    for f in ["v18/walk-skinned-residual.cgv", "v18/walk-normal-residual.cgv", "v19/walk-normal-spatial.cgv"] {
+        std::fs::copy(root.join("tests/fixtures").join(f), dir.join(&f[4..])).unwrap();
     }
     std::fs::copy(root.join("tests/fixtures/v16/walk-capture-frame-meshes.cgv"), dir.join("capture.cgv")).unwrap();
     // The built-in figure with its UVs and procedural checks, encoded now.
@@ -422,12 +422,13 @@ fn viewer_plays_renders_and_recovers_in_headless_chromium() {
     // vertices in the page too (the skin weights reach the wasm decoder);
     // so do a version-17 file (bones on the vertices plus the grid's
     // residual) and version 18's vertex residual over them or over the
-    // closed loop.
+    // closed loop, and version 19's spatially predicted one.
     let pages = [
         ("bones.cgv", "v13/walk-bones.cgv"),
         ("skinned.cgv", "v17/walk-skinned.cgv"),
         ("walk-skinned-residual.cgv", "v18/walk-skinned-residual.cgv"),
         ("walk-normal-residual.cgv", "v18/walk-normal-residual.cgv"),
+        ("walk-normal-spatial.cgv", "v19/walk-normal-spatial.cgv"),
     ];
     for (page, fixture) in pages {
         browser.js(&format!("document.getElementById('a').load('{page}'); return true;"), json!([]));

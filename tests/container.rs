@@ -156,9 +156,9 @@ fn bad_magic_and_versions() {
     assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::BadMagic);
     assert_eq!(format::read(b"GIF89a").unwrap_err(), ContainerError::BadMagic);
     let mut bytes = file(&header());
-    bytes[8] = 19;
-    assert_eq!(format::VERSION, 18);
-    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 19 });
+    bytes[8] = 20;
+    assert_eq!(format::VERSION, 19);
+    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 20 });
     bytes[8] = 0;
     assert!(matches!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 0 }));
 }
@@ -1223,12 +1223,18 @@ fn broken_bones_of(fixture: &str) {
     let e = dec.next_frame().unwrap_err().to_string();
     assert!(e.contains("frame 1") && e.contains("bone"), "{e}");
     // The version before cannot hold it.
-    let mut old = prefix.clone();
+    assert!(format::read(&bones_file(&version_before(&prefix), &chunks)).is_err());
+}
+
+/// A file's prefix (magic, version, header, CRC) declaring the version
+/// before its own.
+fn version_before(prefix: &[u8]) -> Vec<u8> {
+    let mut old = prefix.to_vec();
     old[8] -= 1;
     let crc = crc32fast::hash(&old[8..old.len() - 4]);
     let n = old.len();
     old[n - 4..].copy_from_slice(&crc.to_le_bytes());
-    assert!(format::read(&bones_file(&old, &chunks)).is_err());
+    old
 }
 
 /// Version 18's vertex residual, broken in each of its parts: a unit with
@@ -1268,8 +1274,11 @@ fn broken_vertex_residuals_are_errors() {
     moded[0] = 7;
     let mut recounted = unit.clone();
     recounted[3] ^= 1;
-    let cases: [(&str, Vec<u8>, &str); 4] = [
+    let mut spatial = unit.clone();
+    spatial[0] = 2;
+    let cases: [(&str, Vec<u8>, &str); 5] = [
         ("an unknown mode", moded, "unknown mode 7"),
+        ("a spatial unit (version 19) where the header allows none", spatial, "unknown mode 2"),
         ("counts for another mesh", recounted, "counts sum to"),
         ("a cut word", unit[..unit.len() - 1].to_vec(), "whole 32-bit words"),
         ("no unit", Vec::new(), "an empty unit"),
@@ -1280,11 +1289,15 @@ fn broken_vertex_residuals_are_errors() {
         let Err(e) = format::read(&bones_file(&prefix, &c)) else { panic!("{what}: read") };
         assert!(e.to_string().contains("vertex residual") && e.to_string().contains(says), "{what}: {e}");
     }
-    let mut old = prefix.clone();
-    old[8] -= 1;
-    let crc = crc32fast::hash(&old[8..old.len() - 4]);
-    let n = old.len();
-    old[n - 4..].copy_from_slice(&crc.to_le_bytes());
-    let e = format::read(&bones_file(&old, &chunks)).unwrap_err().to_string();
+    let e = format::read(&bones_file(&version_before(&prefix), &chunks)).unwrap_err().to_string();
     assert!(e.contains("version 18"), "{e}");
+}
+
+/// Version 19's spatial units need a version 19 header.
+#[test]
+fn a_spatial_residual_declared_as_version_18_is_an_error() {
+    let (prefix, chunks) = bones_chunks("v19/walk-normal-spatial.cgv");
+    assert!(format::read(&bones_file(&prefix, &chunks)).is_ok());
+    let e = format::read(&bones_file(&version_before(&prefix), &chunks)).unwrap_err().to_string();
+    assert!(e.contains("version 19"), "{e}");
 }

@@ -412,7 +412,7 @@ fn auto_takes_the_skinned_codec_for_a_budget_or_target_it_can_meet() {
     assert!(loose.report.auto_passed_over.as_deref().is_some_and(|w| w.contains("only at its smallest")));
 }
 
-/// The vertex residual (format version 18, `--vertex-residual P`): below
+/// The vertex residual (format versions 18 and 19, `--vertex-residual P`): below
 /// the grid's resampling floor at the mesh's own vertices, to about P % of
 /// the diagonal, over the skinned codec and the closed loop alike; codecs
 /// whose decoded grid the encoder does not know refuse it.
@@ -431,7 +431,7 @@ fn the_vertex_residual_takes_the_vertices_below_the_grids_floor() {
         let opts = EncodeOptions { vertex_residual: Some(100.0 * asked as f32), ..opts };
         let (bytes, report) = encode(&src, &opts, &mut |_, _, _| {}).unwrap();
         let file = cgv::format::read(&bytes).unwrap();
-        assert_eq!(file.version, 18);
+        assert_eq!((file.version, file.header.vertex_residual.map(|r| r.spatial)), (19, Some(true)));
         let after = decoded_error(file, &src);
         eprintln!(
             "{representation:?}: {:.4} % -> {:.4} % for {} residual bytes",

@@ -49,10 +49,9 @@ impl UnitDecoder {
         self.sequence.vertex_bones()
     }
 
-    /// Version 11: the anchors of the file's loose vertices (see
-    /// [`SequenceDecoder::set_loose_anchors`]).
-    pub fn set_loose_anchors(&mut self, anchors: &[u32]) -> Result<()> {
-        self.sequence.set_loose_anchors(anchors)
+    /// The file's source mesh (see [`SequenceDecoder::set_source_mesh`]).
+    pub fn set_source_mesh(&mut self, mesh: &crate::format::SourceMesh) -> Result<()> {
+        self.sequence.set_source_mesh(mesh)
     }
 
     /// Version 13: the file's skin weights (see [`SequenceDecoder::set_skin`]).
@@ -105,8 +104,8 @@ impl FileDecoder {
 
     pub fn with_memory_limit(file: CgvFile, solver: SolverKind, memory_limit: u64) -> Result<FileDecoder> {
         let mut units = UnitDecoder::new(file.header.clone(), solver, memory_limit)?;
-        if let (Some(_), Some(mesh)) = (file.header.loose_vertices(), &file.source_mesh) {
-            units.set_loose_anchors(&mesh.loose_anchors)?;
+        if let Some(mesh) = &file.source_mesh {
+            units.set_source_mesh(mesh)?;
         }
         if let Some(weights) = &file.skin {
             units.set_skin(weights)?;

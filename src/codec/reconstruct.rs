@@ -408,7 +408,7 @@ impl SequenceDecoder {
             (None, None) => {}
             _ => return Err(Error::Argument(format!("frame {f}'s loose vertices do not match the header's"))),
         }
-        self.apply_vertex_residual(residual);
+        self.apply_vertex_residual(residual)?;
         self.next += 1;
         Ok(out)
     }
@@ -427,20 +427,28 @@ impl SequenceDecoder {
         let Some(r) = &self.vertex_residual else { return Ok(None) };
         let (f, values) = (self.next, 3 * r.residual().len());
         let unit = info.residual.as_deref().ok_or_else(|| Error::Argument(format!("frame {f}: no vertex residual")))?;
-        let unit = ResidualUnit::parse(unit, values, 0).map_err(|e| Error::Argument(format!("frame {f}: {e}")))?;
+        let spatial = self.header.vertex_residual.is_some_and(|r| r.spatial);
+        let unit =
+            ResidualUnit::parse(unit, values, spatial, 0).map_err(|e| Error::Argument(format!("frame {f}: {e}")))?;
+        if unit.spatial && !r.spatial() {
+            return Err(Error::Argument(format!(
+                "frame {f}: a spatial vertex residual decoded without the source mesh"
+            )));
+        }
         Ok(Some(unit))
     }
 
     /// Version 18: the frame's residual, and with bones on the vertices its
     /// sum with the skinning ([`Self::at_vertices`]: the decoded vertex is
     /// the grid's rebuild plus that sum).
-    fn apply_vertex_residual(&mut self, unit: Option<ResidualUnit>) {
-        let (Some(r), Some(unit)) = (&mut self.vertex_residual, unit) else { return };
-        r.apply(&unit);
+    fn apply_vertex_residual(&mut self, unit: Option<ResidualUnit>) -> Result<()> {
+        let (Some(r), Some(unit)) = (&mut self.vertex_residual, unit) else { return Ok(()) };
+        r.apply(&unit).map_err(|e| Error::Argument(e.into()))?;
         if let Some(s) = self.vertex_bones.as_ref().and_then(SkinnedPredictor::skinned) {
             self.added.clear();
             self.added.extend(s.iter().zip(r.residual()).map(|(s, r)| *s + *r));
         }
+        Ok(())
     }
 
     /// Version 13: the file's skin weights (its `SKIN` chunk), needed
@@ -480,10 +488,17 @@ impl SequenceDecoder {
         self.vertex_bones.as_ref()
     }
 
-    /// Version 11: the anchors of the file's loose vertices (its source
-    /// mesh's `loose_anchors`), needed before the first frame.
-    pub fn set_loose_anchors(&mut self, anchors: &[u32]) -> Result<()> {
-        self.loose.set_anchors(anchors, self.grid.len())
+    /// The file's source mesh (its `SMSH` chunk), needed before the first
+    /// frame where the decoder uses it: version 11's loose vertices follow
+    /// its anchors, version 19's spatial residual walks its faces.
+    pub fn set_source_mesh(&mut self, mesh: &SourceMesh) -> Result<()> {
+        if self.header.loose_vertices().is_some() {
+            self.loose.set_anchors(&mesh.loose_anchors, self.grid.len())?;
+        }
+        if let (Some(r), true) = (&mut self.vertex_residual, self.header.vertex_residual.is_some_and(|r| r.spatial)) {
+            r.set_faces(&mesh.faces);
+        }
+        Ok(())
     }
 
     /// Version 11: the loose vertices of the frame rebuilt last (empty in

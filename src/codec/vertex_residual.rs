@@ -6,8 +6,13 @@
 //! nothing of it returns to the grid, so the closed loop is unchanged and
 //! the encoder codes it after each frame's video, from the frame as
 //! decoded. One rule applies a unit, [`VertexResidual::apply`], which the
-//! encoder runs too.
+//! encoder runs too. Version 19 codes a unit's values, where that is
+//! smaller, as what the parallelogram rule over the surface misses
+//! (`crate::format::vertex_order`): where the video is coarse or absent
+//! the residual is the smooth shape or motion itself, which its
+//! neighbours predict.
 
+use crate::format::vertex_order::VertexOrder;
 use crate::format::vertex_residual::{Mode, ResidualUnit, MAX_VALUE};
 use glam::Vec3;
 
@@ -18,12 +23,24 @@ use glam::Vec3;
 pub struct VertexResidual {
     step: f32,
     residual: Vec<Vec3>,
+    /// Version 19: the walk spatial units follow (none: a version 18 file).
+    order: Option<VertexOrder>,
 }
 
 impl VertexResidual {
     /// The residual of `vertices` vertices on `step` (the header's).
     pub fn new(step: f32, vertices: usize) -> VertexResidual {
-        VertexResidual { step, residual: vec![Vec3::ZERO; vertices] }
+        VertexResidual { step, residual: vec![Vec3::ZERO; vertices], order: None }
+    }
+
+    /// Version 19: spatial units walk the source mesh's `faces`.
+    pub fn set_faces(&mut self, faces: &[[u32; 3]]) {
+        self.order = Some(VertexOrder::new(faces, self.residual.len()));
+    }
+
+    /// Whether spatial units can be applied (or coded).
+    pub fn spatial(&self) -> bool {
+        self.order.is_some()
     }
 
     /// A random-access point: the previous residual is zero.
@@ -37,39 +54,66 @@ impl VertexResidual {
     }
 
     /// Decoder and encoder: the frame's residual from its unit (3 values a
-    /// vertex; the reader checked the count).
-    pub fn apply(&mut self, unit: &ResidualUnit) {
+    /// vertex; the reader checked the count). A spatial unit needs the
+    /// faces ([`Self::set_faces`]).
+    pub fn apply(&mut self, unit: &ResidualUnit) -> Result<(), &'static str> {
+        let rebuilt;
+        let values = match (unit.spatial, &self.order) {
+            (false, _) => &unit.values,
+            (true, Some(order)) => {
+                rebuilt = order.rebuild(&unit.values).concat();
+                &rebuilt
+            }
+            (true, None) => return Err("a spatial vertex residual unit without the source mesh's faces"),
+        };
         let step = self.step;
-        for (r, v) in self.residual.iter_mut().zip(unit.values.chunks_exact(3)) {
+        for (r, v) in self.residual.iter_mut().zip(values.chunks_exact(3)) {
             let d = Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32) * step;
             *r = match unit.mode {
                 Mode::Intra => d,
                 Mode::Delta => *r + d,
             };
         }
+        Ok(())
     }
 
     /// Encoder: the unit that brings the residual to `target` (a vector a
     /// vertex: the true vertex less the decoded one) within half a step
     /// (where no value is clamped at [`MAX_VALUE`]), as the residual itself
-    /// or its change from the last frame's, whichever codes smaller;
+    /// or its change from the last frame's, each as it is or predicted over
+    /// the surface where the faces are known, whichever codes smallest;
     /// applies it and returns its bytes (`None` if the range coder fails).
     pub fn code(&mut self, target: &[Vec3]) -> Option<Vec<u8>> {
-        let max = MAX_VALUE as f32;
-        let values = |from: &dyn Fn(usize) -> Vec3| -> Vec<i32> {
+        let wanted = |from: &dyn Fn(usize) -> Vec3| -> Vec<[i32; 3]> {
             (0..self.residual.len())
-                .flat_map(|v| {
+                .map(|v| {
                     let t = target.get(v).copied().unwrap_or(Vec3::ZERO) - from(v);
-                    (t / self.step).round().clamp(Vec3::splat(-max), Vec3::splat(max)).to_array()
+                    // Within i32 whatever the target; the unit clamps further.
+                    (t / self.step).round().clamp(Vec3::splat(-1e9), Vec3::splat(1e9)).to_array().map(|x| x as i32)
                 })
-                .map(|x| x as i32)
                 .collect()
         };
-        let intra = ResidualUnit { mode: Mode::Intra, values: values(&|_| Vec3::ZERO) };
-        let delta = ResidualUnit { mode: Mode::Delta, values: values(&|v| self.residual[v]) };
-        let (a, b) = (intra.to_bytes()?, delta.to_bytes()?);
-        let (unit, bytes) = if b.len() < a.len() { (delta, b) } else { (intra, a) };
-        self.apply(&unit);
+        let mut best: Option<(ResidualUnit, Vec<u8>)> = None;
+        for mode in [Mode::Intra, Mode::Delta] {
+            let q = match mode {
+                Mode::Intra => wanted(&|_| Vec3::ZERO),
+                Mode::Delta => wanted(&|v| self.residual[v]),
+            };
+            let max = MAX_VALUE as i32;
+            let plain = q.iter().flatten().map(|x| (*x).clamp(-max, max)).collect();
+            let mut units = vec![ResidualUnit { mode, spatial: false, values: plain }];
+            if let Some(order) = &self.order {
+                units.push(ResidualUnit { mode, spatial: true, values: order.code(&q, max).0 });
+            }
+            for unit in units {
+                let bytes = unit.to_bytes()?;
+                if best.as_ref().is_none_or(|(_, b)| bytes.len() < b.len()) {
+                    best = Some((unit, bytes));
+                }
+            }
+        }
+        let (unit, bytes) = best?;
+        self.apply(&unit).ok()?;
         Some(bytes)
     }
 }
@@ -90,7 +134,7 @@ mod tests {
             let target: Vec<Vec3> =
                 (0..50).map(|v| Vec3::new((v as f32 * 0.37).sin(), 0.2 * f as f32, (v as f32).cos()) * 0.05).collect();
             let bytes = enc.code(&target).unwrap();
-            dec.apply(&ResidualUnit::parse(&bytes, 150, 0).unwrap());
+            dec.apply(&ResidualUnit::parse(&bytes, 150, false, 0).unwrap()).unwrap();
             assert_eq!(enc.residual(), dec.residual(), "frame {f}");
             let worst =
                 target.iter().zip(dec.residual()).map(|(t, r)| (*t - *r).abs().max_element()).fold(0.0, f32::max);

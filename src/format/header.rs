@@ -375,8 +375,9 @@ fn is_zero(v: &u8) -> bool {
 pub const SEAM_RULE: &str = "octahedral-half-turn";
 
 impl Header {
-    /// The oldest format version that can hold this header: 18 for a
-    /// vertex residual, 17 for bones
+    /// The oldest format version that can hold this header: 19 for a
+    /// spatially predicted vertex residual, 18 for a vertex residual, 17
+    /// for bones
     /// on the source mesh's vertices, 16 for frame
     /// meshes, 15 for segments, 14 for a packed skin, 13 for a skin,
     /// 12 for a
@@ -388,7 +389,9 @@ impl Header {
     /// predictions, 3 for a CGV file without H, 2 for motion corrections,
     /// else 1.
     pub fn min_version(&self) -> u16 {
-        if self.vertex_residual.is_some() {
+        if self.vertex_residual.is_some_and(|r| r.spatial) {
+            19
+        } else if self.vertex_residual.is_some() {
             18
         } else if self.skin.is_some_and(|s| s.on_vertices()) {
             17

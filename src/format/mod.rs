@@ -1,6 +1,6 @@
-//! The `.cgv` file format, versions 1 to 18 (documented in
+//! The `.cgv` file format, versions 1 to 19 (documented in
 //! `docs/FORMAT.md`, with the compatibility promise): this writer writes
-//! version 18, the reader reads all eighteen. Split as the png crate splits
+//! version 19, the reader reads all nineteen. Split as the png crate splits
 //! its decoder:
 //!
 //! - [`header`]: what a file holds, the frame chunk's side data, and which
@@ -10,14 +10,14 @@
 //!   bytes arrive, or in pieces from random-access points;
 //! - [`writer`]: the prefix, chunks, frames and the index;
 //! - the payloads: [`source_mesh`] (with [`connectivity`] and [`places`]),
-//!   [`appearance`], [`loose`], [`skin`] (with [`bits`]), [`vertex_residual`], the samples' [`quant`]izer, the
+//!   [`appearance`], [`loose`], [`skin`] (with [`bits`]), [`vertex_residual`] (with [`vertex_order`]), the samples' [`quant`]izer, the
 //!   [`stream`] names and the [`predictor`] codes.
 //!
 //! The prefix and the chunks:
 //!
 //! ```text
 //! magic    8 bytes   89 43 47 56 0D 0A 1A 0A   ("\x89CGV\r\n\x1a\n")
-//! version  u16 LE    1 to 18
+//! version  u16 LE    1 to 19
 //! flags    u16 LE    0
 //! length   u32 LE    header length L (at most 1 MiB)
 //! header   L bytes   UTF-8 JSON (serde), see [`Header`]
@@ -53,6 +53,7 @@ pub mod source_mesh;
 pub mod stream;
 pub mod stream_reader;
 pub mod validate;
+pub mod vertex_order;
 pub mod vertex_residual;
 pub mod writer;
 
@@ -77,7 +78,7 @@ pub use writer::{
 
 pub const MAGIC: [u8; 8] = [0x89, b'C', b'G', b'V', b'\r', b'\n', 0x1A, b'\n'];
 /// The newest version this reader reads and this writer writes.
-pub const VERSION: u16 = 18;
+pub const VERSION: u16 = 19;
 /// Largest header accepted.
 pub const MAX_HEADER: usize = 1 << 20;
 /// Largest chunk payload accepted (an access unit of a 2160² frame at QP 0

@@ -458,7 +458,8 @@ fn side_units(
             return Err(bad(format!("vertex residual: a unit of {len} bytes overruns its frame chunk")));
         }
         let values = header.source_mesh.map_or(0, |m| 3 * m.vertices as usize);
-        crate::format::vertex_residual::ResidualUnit::check(&p[*at..*at + len], values, offset)?;
+        let spatial = header.vertex_residual.is_some_and(|r| r.spatial);
+        crate::format::vertex_residual::ResidualUnit::check(&p[*at..*at + len], values, spatial, offset)?;
         info.residual = Some(p[*at..*at + len].to_vec());
         *at += len;
     }

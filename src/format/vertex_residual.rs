@@ -12,7 +12,8 @@
 //! ```text
 //! mode     u8          0: the values are the residual; 1: they add to the
 //!                      previous frame's decoded residual (zero at a
-//!                      random-access point)
+//!                      random-access point); version 19: 2 and 3, the same
+//!                      predicted over the surface (`super::vertex_order`)
 //! K        LEB128      the largest |value| (at most MAX_VALUE)
 //! counts   2K+1 LEB128 how many values are -K, ..., K (their sum is 3V)
 //! words    u32 LE ...  the 3V values, x, y, z of vertex after vertex,
@@ -46,6 +47,10 @@ const PRECISION: u32 = 24;
 pub struct VertexResidualInfo {
     /// Mesh units a value is (finite, > 0).
     pub step: f32,
+    /// Version 19: units may code their values as what each vertex's
+    /// neighbours predict misses (modes 2 and 3).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub spatial: bool,
 }
 
 impl VertexResidualInfo {
@@ -71,6 +76,9 @@ pub enum Mode {
 #[derive(Debug, Clone, PartialEq)]
 pub struct ResidualUnit {
     pub mode: Mode,
+    /// Version 19: the values are what the walk's predictions miss, in the
+    /// walk's order (`super::vertex_order`), not the vertices' own.
+    pub spatial: bool,
     pub values: Vec<i32>,
 }
 
@@ -103,7 +111,7 @@ impl ResidualUnit {
         for &v in &values {
             counts[(v + k as i32) as usize] += 1;
         }
-        let mut out = vec![u8::from(self.mode == Mode::Delta)];
+        let mut out = vec![u8::from(self.mode == Mode::Delta) + 2 * u8::from(self.spatial)];
         leb128::write(&mut out, u64::from(k));
         counts.iter().for_each(|&c| leb128::write(&mut out, c));
         // One value alone needs no words: the counts say it all.
@@ -120,8 +128,8 @@ impl ResidualUnit {
 
     /// Reads a unit of `count` values (3 V) from a frame chunk at byte
     /// `offset` (named in errors): [`Self::check`], then the values.
-    pub fn parse(payload: &[u8], count: usize, offset: usize) -> Result<ResidualUnit, ContainerError> {
-        let (mode, counts, at) = Self::check(payload, count, offset)?;
+    pub fn parse(payload: &[u8], count: usize, spatial: bool, offset: usize) -> Result<ResidualUnit, ContainerError> {
+        let (mode, spatial, counts, at) = Self::check(payload, count, spatial, offset)?;
         let k = counts.len() / 2;
         let words: Vec<u32> =
             payload[at..].chunks_exact(4).map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]])).collect();
@@ -129,18 +137,26 @@ impl ResidualUnit {
             offset,
             msg: "vertex residual: the coded values do not decode".into(),
         })?;
-        Ok(ResidualUnit { mode, values })
+        Ok(ResidualUnit { mode, spatial, values })
     }
 
     /// What a reader checks of a unit without range decoding it (the
     /// decoder's [`Self::parse`] does): its mode, its largest value and
-    /// counts, and whole words after them. Returns the mode, the counts and
-    /// where the words start.
-    pub fn check(payload: &[u8], count: usize, offset: usize) -> Result<(Mode, Vec<u64>, usize), ContainerError> {
+    /// counts, and whole words after them; modes 2 and 3 only where the
+    /// header allows `spatial` ones. Returns the mode, whether it is
+    /// spatial, the counts and where the words start.
+    pub fn check(
+        payload: &[u8],
+        count: usize,
+        spatial: bool,
+        offset: usize,
+    ) -> Result<(Mode, bool, Vec<u64>, usize), ContainerError> {
         let bad = |msg: String| ContainerError::Chunk { offset, msg: format!("vertex residual: {msg}") };
-        let mode = match payload.first() {
-            Some(0) => Mode::Intra,
-            Some(1) => Mode::Delta,
+        let (mode, spatial) = match payload.first() {
+            Some(0) => (Mode::Intra, false),
+            Some(1) => (Mode::Delta, false),
+            Some(2) if spatial => (Mode::Intra, true),
+            Some(3) if spatial => (Mode::Delta, true),
             Some(m) => return Err(bad(format!("unknown mode {m}"))),
             None => return Err(bad("an empty unit".into())),
         };
@@ -161,7 +177,7 @@ impl ResidualUnit {
         if (payload.len() - at) % 4 != 0 {
             return Err(bad(format!("{} bytes of coded values, not whole 32-bit words", payload.len() - at)));
         }
-        Ok((mode, counts, at))
+        Ok((mode, spatial, counts, at))
     }
 }
 
@@ -197,9 +213,10 @@ mod tests {
     fn units_read_back_and_cost_about_their_entropy() {
         // Mostly 0 and ±1, as a residual a step finer than the video's error is.
         let values: Vec<i32> = (0..3000).map(|i: i32| ((i * 7919) % 13 - 6) / 4).collect();
-        let unit = ResidualUnit { mode: Mode::Delta, values };
+        let unit = ResidualUnit { mode: Mode::Delta, spatial: true, values };
         let bytes = unit.to_bytes().unwrap();
-        assert_eq!(ResidualUnit::parse(&bytes, 3000, 0).unwrap(), unit);
+        assert_eq!(ResidualUnit::parse(&bytes, 3000, true, 0).unwrap(), unit);
+        assert!(ResidualUnit::parse(&bytes, 3000, false, 0).is_err(), "mode 3 in a file without spatial units");
         let mut hist = std::collections::HashMap::new();
         unit.values.iter().for_each(|v| *hist.entry(*v).or_insert(0.0) += 1.0);
         let entropy: f64 = hist.values().map(|c: &f64| -c * (c / 3000.0).log2()).sum();
@@ -209,27 +226,28 @@ mod tests {
 
     #[test]
     fn broken_units_are_errors() {
-        let unit = ResidualUnit { mode: Mode::Intra, values: vec![0, 1, -1, 2000, 0, 0] };
+        let unit = ResidualUnit { mode: Mode::Intra, spatial: false, values: vec![0, 1, -1, 2000, 0, 0] };
         let bytes = unit.to_bytes().unwrap();
         // Clamped to the largest value a unit may hold.
-        assert_eq!(ResidualUnit::parse(&bytes, 6, 0).unwrap().values[3], MAX_VALUE as i32);
-        assert!(ResidualUnit::parse(&bytes, 9, 0).is_err(), "counts for another mesh");
-        assert!(ResidualUnit::parse(&[], 6, 0).is_err());
-        assert!(ResidualUnit::parse(&[2, 0, 6], 6, 0).is_err(), "unknown mode");
+        assert_eq!(ResidualUnit::parse(&bytes, 6, true, 0).unwrap().values[3], MAX_VALUE as i32);
+        assert!(ResidualUnit::parse(&bytes, 9, true, 0).is_err(), "counts for another mesh");
+        assert!(ResidualUnit::parse(&[], 6, true, 0).is_err());
+        assert!(ResidualUnit::parse(&[4, 0, 6], 6, true, 0).is_err(), "unknown mode");
+        assert!(ResidualUnit::parse(&[2, 0, 6], 6, false, 0).is_err(), "a spatial mode in a version 18 file");
         // K = 1 with no value at ±1: not the largest value.
-        assert!(ResidualUnit::parse(&[0, 1, 0, 6, 0], 6, 0).is_err(), "a K past the values");
-        assert!(ResidualUnit::parse(&bytes[..bytes.len() - 1], 6, 0).is_err(), "a cut word");
+        assert!(ResidualUnit::parse(&[0, 1, 0, 6, 0], 6, true, 0).is_err(), "a K past the values");
+        assert!(ResidualUnit::parse(&bytes[..bytes.len() - 1], 6, true, 0).is_err(), "a cut word");
         for cut in 0..bytes.len() {
-            let _ = ResidualUnit::parse(&bytes[..cut], 6, 0);
+            let _ = ResidualUnit::parse(&bytes[..cut], 6, true, 0);
         }
         let mut flipped = bytes.clone();
         for i in 0..flipped.len() {
             flipped[i] ^= 0x5a;
-            let _ = ResidualUnit::parse(&flipped, 6, 0);
+            let _ = ResidualUnit::parse(&flipped, 6, true, 0);
             flipped[i] ^= 0x5a;
         }
         // All zero: the counts say so and no word follows.
-        let zero = ResidualUnit { mode: Mode::Intra, values: vec![0; 6] };
-        assert_eq!(ResidualUnit::parse(&zero.to_bytes().unwrap(), 6, 0).unwrap(), zero);
+        let zero = ResidualUnit { mode: Mode::Intra, spatial: false, values: vec![0; 6] };
+        assert_eq!(ResidualUnit::parse(&zero.to_bytes().unwrap(), 6, false, 0).unwrap(), zero);
     }
 }

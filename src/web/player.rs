@@ -56,9 +56,7 @@ impl Player {
         if let (None, Some(dec), Some(mesh)) =
             (&self.source, self.dec.as_mut(), self.reader.file().and_then(|f| f.source_mesh.as_ref()))
         {
-            if dec.header().loose_vertices().is_some() {
-                dec.set_loose_anchors(&mesh.loose_anchors).map_err(js)?;
-            }
+            dec.set_source_mesh(mesh).map_err(js)?;
             self.source = Some(SourceMeshDecoder::new(dec.grid(), mesh));
         }
         self.give_skin()

@@ -319,6 +319,17 @@ fn print_bones_and_residual(file: &cgv::format::CgvFile) {
             "  residual      at each vertex, every frame, in steps of {:.4} % of the diagonal ({bytes} bytes)",
             100.0 * f64::from(r.step) / diagonal
         );
+        // The unit's first byte: 0 / 1 itself or its change, 2 / 3 the same
+        // predicted over the surface (version 19).
+        let mut modes = [0usize; 4];
+        file.frames
+            .iter()
+            .filter_map(|f| f.residual.as_ref()?.first())
+            .for_each(|&m| modes[usize::from(m.min(3))] += 1);
+        println!(
+            "                frames coded as the residual {}, its change {}; predicted over the surface: {}, {}",
+            modes[0], modes[1], modes[2], modes[3]
+        );
     }
 }
 

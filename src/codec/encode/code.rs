@@ -66,12 +66,13 @@ pub(super) struct ResidualCoding {
 
 impl ResidualCoding {
     pub fn new(grid: Grid, mesh: &SourceMesh, welded: Option<Vec<u32>>, step: f32) -> ResidualCoding {
-        let coder = VertexResidual::new(step, mesh.places.len());
+        let mut coder = VertexResidual::new(step, mesh.places.len());
+        coder.set_faces(&mesh.faces);
         ResidualCoding { mesh: SourceMeshDecoder::new(grid, mesh), welded, coder, step }
     }
 
     pub fn info(&self) -> VertexResidualInfo {
-        VertexResidualInfo { step: self.step }
+        VertexResidualInfo { step: self.step, spatial: self.coder.spatial() }
     }
 
     /// The frame's unit: `input` (the source's frame: with bones on the
