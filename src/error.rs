@@ -86,6 +86,10 @@ pub enum Error {
     /// file is smaller.
     #[error("invalid argument: {0}")]
     BudgetTooSmall(String),
+    /// A budget above the largest file the codec makes of the motion:
+    /// told apart so that a vertex residual can be tried to fill it.
+    #[error("invalid argument: {0}")]
+    BudgetTooLarge(String),
     /// A numerical step failed (a singular system, a map that folds over).
     #[error("{0}")]
     Numerical(String),

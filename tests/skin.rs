@@ -462,3 +462,40 @@ fn the_vertex_residual_takes_the_vertices_below_the_grids_floor() {
     eprintln!("target {target:.6} (a third of QP 0's vertex RMS {floor:.6}): {t:?}, vertex RMS {got:.6}");
     assert!(t.vertex_residual.is_some() && t.surface_rms <= target, "{t:?}");
 }
+
+/// A large `--kbps` budget (at least `RESIDUAL_BUDGET_BITS` a vertex a
+/// frame) tries a vertex residual under the same budget and keeps the file
+/// with the lower vertex RMS on the input's vertices, both within the
+/// budget; a small one does not try it.
+#[test]
+fn a_large_budget_tries_the_vertex_residual_and_keeps_the_closer_file() {
+    use cgv::codec::{encode, EncodeOptions};
+    use cgv::format::Representation;
+    let src = cgv::mesh::builtin::motion(12);
+    let bits = |kbps: f32| f64::from(kbps) * 1000.0 / 30.0 / src.topology.vertex_count as f64;
+    let mut opts =
+        EncodeOptions { representation: Representation::Skinned, grid: 16, bones: Some(8), ..Default::default() };
+    opts.video.kbps = Some(1800.0);
+    assert!(bits(1800.0) >= cgv::codec::RESIDUAL_BUDGET_BITS);
+    let (bytes, report) = encode(&src, &opts, &mut |_, _, _| {}).unwrap();
+    let tried = report.budget_residual.expect("a residual tried");
+    eprintln!("{tried:?}, {} bytes, {:+.2} %", bytes.len(), 100.0 * report.budget_miss.unwrap());
+    assert!(report.budget_miss.is_some_and(|m| m.abs() <= cgv::codec::BUDGET_TOLERANCE));
+    let file = cgv::format::read(&bytes).unwrap();
+    assert_eq!(file.header.vertex_residual.is_some(), tried.kept);
+    let without = tried.vertex_rms_without.expect("a file without a residual within the budget");
+    assert_eq!(tried.kept, tried.vertex_rms_with < without);
+    // The error measured on the sampled frames is the kept file's own.
+    let kept = if tried.kept { tried.vertex_rms_with } else { without };
+    let all = decoded_error(file, &src);
+    assert!((all / kept - 1.0).abs() < 0.25, "{all} on every frame, {kept} on the sampled ones");
+    // Here the grid at 16² has a floor the residual goes below.
+    assert!(tried.kept && tried.vertex_rms_with < 0.9 * without, "{tried:?}");
+    // Below: not tried (a longer motion, whose weights and rest pose the
+    // smaller budget affords).
+    let src = cgv::mesh::builtin::motion(72);
+    opts.video.kbps = Some(540.0);
+    assert!(bits(540.0) < cgv::codec::RESIDUAL_BUDGET_BITS);
+    let (_, report) = encode(&src, &opts, &mut |_, _, _| {}).unwrap();
+    assert!(report.budget_residual.is_none() && report.budget_miss.is_some());
+}

@@ -589,8 +589,14 @@ pub fn decoder_memory(h: &Header, solver: SolverKind) -> u64 {
         (CodecKind::Cgv, SolverKind::Paper) => (4 + 2 * 8) * 3 * 8 * n,
     };
     let source = h.source_mesh.map_or(0, |m| u64::from(m.vertices) * 44 + u64::from(m.faces) * 24);
-    // Version 18: the residual, its sum with the skinning, and a unit's values.
-    let residual = h.vertex_residual.map_or(0, |_| h.source_mesh.map_or(0, |m| u64::from(m.vertices) * 36));
+    // Version 18: the residual, its sum with the skinning, and a unit's
+    // values; version 19's walk (a vertex's guess) and what rebuilding a
+    // spatial unit holds (each vertex's known and rebuilt integers, and
+    // those laid out again).
+    let residual = h.vertex_residual.map_or(0, |r| {
+        let per_vertex = if r.spatial { 36 + 20 + 48 } else { 36 };
+        h.source_mesh.map_or(0, |m| u64::from(m.vertices) * per_vertex)
+    });
     let loose = u64::from(h.loose_vertices().unwrap_or(0)) * 3 * 12;
     let look = h.appearance.as_ref().map_or(0, |a| {
         let vertices = h.source_mesh.map_or(0, |m| u64::from(m.vertices));

@@ -13,10 +13,14 @@
 //! or the largest (QP 0). One it can meet that the passes still missed
 //! (a clip of a few frames leaves the rate control little to spread its
 //! bits over) gets a constant QP instead, bisected on the files' sizes,
-//! where that lands nearer.
+//! where that lands nearer. Where the file keeps the input's mesh and the
+//! budget is large (at least [`RESIDUAL_BUDGET_BITS`]), a vertex residual
+//! under the same budget is tried too, and the file with the lower
+//! surface RMS kept: past the grid's floor more video buys nothing.
 
-use super::target::COARSEST_QP;
-use super::{encode_prepared_into, EncodeOptions, EncodeReport, COARSE_WEIGHTS_QP};
+use super::residual_step::search_step;
+use super::target::{residual_qp_of, Truth, COARSEST_QP};
+use super::{encode_prepared, encode_prepared_into, EncodeOptions, EncodeReport, COARSE_WEIGHTS_QP};
 use crate::error::{Error, Result};
 use crate::geometry_image::GeometryImage;
 use crate::mesh::FrameSource;
@@ -27,6 +31,31 @@ use crate::output::{Count, Sink};
 pub const BUDGET_TOLERANCE: f64 = 0.05;
 /// Most encodes one budget takes before the bounds are checked.
 pub const MAX_PASSES: usize = 5;
+/// Bits per input vertex per frame from which a budget tries a vertex
+/// residual too. The skinned file without one measured cheaper at equal
+/// vertex error up to about 4.5 bits/v/f on pcow and horse-collapse and
+/// 6 to 8 on horse-gallop and samba (docs/RESULTS.md, "The vertex
+/// residual"): below 3 the try would cost its encodes for nothing.
+pub const RESIDUAL_BUDGET_BITS: f64 = 3.0;
+
+/// A budget's vertex residual try: its step and QP, the errors of the file
+/// with it and of the one without (relative to the diagonal, on the
+/// sampled frames `--target-error` measures), and which was kept: the
+/// lower vertex RMS on the input's vertices, what the residual codes and
+/// what users compare with Draco and gltfpack.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct BudgetResidual {
+    /// The residual's step, percent of the diagonal (`--vertex-residual`).
+    pub percent: f32,
+    /// The video's QP under it.
+    pub qp: u8,
+    pub vertex_rms_with: f64,
+    pub surface_rms_with: f64,
+    /// None where the file without a residual cannot reach the budget.
+    pub vertex_rms_without: Option<f64>,
+    pub surface_rms_without: Option<f64>,
+    pub kept: bool,
+}
 
 /// [`super::encode_prepared`] within [`BUDGET_TOLERANCE`] of
 /// `opts.video.kbps` × the duration (one plain pass without a bitrate).
@@ -52,6 +81,21 @@ pub fn encode_on_budget_into<S: Sink>(
     progress: &mut dyn FnMut(&str, usize, usize),
 ) -> Result<(S, EncodeReport)> {
     let opts = &with_weights_for_budget(src, opts, image)?;
+    if let Some(qp) = residual_budget_qp(src, opts) {
+        return with_residual_tried(src, opts, image, qp, open, progress);
+    }
+    with_or_without_bones(src, opts, image, open, progress)
+}
+
+/// The budget as asked, or without the encoder's bones where the file with
+/// them cannot keep it.
+fn with_or_without_bones<S: Sink>(
+    src: &dyn FrameSource,
+    opts: &EncodeOptions,
+    image: &GeometryImage,
+    open: &mut dyn FnMut() -> Result<S>,
+    progress: &mut dyn FnMut(&str, usize, usize),
+) -> Result<(S, EncodeReport)> {
     match on_budget(src, opts, image, open, progress) {
         Err(Error::BudgetTooSmall(_)) if opts.bones.is_none() && opts.video.kbps.is_some() => {
             let without = EncodeOptions { bones: Some(0), ..opts.clone() };
@@ -59,6 +103,94 @@ pub fn encode_on_budget_into<S: Sink>(
         }
         r => r,
     }
+}
+
+/// The video's QP for a budget's residual try, where the budget has one:
+/// a bitrate of at least [`RESIDUAL_BUDGET_BITS`] a vertex a frame, for a
+/// file that keeps the input's mesh over a grid the encoder knows, whose
+/// options leave the residual to the encoder.
+fn residual_budget_qp(src: &dyn FrameSource, opts: &EncodeOptions) -> Option<u8> {
+    let kbps = f64::from(opts.video.kbps?);
+    let vertices = src.topology().vertex_count.max(1) as f64;
+    let bits = kbps * 1000.0 / f64::from(src.fps()).max(1e-3) / vertices;
+    let eligible = opts.source_mesh && !opts.frame_meshes && opts.vertex_residual.is_none() && opts.grid_known();
+    (eligible && bits >= RESIDUAL_BUDGET_BITS).then(|| residual_qp_of(opts.representation))
+}
+
+/// The budget kept as asked and with a vertex residual (its step searched
+/// for the budget at `qp`), each measured on the sampled frames as
+/// `--target-error` measures; the lower vertex RMS is kept, the report's
+/// `budget_residual` saying what was tried.
+fn with_residual_tried<S: Sink>(
+    src: &dyn FrameSource,
+    opts: &EncodeOptions,
+    image: &GeometryImage,
+    qp: u8,
+    open: &mut dyn FnMut() -> Result<S>,
+    progress: &mut dyn FnMut(&str, usize, usize),
+) -> Result<(S, EncodeReport)> {
+    // The file without one, unless the budget is past its largest.
+    let plain = match with_or_without_bones(src, opts, image, &mut || Ok(Vec::new()), progress) {
+        Ok(p) => Ok(p),
+        Err(Error::BudgetTooLarge(why)) => Err(why),
+        Err(e) => return Err(e),
+    };
+    let target = budget_bytes(src, opts.video.kbps.unwrap_or_default());
+    let with = |p: f64| EncodeOptions { vertex_residual: Some(p as f32), ..at_constant_qp(opts, qp) };
+    let mut nearest: Option<(f64, usize)> = None;
+    let tries = search_step(target as usize, BUDGET_TOLERANCE / 2.0, &mut |p| {
+        let label = format!("a {p:.3} % vertex residual for the budget");
+        let r = encode_prepared_into(src, &with(p), image, &mut Count::default(), &mut |stage, d, t| {
+            progress(&format!("{stage} ({label})"), d, t)
+        })?;
+        let off = |size: usize| (size as f64 / target - 1.0).abs();
+        if nearest.is_none_or(|(_, s)| off(r.bytes) < off(s)) {
+            nearest = Some((p, r.bytes));
+        }
+        Ok(r.bytes)
+    })?;
+    let mut kept = |bytes: Vec<u8>, report: EncodeReport| -> Result<(S, EncodeReport)> {
+        let mut sink = open()?;
+        sink.put(&bytes)?;
+        Ok((sink, report))
+    };
+    let Some((p, _)) = nearest.filter(|(_, s)| (*s as f64 / target - 1.0).abs() <= BUDGET_TOLERANCE) else {
+        let (plain, report) = plain.map_err(Error::BudgetTooLarge)?;
+        return kept(plain, report);
+    };
+    let (bytes, mut report) = encode_prepared(src, &with(p), image, &mut |_, _, _| {})?;
+    let truth = Truth::read(src)?;
+    let with = truth.errors(&bytes, src, image)?;
+    let without = match &plain {
+        Ok((plain, _)) => Some(truth.errors(plain, src, image)?),
+        Err(_) => None,
+    };
+    let vertex_rms_with = with.1.unwrap_or(f64::INFINITY);
+    let vertex_rms_without = without.map(|w| w.1.unwrap_or(f64::INFINITY));
+    let tried = BudgetResidual {
+        percent: p as f32,
+        qp,
+        vertex_rms_with,
+        surface_rms_with: with.0,
+        vertex_rms_without,
+        surface_rms_without: without.map(|w| w.0),
+        kept: vertex_rms_without.is_none_or(|w| vertex_rms_with < w),
+    };
+    let (earlier, seconds) = plain.as_ref().map_or((0, 0.0), |(_, r)| (r.passes, r.seconds_total));
+    if let (Ok((plain, plain_report)), false) = (plain, tried.kept) {
+        let passes = plain_report.passes + tries + 1;
+        return kept(plain, EncodeReport { budget_residual: Some(tried), passes, ..plain_report });
+    }
+    report.budget_miss = Some(report.bytes as f64 / target - 1.0);
+    report.passes += earlier + tries;
+    report.seconds_total += seconds;
+    report.budget_residual = Some(tried);
+    kept(bytes, report)
+}
+
+/// A budget of `kbps` in bytes over the motion's duration.
+fn budget_bytes(src: &dyn FrameSource, kbps: f32) -> f64 {
+    f64::from(kbps) * 1000.0 / 8.0 * src.frame_count() as f64 / f64::from(src.fps())
 }
 
 /// The skinned codec under a bitrate, its weights left to the rate: coarse
@@ -74,10 +206,9 @@ fn with_weights_for_budget(
     let Some(kbps) = opts.video.kbps.filter(|_| opts.vertex_bones() && opts.coarse_weights.is_none()) else {
         return Ok(o);
     };
-    let seconds = src.frame_count() as f64 / f64::from(src.fps());
     let fine = EncodeOptions { coarse_weights: Some(false), ..at_constant_qp(opts, COARSE_WEIGHTS_QP) };
     let size = encode_prepared_into(src, &fine, image, &mut Count::default(), &mut |_, _, _| {})?.bytes;
-    o.coarse_weights = Some(size as f64 > f64::from(kbps) * 1000.0 / 8.0 * seconds);
+    o.coarse_weights = Some(size as f64 > budget_bytes(src, kbps));
     Ok(o)
 }
 
@@ -94,8 +225,7 @@ fn on_budget<S: Sink>(
         let report = encode_prepared_into(src, opts, image, &mut sink, progress)?;
         return Ok((sink, report));
     };
-    let seconds = src.frame_count() as f64 / f64::from(src.fps());
-    let target = f64::from(kbps) * 1000.0 / 8.0 * seconds;
+    let target = budget_bytes(src, kbps);
     let miss = |size: usize| (size as f64 / target - 1.0).abs();
     let mut o = opts.clone();
     let mut best: Option<(S, EncodeReport)> = None;
@@ -177,7 +307,7 @@ fn refuse_or_keep<S: Sink>(
                 drop(closest);
                 return on_budget(src, &two, image, open, &mut |_, _, _| {});
             }
-            return Err(Error::Argument(format!(
+            return Err(Error::BudgetTooLarge(format!(
                 "the largest file this codec makes of this motion (QP 0{}) is {:.1} kbit/s, below the budget of {:.1}",
                 if opts.layers == 2 { ", two layers" } else { ", one layer: a normal correction has no second" },
                 kbps(largest),

@@ -22,13 +22,16 @@ mod code;
 mod header;
 mod plan;
 mod request;
+pub mod residual_step;
 mod simulate;
 mod target;
 mod vertex_bones;
 mod weights_refit;
 
 pub use bones::{DEFAULT_BONES, MIN_BONE_FRAMES};
-pub use budget::{encode_on_budget, encode_on_budget_into, BUDGET_TOLERANCE, MAX_PASSES};
+pub use budget::{
+    encode_on_budget, encode_on_budget_into, BudgetResidual, BUDGET_TOLERANCE, MAX_PASSES, RESIDUAL_BUDGET_BITS,
+};
 pub use choice::CodecChoice;
 pub use request::{EncodeRequest, Encoded, GridChoice, Made};
 pub use simulate::MOTION_MARGIN;
@@ -337,6 +340,9 @@ pub struct EncodeReport {
     /// codec's smallest file above the budget, or a target error it met
     /// only there with a larger file than the closed loop's.
     pub auto_passed_over: Option<String>,
+    /// With a large bitrate: the vertex residual tried under the same
+    /// budget, and the surface RMS that decided between the two files.
+    pub budget_residual: Option<BudgetResidual>,
 }
 
 /// Encodes a motion into `.cgv` bytes; with a bitrate, the file within
@@ -453,39 +459,43 @@ pub fn encode_prepared_into(
         bone_units: vertex_bones.as_ref().map(|b| &b.units[..]),
         residual,
     };
-    let code::Coded {
-        bytes,
-        stream_bytes,
-        side_bytes,
-        source_mesh_bytes,
-        skin_bytes,
-        frame_mesh_bytes,
-        vertex_residual_bytes,
-        seconds_coding,
-    } = code::code(src, opts, (&plan, &header), (image, chunks), &st, sink, progress)?;
+    let coded = code::code(src, opts, (&plan, &header), (image, chunks), &st, sink, progress)?;
     let rest_pose_bytes = vertex_bones.as_ref().map_or(0, |b| format::skin::rest_bytes(&b.weights.rest).len());
-    let (source_mesh_bytes, skin_bytes) = (source_mesh_bytes + rest_pose_bytes, skin_bytes - rest_pose_bytes);
+    Ok(report_of(coded, header.representation(), plan.frames, image, rest_pose_bytes, t_start))
+}
+
+/// The report of one pass: what [`code::code`] wrote, the rest pose's bytes
+/// counted with the source mesh (the mesh, which a skinned mesh's size
+/// leaves out too) rather than the weights.
+fn report_of(
+    coded: code::Coded,
+    codec: format::Representation,
+    frames: usize,
+    image: &GeometryImage,
+    rest_pose_bytes: usize,
+    t_start: std::time::Instant,
+) -> EncodeReport {
     let seconds_parameterize = image.seconds();
-    let report = EncodeReport {
-        codec: header.representation(),
-        bytes,
-        frames: plan.frames,
-        stream_bytes,
-        side_bytes,
-        source_mesh_bytes,
-        skin_bytes,
+    EncodeReport {
+        codec,
+        bytes: coded.bytes,
+        frames,
+        stream_bytes: coded.stream_bytes,
+        side_bytes: coded.side_bytes,
+        source_mesh_bytes: coded.source_mesh_bytes + rest_pose_bytes,
+        skin_bytes: coded.skin_bytes - rest_pose_bytes,
         rest_pose_bytes,
-        frame_mesh_bytes,
-        vertex_residual_bytes,
+        frame_mesh_bytes: coded.frame_mesh_bytes,
+        vertex_residual_bytes: coded.vertex_residual_bytes,
         parameterization: image.param.clone(),
         seconds_parameterize,
-        seconds_coding,
+        seconds_coding: coded.seconds_coding,
         seconds_total: seconds_parameterize + t_start.elapsed().as_secs_f64(),
         passes: 1,
         budget_miss: None,
         auto_passed_over: None,
-    };
-    Ok(report)
+        budget_residual: None,
+    }
 }
 
 /// Version 18: what codes the vertex residual, where the options ask for

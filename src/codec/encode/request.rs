@@ -186,7 +186,12 @@ impl EncodeRequest {
         let opts = self.options_on(src.fps(), grid)?;
         let Some(percent) = self.target_error else {
             let (sink, report) = encode_into(src, &opts, open, progress)?;
-            return Ok(Encoded { file: Made::Streamed(sink), options: opts, report, target: None });
+            // A budget's residual, where it was kept, is in the file's options.
+            let mut options = opts;
+            if let Some(r) = report.budget_residual.filter(|r| r.kept) {
+                (options.vertex_residual, options.video.qp) = (Some(r.percent), r.qp);
+            }
+            return Ok(Encoded { file: Made::Streamed(sink), options, report, target: None });
         };
         // With a grid chosen for it, N = 128's resampling floor decides.
         let fps = src.fps();

@@ -89,13 +89,13 @@ fn sample(frames: usize) -> Vec<usize> {
 }
 
 /// The input's sampled frames and the diagonal errors are relative to.
-struct Truth {
+pub(super) struct Truth {
     frames: Vec<(usize, Frame)>,
     diagonal: f64,
 }
 
 impl Truth {
-    fn read(src: &dyn FrameSource) -> Result<Truth> {
+    pub(super) fn read(src: &dyn FrameSource) -> Result<Truth> {
         let frames =
             sample(src.frame_count()).into_iter().map(|f| Ok((f, src.read_frame(f)?))).collect::<Result<Vec<_>>>()?;
         let diagonal = frames.first().map_or(0.0, |(_, x)| Bounds::of(x).diagonal() as f64);
@@ -106,7 +106,19 @@ impl Truth {
     /// diagonal: of its grid, or of the input's mesh where the file's bones
     /// act on it (the skinned codec's grid is a residual) or it has a
     /// vertex residual.
-    fn measure(&self, bytes: &[u8], src: &dyn FrameSource, image: &GeometryImage) -> Result<f64> {
+    pub(super) fn measure(&self, bytes: &[u8], src: &dyn FrameSource, image: &GeometryImage) -> Result<f64> {
+        Ok(self.errors(bytes, src, image)?.0)
+    }
+
+    /// [`Self::measure`]'s surface RMS, and where the file adds at the
+    /// input's vertices (bones or a residual there) their vertex RMS, both
+    /// relative to the diagonal.
+    pub(super) fn errors(
+        &self,
+        bytes: &[u8],
+        src: &dyn FrameSource,
+        image: &GeometryImage,
+    ) -> Result<(f64, Option<f64>)> {
         let file =
             crate::format::read(bytes).map_err(|e| Error::Container { path: src.label().to_path_buf(), source: e })?;
         let solver = file.header.solver;
@@ -114,7 +126,7 @@ impl Truth {
         let mut dec = FileDecoder::new(file, solver)?;
         let source = dec.source_mesh().filter(|_| on_mesh);
         let (topology, faces) = (src.topology(), image.surface_faces(src.topology()));
-        let mut sum = 0.0;
+        let (mut surface, mut squared) = (0.0, 0.0);
         let last = self.frames.last().map_or(0, |s| s.0);
         let mut next = self.frames.iter().peekable();
         for f in 0..=last {
@@ -123,13 +135,17 @@ impl Truth {
             let d = match &source {
                 Some(m) => {
                     let v = src.on_input(m.vertices(&x, dec.loose(), dec.at_vertices()));
+                    let sum: f64 = v.iter().zip(truth.iter()).map(|(a, b)| f64::from((*a - *b).length_squared())).sum();
+                    squared += sum / v.len().max(1) as f64;
                     surface::symmetric(&v, &topology.faces, truth, &topology.faces)?
                 }
                 None => surface::symmetric(&surface_vertices(&x, dec.loose()), &faces, truth, &topology.faces)?,
             };
-            sum += d.rms;
+            surface += d.rms;
         }
-        Ok(sum / self.frames.len().max(1) as f64 / self.diagonal.max(f64::MIN_POSITIVE))
+        let (n, diagonal) = (self.frames.len().max(1) as f64, self.diagonal.max(f64::MIN_POSITIVE));
+        let vertex = source.is_some().then(|| (squared / n).sqrt() / diagonal);
+        Ok((surface / n / diagonal, vertex))
     }
 }
 
