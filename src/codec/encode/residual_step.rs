@@ -7,7 +7,7 @@
 use crate::error::Result;
 
 /// The residual's range searched, percent of the diagonal.
-pub const FINEST: f64 = 0.005;
+pub const FINEST: f64 = 0.001;
 pub const COARSEST: f64 = 5.0;
 /// Encodes at most.
 pub const TRIES: usize = 10;
