@@ -297,6 +297,9 @@ fn v19_spatial_residual_fixture_decodes_as_frozen() {
         let worst = got.iter().zip(frame.iter()).map(|(a, b)| (*a - *b).abs().max_element()).fold(0.0, f32::max);
         assert!(worst <= 0.5 * step * 1.001, "frame {k}: a vertex {worst} off (step {step})");
     }
+    // The residual is coded against the cgv solver's grid, not the paper's.
+    let paper = FileDecoder::new(f.clone(), SolverKind::Paper).err().map(|e| e.to_string());
+    assert!(paper.as_deref().is_some_and(|e| e.contains("cgv solver")), "{paper:?}");
     check_residual_fixture(name, f, 6);
 }
 

@@ -314,6 +314,14 @@ impl SequenceDecoder {
             return Err(Error::Memory { needed, limit: memory_limit });
         }
         let grid = Grid::new(header.grid as usize)?;
+        // The residual codes what the cgv decoder's grid missed; added to
+        // another solver's grid it would correct the wrong thing.
+        if header.vertex_residual.is_some() && header.codec == CodecKind::Cgv && solver == SolverKind::Paper {
+            return Err(Error::Argument(
+                "this file's vertex residual is coded against the cgv solver's grid: decode it with the cgv solver"
+                    .into(),
+            ));
+        }
         let reconstructor = Reconstructor::new(&header, solver)?;
         let loose = LooseVertices::for_header(&header);
         let vertices = header.source_mesh.map_or(0, |m| m.vertices as usize);

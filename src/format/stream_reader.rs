@@ -411,6 +411,19 @@ fn shift(e: ContainerError, by: usize) -> ContainerError {
     }
 }
 
+/// The next length-prefixed unit of a frame chunk's payload `p` at `at`
+/// (moved past it), `what` naming it in errors.
+fn next_unit<'a>(p: &'a [u8], at: &mut usize, what: &str, offset: usize) -> Result<&'a [u8], ContainerError> {
+    let bad = |msg: String| ContainerError::Chunk { offset, msg: format!("{what}: {msg}") };
+    let len = read_len(p, at).ok_or_else(|| bad("bad unit length".into()))?;
+    if len > p.len() - *at {
+        return Err(bad(format!("a unit of {len} bytes overruns its frame chunk")));
+    }
+    let unit = &p[*at..*at + len];
+    *at += len;
+    Ok(unit)
+}
+
 /// The units a frame chunk has after its access units, as the header says:
 /// the bones (version 13), the loose vertices (11), the frame's own
 /// mesh (16) and the vertex residual (18), each checked and kept in `info`; `at` moves past them.
@@ -421,47 +434,33 @@ fn side_units(
     info: &mut FrameInfo,
     offset: usize,
 ) -> Result<(), ContainerError> {
-    let bad = |msg: String| ContainerError::Chunk { offset, msg };
     if let Some(skin) = &header.skin {
-        let len = read_len(p, at).ok_or_else(|| bad("bones: bad unit length".into()))?;
+        let unit = next_unit(p, at, "bones", offset)?;
         // Every frame but a random-access point has one (with bones on the
         // vertices, every frame).
         let rap = header.is_random_access_point(frame) && !skin.on_vertices();
         let most = if rap { 0 } else { crate::format::BoneMotions::max_bytes(skin.bones, skin.packed) };
-        if len > p.len() - *at || len > most || (!rap && len == 0) {
-            return Err(bad(format!("bones: a unit of {len} bytes (frame {frame}'s has {} to {most})", most.min(1))));
+        if unit.len() > most || (!rap && unit.is_empty()) {
+            let msg = format!("bones: a unit of {} bytes (frame {frame}'s has {} to {most})", unit.len(), most.min(1));
+            return Err(ContainerError::Chunk { offset, msg });
         }
-        info.bones = Some(p[*at..*at + len].to_vec());
-        *at += len;
+        info.bones = Some(unit.to_vec());
     }
     if let Some(count) = header.loose_vertices() {
-        let len = read_len(p, at).ok_or_else(|| bad("loose vertices: bad unit length".into()))?;
-        if len > p.len() - *at {
-            return Err(bad(format!("loose vertices: a unit of {len} bytes overruns its frame chunk")));
-        }
-        LooseFrame::parse(&p[*at..*at + len], count, offset)?;
-        info.loose = Some(p[*at..*at + len].to_vec());
-        *at += len;
+        let unit = next_unit(p, at, "loose vertices", offset)?;
+        LooseFrame::parse(unit, count, offset)?;
+        info.loose = Some(unit.to_vec());
     }
     if header.frame_meshes {
-        let len = read_len(p, at).ok_or_else(|| bad(format!("frame {frame}'s mesh: bad unit length")))?;
-        if len > p.len() - *at {
-            return Err(bad(format!("frame {frame}'s mesh: a unit of {len} bytes overruns its frame chunk")));
-        }
-        crate::format::frame_mesh::parse_unit(&p[*at..*at + len], frame, offset)?;
-        info.mesh = Some(p[*at..*at + len].to_vec());
-        *at += len;
+        let unit = next_unit(p, at, &format!("frame {frame}'s mesh"), offset)?;
+        crate::format::frame_mesh::parse_unit(unit, frame, offset)?;
+        info.mesh = Some(unit.to_vec());
     }
-    if header.vertex_residual.is_some() {
-        let len = read_len(p, at).ok_or_else(|| bad("vertex residual: bad unit length".into()))?;
-        if len > p.len() - *at {
-            return Err(bad(format!("vertex residual: a unit of {len} bytes overruns its frame chunk")));
-        }
+    if let Some(r) = header.vertex_residual {
+        let unit = next_unit(p, at, "vertex residual", offset)?;
         let values = header.source_mesh.map_or(0, |m| 3 * m.vertices as usize);
-        let spatial = header.vertex_residual.is_some_and(|r| r.spatial);
-        crate::format::vertex_residual::ResidualUnit::check(&p[*at..*at + len], values, spatial, offset)?;
-        info.residual = Some(p[*at..*at + len].to_vec());
-        *at += len;
+        crate::format::vertex_residual::ResidualUnit::check(unit, values, r.spatial, offset)?;
+        info.residual = Some(unit.to_vec());
     }
     Ok(())
 }
