@@ -491,6 +491,16 @@ fn a_large_budget_tries_the_vertex_residual_and_keeps_the_closer_file() {
     assert!((all / kept - 1.0).abs() < 0.25, "{all} on every frame, {kept} on the sampled ones");
     // Here the grid at 16² has a floor the residual goes below.
     assert!(tried.kept && tried.vertex_rms_with < 0.9 * without, "{tried:?}");
+    // The closed loop's file keeps the input's mesh too: both files are
+    // measured on its vertices, not only the one with a residual.
+    let mut normal = EncodeOptions { representation: Representation::Normal, grid: 64, bones: Some(0), ..opts.clone() };
+    normal.video.kbps = Some(650.0);
+    let (_, report) = encode(&cgv::mesh::builtin::motion(48), &normal, &mut |_, _, _| {}).unwrap();
+    let t = report.budget_residual.expect("a residual tried");
+    eprintln!("normal: {t:?}");
+    let without = t.vertex_rms_without.expect("the plain file within the budget");
+    assert!(without.is_finite() && t.vertex_rms_with.is_finite(), "{t:?}");
+    assert_eq!(t.kept, t.vertex_rms_with < without, "{t:?}");
     // Below: not tried (a longer motion, whose weights and rest pose the
     // smaller budget affords).
     let src = cgv::mesh::builtin::motion(72);

@@ -600,10 +600,11 @@ pub fn decoder_memory(h: &Header, solver: SolverKind) -> u64 {
     // Version 18: the residual, its sum with the skinning, and a unit's
     // values; version 19's walk (a vertex's guess) and what rebuilding a
     // spatial unit holds (each vertex's known and rebuilt integers, and
-    // those laid out again).
+    // those laid out again), and while the walk is made, a copy of the
+    // faces and the faces around each vertex.
     let residual = h.vertex_residual.map_or(0, |r| {
-        let per_vertex = if r.spatial { 36 + 20 + 48 } else { 36 };
-        h.source_mesh.map_or(0, |m| u64::from(m.vertices) * per_vertex)
+        let (per_vertex, per_face) = if r.spatial { (36 + 20 + 48 + 5, 24) } else { (36, 0) };
+        h.source_mesh.map_or(0, |m| u64::from(m.vertices) * per_vertex + u64::from(m.faces) * per_face)
     });
     let loose = u64::from(h.loose_vertices().unwrap_or(0)) * 3 * 12;
     let look = h.appearance.as_ref().map_or(0, |a| {

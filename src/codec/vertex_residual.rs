@@ -100,10 +100,16 @@ impl VertexResidual {
                 Mode::Delta => wanted(&|v| self.residual[v]),
             };
             let max = MAX_VALUE as i32;
+            let reached = q.iter().flatten().all(|x| x.abs() <= max);
             let plain = q.iter().flatten().map(|x| (*x).clamp(-max, max)).collect();
             let mut units = vec![ResidualUnit { mode, spatial: false, values: plain }];
             if let Some(order) = &self.order {
-                units.push(ResidualUnit { mode, spatial: true, values: order.code(&q, max).0 });
+                // A guess that misses by more than a value holds leaves its
+                // vertex off: spatial only where it reaches what plain does.
+                let (values, rebuilt) = order.code(&q, max);
+                if rebuilt == q || !reached {
+                    units.push(ResidualUnit { mode, spatial: true, values });
+                }
             }
             for unit in units {
                 let bytes = unit.to_bytes()?;
@@ -145,5 +151,27 @@ mod tests {
         }
         dec.reset();
         assert!(dec.residual().iter().all(|r| *r == Vec3::ZERO));
+    }
+
+    /// Two strips of triangles whose values fall and rise along them (the
+    /// plain unit holds them, each within ±1000 steps, at many bits a value);
+    /// the walk guesses each vertex to a fraction of a step but the second
+    /// strip's first vertex as the first strip's last, 1,250 steps off, more
+    /// than a value holds. The spatial unit would be far smaller and leave
+    /// that vertex off; the plain one reaches every vertex.
+    #[test]
+    fn a_spatial_unit_is_kept_only_where_it_reaches_the_vertices() {
+        let (step, n) = (0.01, 1500u32);
+        let strip = |at: u32| (0..n - 2).map(move |k| [at + k, at + k + 1, at + k + 2]);
+        let faces: Vec<[u32; 3]> = strip(0).chain(strip(n)).collect();
+        let value = |v: u32| if v < n { 1000 - (v / 2) as i32 } else { -1000 + ((v - n) / 2) as i32 };
+        let target: Vec<Vec3> = (0..2 * n).map(|v| Vec3::splat(value(v) as f32 * step)).collect();
+        let (mut enc, mut dec) = (VertexResidual::new(step, 2 * n as usize), VertexResidual::new(step, 2 * n as usize));
+        enc.set_faces(&faces);
+        dec.set_faces(&faces);
+        let bytes = enc.code(&target).unwrap();
+        dec.apply(&ResidualUnit::parse(&bytes, 6 * n as usize, true, 0).unwrap()).unwrap();
+        let worst = target.iter().zip(dec.residual()).map(|(t, r)| (*t - *r).abs().max_element()).fold(0.0, f32::max);
+        assert!(worst <= 0.5 * step + 1e-6, "a vertex {worst} off (mode {})", bytes[0]);
     }
 }

@@ -233,7 +233,13 @@ impl Player {
         let header = self.reader.header().ok_or_else(|| JsError::new("the header has not arrived"))?.clone();
         let solver = self.solver.unwrap_or(header.solver);
         self.lumas = vec![None; header.streams.len()];
-        self.dec = Some(SequenceDecoder::new(header, solver, self.memory_limit).map_err(js)?);
+        let mut dec = SequenceDecoder::new(header, solver, self.memory_limit).map_err(js)?;
+        // What the decoder took from the source mesh (loose vertices'
+        // anchors, the spatial residual's walk) it needs again.
+        if let Some(mesh) = self.reader.file().and_then(|f| f.source_mesh.as_ref()) {
+            dec.set_source_mesh(mesh).map_err(js)?;
+        }
+        self.dec = Some(dec);
         self.give_skin()
     }
 

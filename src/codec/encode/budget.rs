@@ -15,8 +15,9 @@
 //! bits over) gets a constant QP instead, bisected on the files' sizes,
 //! where that lands nearer. Where the file keeps the input's mesh and the
 //! budget is large (at least [`RESIDUAL_BUDGET_BITS`]), a vertex residual
-//! under the same budget is tried too, and the file with the lower
-//! surface RMS kept: past the grid's floor more video buys nothing.
+//! under the same budget is tried too, and the file with the lower vertex
+//! RMS on the input's vertices kept: past the grid's floor more video buys
+//! nothing.
 
 use super::residual_step::search_step;
 use super::target::{residual_qp_of, Truth, COARSEST_QP};
@@ -119,8 +120,9 @@ fn residual_budget_qp(src: &dyn FrameSource, opts: &EncodeOptions) -> Option<u8>
 
 /// The budget kept as asked and with a vertex residual (its step searched
 /// for the budget at `qp`), each measured on the sampled frames as
-/// `--target-error` measures; the lower vertex RMS is kept, the report's
-/// `budget_residual` saying what was tried.
+/// `--target-error` measures; the file within the budget with the lower
+/// vertex RMS is kept, the report's `budget_residual` saying what was
+/// tried, its passes and times adding up every encode and measure.
 fn with_residual_tried<S: Sink>(
     src: &dyn FrameSource,
     opts: &EncodeOptions,
@@ -129,6 +131,7 @@ fn with_residual_tried<S: Sink>(
     open: &mut dyn FnMut() -> Result<S>,
     progress: &mut dyn FnMut(&str, usize, usize),
 ) -> Result<(S, EncodeReport)> {
+    let start = std::time::Instant::now();
     // The file without one, unless the budget is past its largest.
     let plain = match with_or_without_bones(src, opts, image, &mut || Ok(Vec::new()), progress) {
         Ok(p) => Ok(p),
@@ -136,56 +139,102 @@ fn with_residual_tried<S: Sink>(
         Err(e) => return Err(e),
     };
     let target = budget_bytes(src, opts.video.kbps.unwrap_or_default());
-    let with = |p: f64| EncodeOptions { vertex_residual: Some(p as f32), ..at_constant_qp(opts, qp) };
-    let mut nearest: Option<(f64, usize)> = None;
-    let tries = search_step(target as usize, BUDGET_TOLERANCE / 2.0, &mut |p| {
-        let label = format!("a {p:.3} % vertex residual for the budget");
-        let r = encode_prepared_into(src, &with(p), image, &mut Count::default(), &mut |stage, d, t| {
-            progress(&format!("{stage} ({label})"), d, t)
-        })?;
-        let off = |size: usize| (size as f64 / target - 1.0).abs();
-        if nearest.is_none_or(|(_, s)| off(r.bytes) < off(s)) {
-            nearest = Some((p, r.bytes));
-        }
-        Ok(r.bytes)
-    })?;
+    let (found, mut passes, mut coding) = residual_for_budget(src, opts, image, qp, target, progress)?;
+    if let Ok((_, r)) = &plain {
+        (passes, coding) = (passes + r.passes, coding + r.seconds_coding);
+    }
+    let account = |mut r: EncodeReport, passes: usize, coding: f64| {
+        (r.passes, r.seconds_coding) = (passes, coding);
+        r.seconds_total = r.seconds_parameterize + start.elapsed().as_secs_f64();
+        r
+    };
     let mut kept = |bytes: Vec<u8>, report: EncodeReport| -> Result<(S, EncodeReport)> {
         let mut sink = open()?;
         sink.put(&bytes)?;
         Ok((sink, report))
     };
-    let Some((p, _)) = nearest.filter(|(_, s)| (*s as f64 / target - 1.0).abs() <= BUDGET_TOLERANCE) else {
+    let Some(percent) = found else {
         let (plain, report) = plain.map_err(Error::BudgetTooLarge)?;
-        return kept(plain, report);
+        return kept(plain, account(report, passes, coding));
     };
-    let (bytes, mut report) = encode_prepared(src, &with(p), image, &mut |_, _, _| {})?;
+    let (bytes, report) = encode_prepared(src, &residual_options(opts, qp, percent), image, &mut |_, _, _| {})?;
+    let (passes, coding) = (passes + 1, coding + report.seconds_coding);
     let truth = Truth::read(src)?;
     let with = truth.errors(&bytes, src, image)?;
-    let without = match &plain {
-        Ok((plain, _)) => Some(truth.errors(plain, src, image)?),
-        Err(_) => None,
-    };
-    let vertex_rms_with = with.1.unwrap_or(f64::INFINITY);
-    let vertex_rms_without = without.map(|w| w.1.unwrap_or(f64::INFINITY));
+    let plain = plain.ok().map(|(b, r)| truth.errors(&b, src, image).map(|e| (b, r, e))).transpose()?;
     let tried = BudgetResidual {
-        percent: p as f32,
+        percent: percent as f32,
         qp,
-        vertex_rms_with,
+        vertex_rms_with: with.1.unwrap_or(f64::NAN),
         surface_rms_with: with.0,
-        vertex_rms_without,
-        surface_rms_without: without.map(|w| w.0),
-        kept: vertex_rms_without.is_none_or(|w| vertex_rms_with < w),
+        vertex_rms_without: plain.as_ref().map(|p| p.2 .1.unwrap_or(f64::NAN)),
+        surface_rms_without: plain.as_ref().map(|p| p.2 .0),
+        kept: plain.as_ref().is_none_or(|(_, r, e)| !within(r.budget_miss) || closer(with, e.to_owned())),
     };
-    let (earlier, seconds) = plain.as_ref().map_or((0, 0.0), |(_, r)| (r.passes, r.seconds_total));
-    if let (Ok((plain, plain_report)), false) = (plain, tried.kept) {
-        let passes = plain_report.passes + tries + 1;
-        return kept(plain, EncodeReport { budget_residual: Some(tried), passes, ..plain_report });
+    match plain {
+        Some((plain, report, _)) if !tried.kept => {
+            kept(plain, account(EncodeReport { budget_residual: Some(tried), ..report }, passes, coding))
+        }
+        _ => {
+            let miss = Some(report.bytes as f64 / target - 1.0);
+            let report = EncodeReport { budget_residual: Some(tried), budget_miss: miss, ..report };
+            kept(bytes, account(report, passes, coding))
+        }
     }
-    report.budget_miss = Some(report.bytes as f64 / target - 1.0);
-    report.passes += earlier + tries;
-    report.seconds_total += seconds;
-    report.budget_residual = Some(tried);
-    kept(bytes, report)
+}
+
+/// The residual's step (percent of the diagonal) whose file lands within
+/// [`BUDGET_TOLERANCE`] of `target` bytes, if one does, with the encodes
+/// the search took and their coding seconds.
+fn residual_for_budget(
+    src: &dyn FrameSource,
+    opts: &EncodeOptions,
+    image: &GeometryImage,
+    qp: u8,
+    target: f64,
+    progress: &mut dyn FnMut(&str, usize, usize),
+) -> Result<(Option<f64>, usize, f64)> {
+    let (mut nearest, mut coding): (Option<(f64, usize)>, f64) = (None, 0.0);
+    let tries = search_step(target as usize, BUDGET_TOLERANCE / 2.0, &mut |p| {
+        let label = format!("a {p:.3} % vertex residual for the budget");
+        let r =
+            encode_prepared_into(src, &residual_options(opts, qp, p), image, &mut Count::default(), &mut |s, d, t| {
+                progress(&format!("{s} ({label})"), d, t)
+            })?;
+        coding += r.seconds_coding;
+        if nearest.is_none_or(|(_, s)| off(s, target) > off(r.bytes, target)) {
+            nearest = Some((p, r.bytes));
+        }
+        Ok(r.bytes)
+    })?;
+    let found = nearest.filter(|(_, s)| off(*s, target) <= BUDGET_TOLERANCE).map(|(p, _)| p);
+    Ok((found, tries, coding))
+}
+
+/// The options of a budget's residual file: `opts` at a constant `qp` with
+/// a vertex residual of `percent` (what [`with_residual_tried`] made, for
+/// the options a caller reports).
+pub(super) fn residual_options(opts: &EncodeOptions, qp: u8, percent: f64) -> EncodeOptions {
+    EncodeOptions { vertex_residual: Some(percent as f32), ..at_constant_qp(opts, qp) }
+}
+
+/// How far a file of `size` bytes is from `target`, as a fraction.
+fn off(size: usize, target: f64) -> f64 {
+    (size as f64 / target - 1.0).abs()
+}
+
+/// Whether a budget's file is within [`BUDGET_TOLERANCE`] (no miss: yes).
+fn within(miss: Option<f64>) -> bool {
+    miss.is_none_or(|m| m.abs() <= BUDGET_TOLERANCE)
+}
+
+/// Whether errors `a` (surface RMS, vertex RMS) are below `b`: by the
+/// vertex RMS where both have one, else by the surface RMS.
+fn closer(a: (f64, Option<f64>), b: (f64, Option<f64>)) -> bool {
+    match (a.1, b.1) {
+        (Some(x), Some(y)) => x < y,
+        _ => a.0 < b.0,
+    }
 }
 
 /// A budget of `kbps` in bytes over the motion's duration.
@@ -226,7 +275,7 @@ fn on_budget<S: Sink>(
         return Ok((sink, report));
     };
     let target = budget_bytes(src, kbps);
-    let miss = |size: usize| (size as f64 / target - 1.0).abs();
+    let miss = |size: usize| off(size, target);
     let mut o = opts.clone();
     let mut best: Option<(S, EncodeReport)> = None;
     let (mut coding, mut total, mut passes) = (0.0, 0.0, 0);
@@ -352,7 +401,7 @@ fn nearer_by_qp<S: Sink>(
         }
     }
     let (size_lo, size_hi) = (size_at(lo)?, size_at(hi)?);
-    let miss = |size: usize| (size as f64 / target - 1.0).abs();
+    let miss = |size: usize| off(size, target);
     let (qp, size) = if miss(size_lo) <= miss(size_hi) { (lo, size_lo) } else { (hi, size_hi) };
     let searched = sizes.len();
     if miss(size) >= miss(closest.1.bytes) {

@@ -341,7 +341,7 @@ pub struct EncodeReport {
     /// only there with a larger file than the closed loop's.
     pub auto_passed_over: Option<String>,
     /// With a large bitrate: the vertex residual tried under the same
-    /// budget, and the surface RMS that decided between the two files.
+    /// budget, and the errors that decided between the two files.
     pub budget_residual: Option<BudgetResidual>,
 }
 

@@ -187,10 +187,10 @@ impl EncodeRequest {
         let Some(percent) = self.target_error else {
             let (sink, report) = encode_into(src, &opts, open, progress)?;
             // A budget's residual, where it was kept, is in the file's options.
-            let mut options = opts;
-            if let Some(r) = report.budget_residual.filter(|r| r.kept) {
-                (options.vertex_residual, options.video.qp) = (Some(r.percent), r.qp);
-            }
+            let options = match report.budget_residual.filter(|r| r.kept) {
+                Some(r) => super::budget::residual_options(&opts, r.qp, f64::from(r.percent)),
+                None => opts,
+            };
             return Ok(Encoded { file: Made::Streamed(sink), options, report, target: None });
         };
         // With a grid chosen for it, N = 128's resampling floor decides.

@@ -110,8 +110,8 @@ impl Truth {
         Ok(self.errors(bytes, src, image)?.0)
     }
 
-    /// [`Self::measure`]'s surface RMS, and where the file adds at the
-    /// input's vertices (bones or a residual there) their vertex RMS, both
+    /// [`Self::measure`]'s surface RMS, and where the file carries the
+    /// input's mesh the vertex RMS of its vertices as decoded, both
     /// relative to the diagonal.
     pub(super) fn errors(
         &self,
@@ -124,7 +124,7 @@ impl Truth {
         let solver = file.header.solver;
         let on_mesh = file.header.adds_at_vertices();
         let mut dec = FileDecoder::new(file, solver)?;
-        let source = dec.source_mesh().filter(|_| on_mesh);
+        let mesh = dec.source_mesh();
         let (topology, faces) = (src.topology(), image.surface_faces(src.topology()));
         let (mut surface, mut squared) = (0.0, 0.0);
         let last = self.frames.last().map_or(0, |s| s.0);
@@ -132,19 +132,19 @@ impl Truth {
         for f in 0..=last {
             let (x, _) = dec.next_frame()?;
             let Some((_, truth)) = next.next_if(|s| s.0 == f) else { continue };
-            let d = match &source {
-                Some(m) => {
-                    let v = src.on_input(m.vertices(&x, dec.loose(), dec.at_vertices()));
-                    let sum: f64 = v.iter().zip(truth.iter()).map(|(a, b)| f64::from((*a - *b).length_squared())).sum();
-                    squared += sum / v.len().max(1) as f64;
-                    surface::symmetric(&v, &topology.faces, truth, &topology.faces)?
-                }
+            let vertices = mesh.as_ref().map(|m| src.on_input(m.vertices(&x, dec.loose(), dec.at_vertices())));
+            if let Some(v) = &vertices {
+                let sum: f64 = v.iter().zip(truth.iter()).map(|(a, b)| f64::from((*a - *b).length_squared())).sum();
+                squared += sum / v.len().max(1) as f64;
+            }
+            let d = match vertices.filter(|_| on_mesh) {
+                Some(v) => surface::symmetric(&v, &topology.faces, truth, &topology.faces)?,
                 None => surface::symmetric(&surface_vertices(&x, dec.loose()), &faces, truth, &topology.faces)?,
             };
             surface += d.rms;
         }
         let (n, diagonal) = (self.frames.len().max(1) as f64, self.diagonal.max(f64::MIN_POSITIVE));
-        let vertex = source.is_some().then(|| (squared / n).sqrt() / diagonal);
+        let vertex = mesh.is_some().then(|| (squared / n).sqrt() / diagonal);
         Ok((surface / n / diagonal, vertex))
     }
 }
