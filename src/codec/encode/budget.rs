@@ -20,7 +20,7 @@
 //! nothing.
 
 use super::residual_step::search_step;
-use super::target::{residual_qp_of, Truth, COARSEST_QP};
+use super::target::{residual_qp_for, Truth, COARSEST_QP};
 use super::{encode_prepared, encode_prepared_into, EncodeOptions, EncodeReport, COARSE_WEIGHTS_QP};
 use crate::error::{Error, Result};
 use crate::geometry_image::GeometryImage;
@@ -108,14 +108,12 @@ fn with_or_without_bones<S: Sink>(
 
 /// The video's QP for a budget's residual try, where the budget has one:
 /// a bitrate of at least [`RESIDUAL_BUDGET_BITS`] a vertex a frame, for a
-/// file that keeps the input's mesh over a grid the encoder knows, whose
-/// options leave the residual to the encoder.
+/// file that can have a residual (`--target-error`'s rule).
 fn residual_budget_qp(src: &dyn FrameSource, opts: &EncodeOptions) -> Option<u8> {
     let kbps = f64::from(opts.video.kbps?);
     let vertices = src.topology().vertex_count.max(1) as f64;
     let bits = kbps * 1000.0 / f64::from(src.fps()).max(1e-3) / vertices;
-    let eligible = opts.source_mesh && !opts.frame_meshes && opts.vertex_residual.is_none() && opts.grid_known();
-    (eligible && bits >= RESIDUAL_BUDGET_BITS).then(|| residual_qp_of(opts.representation))
+    residual_qp_for(opts).filter(|_| bits >= RESIDUAL_BUDGET_BITS)
 }
 
 /// The budget kept as asked and with a vertex residual (its step searched
@@ -169,7 +167,7 @@ fn with_residual_tried<S: Sink>(
         surface_rms_with: with.0,
         vertex_rms_without: plain.as_ref().map(|p| p.2 .1.unwrap_or(f64::NAN)),
         surface_rms_without: plain.as_ref().map(|p| p.2 .0),
-        kept: plain.as_ref().is_none_or(|(_, r, e)| !within(r.budget_miss) || closer(with, e.to_owned())),
+        kept: plain.as_ref().is_none_or(|(_, r, e)| !within(r.budget_miss) || closer(with, *e)),
     };
     match plain {
         Some((plain, report, _)) if !tried.kept => {

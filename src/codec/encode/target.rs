@@ -220,11 +220,15 @@ pub fn encode_to_error(
 /// keeps the input's mesh and the options leave the residual to the
 /// encoder).
 fn residual_qp(opts: &EncodeOptions, codec: CodecChoice) -> Option<u8> {
-    if !opts.source_mesh || opts.frame_meshes || opts.vertex_residual.is_some() {
-        return None;
-    }
-    let o = codec.apply(opts.clone(), Some(opts.solver)).ok()?;
-    o.grid_known().then(|| residual_qp_of(o.representation))
+    residual_qp_for(&codec.apply(opts.clone(), Some(opts.solver)).ok()?)
+}
+
+/// [`residual_qp`] for options whose codec is settled: the file keeps the
+/// input's mesh over a grid the encoder knows, and the options leave the
+/// residual to the encoder (a `--kbps` budget asks this too).
+pub(super) fn residual_qp_for(o: &EncodeOptions) -> Option<u8> {
+    let eligible = o.source_mesh && !o.frame_meshes && o.vertex_residual.is_none() && o.grid_known();
+    eligible.then(|| residual_qp_of(o.representation))
 }
 
 /// [`RESIDUAL_QP`]'s QP for a representation (the closed loop's for any
