@@ -239,7 +239,12 @@ fn site(name: &str) -> (PathBuf, Guard, u16) {
     std::fs::copy(root.join("tests/fixtures/v11/ball-hat-loose.cgv"), dir.join("hat.cgv")).unwrap();
     std::fs::copy(root.join("tests/fixtures/v13/walk-bones.cgv"), dir.join("bones.cgv")).unwrap();
     std::fs::copy(root.join("tests/fixtures/v17/walk-skinned.cgv"), dir.join("skinned.cgv")).unwrap();
-    for f in ["v18/walk-skinned-residual.cgv", "v18/walk-normal-residual.cgv", "v19/walk-normal-spatial.cgv"] {
+    for f in [
+        "v18/walk-skinned-residual.cgv",
+        "v18/walk-normal-residual.cgv",
+        "v19/walk-normal-spatial.cgv",
+        "v20/walk-vertices.cgv",
+    ] {
         std::fs::copy(root.join("tests/fixtures").join(f), dir.join(&f[4..])).unwrap();
     }
     std::fs::copy(root.join("tests/fixtures/v16/walk-capture-frame-meshes.cgv"), dir.join("capture.cgv")).unwrap();
@@ -422,13 +427,15 @@ fn viewer_plays_renders_and_recovers_in_headless_chromium() {
     // vertices in the page too (the skin weights reach the wasm decoder);
     // so do a version-17 file (bones on the vertices plus the grid's
     // residual) and version 18's vertex residual over them or over the
-    // closed loop, and version 19's spatially predicted one.
+    // closed loop, version 19's spatially predicted one, and version 20's
+    // file without a grid or video (no WebCodecs decoder at all).
     let pages = [
         ("bones.cgv", "v13/walk-bones.cgv"),
         ("skinned.cgv", "v17/walk-skinned.cgv"),
         ("walk-skinned-residual.cgv", "v18/walk-skinned-residual.cgv"),
         ("walk-normal-residual.cgv", "v18/walk-normal-residual.cgv"),
         ("walk-normal-spatial.cgv", "v19/walk-normal-spatial.cgv"),
+        ("walk-vertices.cgv", "v20/walk-vertices.cgv"),
     ];
     for (page, fixture) in pages {
         browser.js(&format!("document.getElementById('a').load('{page}'); return true;"), json!([]));

@@ -156,9 +156,9 @@ fn bad_magic_and_versions() {
     assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::BadMagic);
     assert_eq!(format::read(b"GIF89a").unwrap_err(), ContainerError::BadMagic);
     let mut bytes = file(&header());
-    bytes[8] = 20;
-    assert_eq!(format::VERSION, 19);
-    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 20 });
+    bytes[8] = 21;
+    assert_eq!(format::VERSION, 20);
+    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 21 });
     bytes[8] = 0;
     assert!(matches!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 0 }));
 }
@@ -1300,4 +1300,34 @@ fn a_spatial_residual_declared_as_version_18_is_an_error() {
     assert!(format::read(&bones_file(&prefix, &chunks)).is_ok());
     let e = format::read(&bones_file(&version_before(&prefix), &chunks)).unwrap_err().to_string();
     assert!(e.contains("version 19"), "{e}");
+}
+
+/// Version 20: a file without streams (the vertices codec's) needs a
+/// version 20 header; a header without streams needs the residual's
+/// origin; and such a file cut anywhere, or with any byte flipped, is an
+/// error, never a panic.
+#[test]
+fn a_file_without_streams_is_checked_like_any_other() {
+    let (prefix, chunks) = bones_chunks("v20/walk-vertices.cgv");
+    let whole = bones_file(&prefix, &chunks);
+    let file = format::read(&whole).unwrap();
+    let e = format::read(&bones_file(&version_before(&prefix), &chunks)).unwrap_err().to_string();
+    assert!(e.contains("version 20"), "{e}");
+    let mut h = file.header.clone();
+    h.vertex_residual = h.vertex_residual.map(|r| format::vertex_residual::VertexResidualInfo { origin: None, ..r });
+    let e = h.validate().unwrap_err().to_string();
+    assert!(e.contains("0 streams"), "{e}");
+    // Beside a stream, the origin would leave the grid unused: refused.
+    let mut h = file.header.clone();
+    h.streams = header().streams;
+    assert!(h.validate().unwrap_err().to_string().contains("origin"));
+    for cut in (0..whole.len()).step_by(89) {
+        assert!(format::read(&whole[..cut]).is_err(), "cut at {cut}");
+    }
+    let mut flipped = whole.clone();
+    for i in (0..flipped.len()).step_by(61) {
+        flipped[i] ^= 0x20;
+        let _ = format::read(&flipped);
+        flipped[i] ^= 0x20;
+    }
 }

@@ -288,8 +288,38 @@ fn v19_spatial_residual_fixture_decodes_as_frozen() {
     assert_eq!(residual_modes(&f), [2, 3, 3, 2, 3, 3]);
     // Not only as frozen: every vertex within half a step a coordinate of
     // the motion it was made from (none clamped at this step).
+    within_half_a_step(&f);
+    // The residual is coded against the cgv solver's grid, not the paper's.
+    let paper = FileDecoder::new(f.clone(), SolverKind::Paper).err().map(|e| e.to_string());
+    assert!(paper.as_deref().is_some_and(|e| e.contains("cgv solver")), "{paper:?}");
+    check_residual_fixture(name, f, 6);
+}
+
+#[test]
+fn v20_vertices_fixture_decodes_as_frozen() {
+    // No grid and no video: the vertices themselves, every frame, from the
+    // header's origin (`--codec vertices`), their units' counts sparse
+    // where that is shorter; random-access points at 0 and 3.
+    let name = "v20/walk-vertices.cgv";
+    let f = open(name);
+    assert_eq!(f.version, 20);
+    assert_eq!(f.header.representation(), format::Representation::Vertices);
+    assert!(f.header.streams.is_empty() && f.units.iter().all(Vec::is_empty));
+    let r = f.header.vertex_residual.expect("a vertex residual");
+    assert!(r.origin.is_some() && r.sparse && r.spatial);
+    // Spatial at the points (a histogram as wide as the figure: its counts
+    // sparse), its change spatial between (a narrow one: dense).
+    assert_eq!(residual_modes(&f), [6, 3, 3, 6, 3, 3]);
+    within_half_a_step(&f);
+    check_residual_fixture(name, f, 6);
+}
+
+/// Every decoded vertex of a fixture of the built-in motion's first frames
+/// lies within half its residual's step a coordinate of the motion (no
+/// value clamped at that step).
+fn within_half_a_step(f: &format::CgvFile) {
     let step = f.header.vertex_residual.map_or(0.0, |r| r.step);
-    let truth = cgv::mesh::builtin::motion(6);
+    let truth = cgv::mesh::builtin::motion(f.header.frames as usize);
     let mut dec = FileDecoder::new(f.clone(), SolverKind::Predictive).unwrap();
     let source = dec.source_mesh().unwrap();
     for (k, frame) in truth.frames.iter().enumerate() {
@@ -297,10 +327,6 @@ fn v19_spatial_residual_fixture_decodes_as_frozen() {
         let worst = got.iter().zip(frame.iter()).map(|(a, b)| (*a - *b).abs().max_element()).fold(0.0, f32::max);
         assert!(worst <= 0.5 * step * 1.001, "frame {k}: a vertex {worst} off (step {step})");
     }
-    // The residual is coded against the cgv solver's grid, not the paper's.
-    let paper = FileDecoder::new(f.clone(), SolverKind::Paper).err().map(|e| e.to_string());
-    assert!(paper.as_deref().is_some_and(|e| e.contains("cgv solver")), "{paper:?}");
-    check_residual_fixture(name, f, 6);
 }
 
 /// Each frame's residual unit's mode byte.

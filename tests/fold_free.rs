@@ -114,7 +114,7 @@ fn a_fold_left_after_every_remedy_still_encodes_and_says_where() {
     opts.param.area_correction = 0.0;
     opts.video.qp = 10;
     let (bytes, report) = encode(&src, &opts, &mut |_, _, _| {}).unwrap();
-    let d = &report.parameterization.distortion;
+    let d = &report.parameterization.as_ref().expect("a map").distortion;
     eprintln!("conformal map only: {} folds, {:.5} % of the area", d.flipped_faces, 100.0 * d.flipped_area);
     assert!(d.flipped_faces > 0 && d.flipped_area > 0.0 && d.flipped_area < 0.5, "{d:?}");
     let mut dec = FileDecoder::new(cgv::format::read(&bytes).unwrap(), cgv::solve::SolverKind::Predictive).unwrap();

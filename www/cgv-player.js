@@ -285,9 +285,10 @@ export class CgvPlayer extends HTMLElement {
       // The input's own mesh (a version-6 file carries it) when shaded;
       // λ, H and the error map are the grid's. mesh="grid" keeps the grid.
       const sm = this.header?.source_mesh;
-      // A skinned file's grid (format v17) is what its bones miss: only
-      // its mesh is a surface, shown shaded.
-      const skinned = this.header?.skin?.rest_step != null;
+      // A skinned file's grid (format v17) is what its bones miss, and a
+      // file without streams (v20) has none: only its mesh is a surface,
+      // shown shaded.
+      const skinned = this.header?.skin?.rest_step != null || this.header?.streams?.length === 0;
       const mode = skinned ? 'shaded' : this.mode;
       const own = mode === 'shaded' && this.getAttribute('mesh') !== 'grid';
       // A capture's file (format v16) carries each frame's own mesh.

@@ -119,7 +119,7 @@ impl FileDecoder {
 
     /// The input's mesh, when the file carries it (format version 6).
     pub fn source_mesh(&self) -> Option<SourceMeshDecoder> {
-        self.file.source_mesh.as_ref().map(|m| SourceMeshDecoder::new(self.grid, m))
+        self.file.source_mesh.as_ref().map(|m| SourceMeshDecoder::for_header(&self.file.header, self.grid, m))
     }
 
     /// Version 16: frame `frame`'s own mesh (a capture's, `--mesh

@@ -178,6 +178,9 @@ enum Rebuild {
     Gv,
     Predictive(Box<Predictive>),
     Paper(PaperSolver),
+    /// Version 20: a file without streams has no grid to rebuild; its
+    /// vertices are the residual's from the header's origin.
+    Nothing,
 }
 
 /// Rebuilds grid positions from one frame's values, frame after frame.
@@ -195,6 +198,7 @@ impl Reconstructor {
             Ok(())
         };
         let rebuild = match h.codec {
+            CodecKind::Gv if h.streams.is_empty() => Rebuild::Nothing,
             CodecKind::Gv => {
                 require(&POSITION)?;
                 Rebuild::Gv
@@ -242,7 +246,7 @@ impl Reconstructor {
     /// Forgets the frames rebuilt so far (a random-access point).
     pub fn reset(&mut self) {
         match &mut self.rebuild {
-            Rebuild::Gv => {}
+            Rebuild::Gv | Rebuild::Nothing => {}
             Rebuild::Predictive(p) => p.reset(),
             Rebuild::Paper(s) => s.reset(),
         }
@@ -252,6 +256,7 @@ impl Reconstructor {
     pub fn frame(&mut self, f: u32, info: &FrameInfo, values: &Values) -> Result<(Vec<Vec3>, SolveStats)> {
         let anchors: Vec<Vec3> = info.anchors.iter().map(|p| Vec3::from(*p)).collect();
         match &mut self.rebuild {
+            Rebuild::Nothing => Ok((Vec::new(), SolveStats::default())),
             Rebuild::Gv => {
                 let x = values
                     .xyz(POSITION)
@@ -435,9 +440,9 @@ impl SequenceDecoder {
         let Some(r) = &self.vertex_residual else { return Ok(None) };
         let (f, values) = (self.next, 3 * r.residual().len());
         let unit = info.residual.as_deref().ok_or_else(|| Error::Argument(format!("frame {f}: no vertex residual")))?;
-        let spatial = self.header.vertex_residual.is_some_and(|r| r.spatial);
+        let modes = self.header.vertex_residual.map(|r| r.modes()).unwrap_or_default();
         let unit =
-            ResidualUnit::parse(unit, values, spatial, 0).map_err(|e| Error::Argument(format!("frame {f}: {e}")))?;
+            ResidualUnit::parse(unit, values, modes, 0).map_err(|e| Error::Argument(format!("frame {f}: {e}")))?;
         if unit.spatial && !r.spatial() {
             return Err(Error::Argument(format!(
                 "frame {f}: a spatial vertex residual decoded without the source mesh"
@@ -524,6 +529,9 @@ pub struct SourceMeshDecoder {
     pub points: SourcePoints,
     /// Version 11: each vertex's loose vertex plus one, 0 on the grid.
     pub loose_of: Vec<u32>,
+    /// Version 20: a file without a grid rebuilds every vertex from this
+    /// point (the vertex residual's origin) in place of a grid frame.
+    pub origin: Option<Vec3>,
 }
 
 impl SourceMeshDecoder {
@@ -533,7 +541,15 @@ impl SourceMeshDecoder {
             topology,
             points: SourcePoints::from_places(grid, &mesh.places).with_offsets(mesh.offsets.as_ref()),
             loose_of: mesh.loose_of.clone(),
+            origin: None,
         }
+    }
+
+    /// The same for a file whose header is `h`: without a grid (version
+    /// 20), its vertices start from the residual's origin.
+    pub fn for_header(h: &Header, grid: Grid, mesh: &SourceMesh) -> SourceMeshDecoder {
+        let origin = h.vertex_residual.and_then(|r| r.origin).map(Vec3::from);
+        SourceMeshDecoder { origin, ..SourceMeshDecoder::new(grid, mesh) }
     }
 
     /// The input's vertices on one decoded grid frame, with its loose
@@ -542,7 +558,10 @@ impl SourceMeshDecoder {
     /// skinning, to which the grid frame, what the bones missed, adds, and
     /// version 18's residual).
     pub fn vertices(&self, grid_frame: &[Vec3], loose: &[Vec3], added: Option<&[Vec3]>) -> Vec<Vec3> {
-        let mut x = self.points.apply(grid_frame);
+        let mut x = match self.origin {
+            Some(o) => vec![o; self.loose_of.len().max(self.topology.vertex_count)],
+            None => self.points.apply(grid_frame),
+        };
         if let Some(s) = added {
             x.iter_mut().zip(s).for_each(|(x, s)| *x += *s);
         }

@@ -13,7 +13,7 @@
 //! neighbours predict.
 
 use crate::format::vertex_order::VertexOrder;
-use crate::format::vertex_residual::{Mode, ResidualUnit, MAX_VALUE};
+use crate::format::vertex_residual::{Mode, Modes, ResidualUnit, MAX_VALUE};
 use glam::Vec3;
 
 /// The decoded residual at each source vertex, carried from frame to
@@ -25,17 +25,24 @@ pub struct VertexResidual {
     residual: Vec<Vec3>,
     /// Version 19: the walk spatial units follow (none: a version 18 file).
     order: Option<VertexOrder>,
+    /// Version 20: the encoder may list a unit's counts sparsely.
+    sparse: bool,
 }
 
 impl VertexResidual {
     /// The residual of `vertices` vertices on `step` (the header's).
     pub fn new(step: f32, vertices: usize) -> VertexResidual {
-        VertexResidual { step, residual: vec![Vec3::ZERO; vertices], order: None }
+        VertexResidual { step, residual: vec![Vec3::ZERO; vertices], order: None, sparse: false }
     }
 
     /// Version 19: spatial units walk the source mesh's `faces`.
     pub fn set_faces(&mut self, faces: &[[u32; 3]]) {
         self.order = Some(VertexOrder::new(faces, self.residual.len()));
+    }
+
+    /// Version 20: the encoder lists a unit's counts sparsely where shorter.
+    pub fn set_sparse(&mut self, sparse: bool) {
+        self.sparse = sparse;
     }
 
     /// Whether spatial units can be applied (or coded).
@@ -112,7 +119,7 @@ impl VertexResidual {
                 }
             }
             for unit in units {
-                let bytes = unit.to_bytes()?;
+                let bytes = unit.to_bytes(Modes { spatial: self.order.is_some(), sparse: self.sparse })?;
                 if best.as_ref().is_none_or(|(_, b)| bytes.len() < b.len()) {
                     best = Some((unit, bytes));
                 }
@@ -128,7 +135,7 @@ impl VertexResidual {
 mod tests {
     #![allow(clippy::unwrap_used)]
     use super::VertexResidual;
-    use crate::format::vertex_residual::ResidualUnit;
+    use crate::format::vertex_residual::{Modes, ResidualUnit};
     use glam::Vec3;
 
     #[test]
@@ -140,7 +147,7 @@ mod tests {
             let target: Vec<Vec3> =
                 (0..50).map(|v| Vec3::new((v as f32 * 0.37).sin(), 0.2 * f as f32, (v as f32).cos()) * 0.05).collect();
             let bytes = enc.code(&target).unwrap();
-            dec.apply(&ResidualUnit::parse(&bytes, 150, false, 0).unwrap()).unwrap();
+            dec.apply(&ResidualUnit::parse(&bytes, 150, Modes::default(), 0).unwrap()).unwrap();
             assert_eq!(enc.residual(), dec.residual(), "frame {f}");
             let worst =
                 target.iter().zip(dec.residual()).map(|(t, r)| (*t - *r).abs().max_element()).fold(0.0, f32::max);
@@ -170,7 +177,7 @@ mod tests {
         enc.set_faces(&faces);
         dec.set_faces(&faces);
         let bytes = enc.code(&target).unwrap();
-        dec.apply(&ResidualUnit::parse(&bytes, 6 * n as usize, true, 0).unwrap()).unwrap();
+        dec.apply(&ResidualUnit::parse(&bytes, 6 * n as usize, Modes::ALL, 0).unwrap()).unwrap();
         let worst = target.iter().zip(dec.residual()).map(|(t, r)| (*t - *r).abs().max_element()).fold(0.0, f32::max);
         assert!(worst <= 0.5 * step + 1e-6, "a vertex {worst} off (mode {})", bytes[0]);
     }

@@ -62,6 +62,12 @@ pub enum Representation {
     /// weights and rest pose, each frame's transforms) and what they miss
     /// as x, y, z every frame on the grid (version 17).
     Skinned,
+    /// No grid and no video: the input's own vertices, coded every frame
+    /// as what the parallelogram rule over the mesh (or the frame before)
+    /// misses (version 20's file without streams). Neither conformal nor a
+    /// geometry video: for clips of a few frames, where a video's fixed
+    /// cost is most of the file.
+    Vertices,
 }
 
 impl Representation {
@@ -73,6 +79,7 @@ impl Representation {
             Representation::Predictive => "predictive",
             Representation::Normal => "normal",
             Representation::Skinned => "skinned",
+            Representation::Vertices => "vertices",
         }
     }
 }
@@ -375,7 +382,8 @@ fn is_zero(v: &u8) -> bool {
 pub const SEAM_RULE: &str = "octahedral-half-turn";
 
 impl Header {
-    /// The oldest format version that can hold this header: 19 for a
+    /// The oldest format version that can hold this header: 20 for a file
+    /// without streams or a vertex residual with sparse counts, 19 for a
     /// spatially predicted vertex residual, 18 for a vertex residual, 17
     /// for bones
     /// on the source mesh's vertices, 16 for frame
@@ -389,7 +397,9 @@ impl Header {
     /// predictions, 3 for a CGV file without H, 2 for motion corrections,
     /// else 1.
     pub fn min_version(&self) -> u16 {
-        if self.vertex_residual.is_some_and(|r| r.spatial) {
+        if self.vertex_residual.is_some_and(|r| r.sparse || r.origin.is_some()) {
+            20
+        } else if self.vertex_residual.is_some_and(|r| r.spatial) {
             19
         } else if self.vertex_residual.is_some() {
             18
@@ -540,6 +550,7 @@ impl Header {
     /// What the file stores (see [`Representation`]).
     pub fn representation(&self) -> Representation {
         match (self.codec, self.correction_streams()) {
+            (CodecKind::Gv, _) if self.streams.is_empty() => Representation::Vertices,
             (CodecKind::Gv, _) if self.skin.is_some_and(|s| s.on_vertices()) => Representation::Skinned,
             (CodecKind::Gv, _) => Representation::Gv,
             (CodecKind::Cgv, None) => Representation::Conformal,

@@ -459,7 +459,7 @@ fn side_units(
     if let Some(r) = header.vertex_residual {
         let unit = next_unit(p, at, "vertex residual", offset)?;
         let values = header.source_mesh.map_or(0, |m| 3 * m.vertices as usize);
-        crate::format::vertex_residual::ResidualUnit::check(unit, values, r.spatial, offset)?;
+        crate::format::vertex_residual::ResidualUnit::check(unit, values, r.modes(), offset)?;
         info.residual = Some(unit.to_vec());
     }
     Ok(())

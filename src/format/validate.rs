@@ -20,8 +20,11 @@ impl Header {
         if !(self.fps.is_finite() && self.fps > 0.0 && self.fps <= 1000.0) {
             return bad(format!("frame rate {} is not in (0, 1000]", self.fps));
         }
-        if self.streams.is_empty() || self.streams.len() > MAX_STREAMS {
-            return bad(format!("{} streams (1..={MAX_STREAMS} allowed)", self.streams.len()));
+        if self.streams.len() > MAX_STREAMS || self.streams.is_empty() && !self.without_video() {
+            return bad(format!(
+                "{} streams (1..={MAX_STREAMS} allowed; none only where the vertex residual has an origin)",
+                self.streams.len()
+            ));
         }
         self.validate_streams()?;
         if self.key_frames.first() != Some(&0)
@@ -80,11 +83,34 @@ impl Header {
         self.validate_random_access()
     }
 
+    /// Version 20: a file without streams, its vertices coded as the
+    /// residual from the header's origin.
+    fn without_video(&self) -> bool {
+        self.vertex_residual.is_some_and(|r| r.origin.is_some())
+    }
+
     /// Version 18: a residual at the source mesh's vertices, over a grid
-    /// the encoder decoded as the decoder will (GV or the closed loop).
+    /// the encoder decoded as the decoder will (GV or the closed loop);
+    /// version 20: with an origin, in place of any grid, alone in its file.
     fn validate_vertex_residual(&self) -> Result<(), ContainerError> {
         let Some(r) = &self.vertex_residual else { return Ok(()) };
         r.validate().map_err(ContainerError::Header)?;
+        if r.origin.is_some() {
+            let alone = self.streams.is_empty()
+                && self.codec == CodecKind::Gv
+                && self.anchors.is_empty()
+                && self.skin.is_none()
+                && self.max_lag == 0
+                && !self.frame_meshes
+                && self.source_mesh.is_some_and(|m| m.loose.is_none());
+            if !alone {
+                return Err(ContainerError::Header(
+                    "a vertex residual with an origin is the whole file: a GV header without streams, anchors, \
+                     bones or loose vertices, with a source mesh"
+                        .into(),
+                ));
+            }
+        }
         if self.source_mesh.is_none() || !self.loose_follow_grid() {
             return Err(ContainerError::Header(
                 "a vertex residual needs a source mesh, in a GV or closed-loop file".into(),

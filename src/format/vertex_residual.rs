@@ -13,9 +13,15 @@
 //! mode     u8          0: the values are the residual; 1: they add to the
 //!                      previous frame's decoded residual (zero at a
 //!                      random-access point); version 19: 2 and 3, the same
-//!                      predicted over the surface (`super::vertex_order`)
+//!                      predicted over the surface (`super::vertex_order`);
+//!                      version 20: plus 4 where the counts are sparse
 //! K        LEB128      the largest |value| (at most MAX_VALUE)
-//! counts   2K+1 LEB128 how many values are -K, ..., K (their sum is 3V)
+//! counts   2K+1 LEB128 how many values are -K, ..., K (their sum is 3V);
+//!                      sparse (version 20): how many counts are not 0,
+//!                      then for each its gap from the one before (LEB128,
+//!                      the first's from -K) and the count (LEB128): a
+//!                      histogram that spans a vertex coded whole, most of
+//!                      its 2K+1 counts 0, costs what it holds
 //! words    u32 LE ...  the 3V values, x, y, z of vertex after vertex,
 //!                      range coded (constriction 0.5's RangeEncoder<u32,
 //!                      u64>) with the model `model` makes of the counts;
@@ -51,6 +57,28 @@ pub struct VertexResidualInfo {
     /// neighbours predict misses (modes 2 and 3).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub spatial: bool,
+    /// Version 20: units may list their histogram's counts sparsely.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub sparse: bool,
+    /// Version 20: a file without video (no streams): the residual is the
+    /// vertex itself less this point (the first frame's bounding-box
+    /// centre), so that the decoder adds it to this and nothing else.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub origin: Option<[f32; 3]>,
+}
+
+/// Which unit layouts a file's header allows (its `vertex_residual`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Modes {
+    /// Version 19: modes 2 and 3.
+    pub spatial: bool,
+    /// Version 20: sparse counts.
+    pub sparse: bool,
+}
+
+impl Modes {
+    /// Every layout this version writes.
+    pub const ALL: Modes = Modes { spatial: true, sparse: true };
 }
 
 impl VertexResidualInfo {
@@ -60,6 +88,15 @@ impl VertexResidualInfo {
         } else {
             Err(format!("vertex residual step {} is not a positive number", self.step))
         }
+        .and_then(|()| match self.origin {
+            Some(o) if !o.iter().all(|x| x.is_finite()) => Err("vertex residual origin is not finite".into()),
+            _ => Ok(()),
+        })
+    }
+
+    /// The unit layouts the header allows.
+    pub fn modes(&self) -> Modes {
+        Modes { spatial: self.spatial, sparse: self.sparse }
     }
 }
 
@@ -101,9 +138,11 @@ fn model(counts: &[u64]) -> Option<DefaultContiguousCategoricalEntropyModel> {
 
 impl ResidualUnit {
     /// The unit's bytes (values beyond [`MAX_VALUE`] are the caller's to
-    /// clamp; they are clamped here too). `None` only if the range coder
-    /// fails, which a model giving every value a nonzero share rules out.
-    pub fn to_bytes(&self) -> Option<Vec<u8>> {
+    /// clamp; they are clamped here too), its counts listed sparsely where
+    /// `modes` allows that and it is shorter. `None` only if the range
+    /// coder fails, which a model giving every value a nonzero share rules
+    /// out.
+    pub fn to_bytes(&self, modes: Modes) -> Option<Vec<u8>> {
         let max = MAX_VALUE as i32;
         let values: Vec<i32> = self.values.iter().map(|&v| v.clamp(-max, max)).collect();
         let k = values.iter().map(|v| v.unsigned_abs()).max().unwrap_or(0);
@@ -111,9 +150,12 @@ impl ResidualUnit {
         for &v in &values {
             counts[(v + k as i32) as usize] += 1;
         }
-        let mut out = vec![u8::from(self.mode == Mode::Delta) + 2 * u8::from(self.spatial)];
+        let mode = u8::from(self.mode == Mode::Delta) + 2 * u8::from(self.spatial);
+        let dense = dense_counts(&counts);
+        let sparse = modes.sparse.then(|| sparse_counts(&counts)).filter(|s| s.len() < dense.len());
+        let mut out = vec![mode + if sparse.is_some() { SPARSE } else { 0 }];
         leb128::write(&mut out, u64::from(k));
-        counts.iter().for_each(|&c| leb128::write(&mut out, c));
+        out.extend(sparse.unwrap_or(dense));
         // One value alone needs no words: the counts say it all.
         if counts.iter().filter(|&&c| c > 0).count() <= 1 {
             return Some(out);
@@ -128,8 +170,8 @@ impl ResidualUnit {
 
     /// Reads a unit of `count` values (3 V) from a frame chunk at byte
     /// `offset` (named in errors): [`Self::check`], then the values.
-    pub fn parse(payload: &[u8], count: usize, spatial: bool, offset: usize) -> Result<ResidualUnit, ContainerError> {
-        let (mode, spatial, counts, at) = Self::check(payload, count, spatial, offset)?;
+    pub fn parse(payload: &[u8], count: usize, modes: Modes, offset: usize) -> Result<ResidualUnit, ContainerError> {
+        let (mode, spatial, counts, at) = Self::check(payload, count, modes, offset)?;
         let k = counts.len() / 2;
         let words: Vec<u32> =
             payload[at..].chunks_exact(4).map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]])).collect();
@@ -142,31 +184,34 @@ impl ResidualUnit {
 
     /// What a reader checks of a unit without range decoding it (the
     /// decoder's [`Self::parse`] does): its mode, its largest value and
-    /// counts, and whole words after them; modes 2 and 3 only where the
-    /// header allows `spatial` ones. Returns the mode, whether it is
-    /// spatial, the counts and where the words start.
+    /// counts, and whole words after them; modes 2 and 3, and sparse
+    /// counts, only where the header allows them (`modes`). Returns the
+    /// mode, whether it is spatial, the counts and where the words start.
     pub fn check(
         payload: &[u8],
         count: usize,
-        spatial: bool,
+        modes: Modes,
         offset: usize,
     ) -> Result<(Mode, bool, Vec<u64>, usize), ContainerError> {
         let bad = |msg: String| ContainerError::Chunk { offset, msg: format!("vertex residual: {msg}") };
-        let (mode, spatial) = match payload.first() {
-            Some(0) => (Mode::Intra, false),
-            Some(1) => (Mode::Delta, false),
-            Some(2) if spatial => (Mode::Intra, true),
-            Some(3) if spatial => (Mode::Delta, true),
-            Some(m) => return Err(bad(format!("unknown mode {m}"))),
-            None => return Err(bad("an empty unit".into())),
+        let first = *payload.first().ok_or_else(|| bad("an empty unit".into()))?;
+        let sparse = first & SPARSE != 0;
+        let (mode, spatial) = match first & !SPARSE {
+            _ if sparse && !modes.sparse => return Err(bad(format!("unknown mode {first}"))),
+            0 => (Mode::Intra, false),
+            1 => (Mode::Delta, false),
+            2 if modes.spatial => (Mode::Intra, true),
+            3 if modes.spatial => (Mode::Delta, true),
+            _ => return Err(bad(format!("unknown mode {first}"))),
         };
         let mut at = 1;
         let k = leb128::read(payload, &mut at, 2).filter(|&k| k <= u64::from(MAX_VALUE));
         let k = k.ok_or_else(|| bad(format!("a bad largest value (at most {MAX_VALUE})")))? as usize;
-        let mut counts = Vec::with_capacity(2 * k + 1);
-        for _ in 0..2 * k + 1 {
-            counts.push(leb128::read(payload, &mut at, 5).ok_or_else(|| bad("a bad count".into()))?);
+        let counts = match sparse {
+            false => read_dense(payload, &mut at, k),
+            true => read_sparse(payload, &mut at, k),
         }
+        .ok_or_else(|| bad("a bad count".into()))?;
         let total: u64 = counts.iter().sum();
         if total != count as u64 {
             return Err(bad(format!("counts sum to {total}, not the {count} values of the mesh's vertices")));
@@ -179,6 +224,47 @@ impl ResidualUnit {
         }
         Ok((mode, spatial, counts, at))
     }
+}
+
+/// The mode byte's flag of sparse counts (version 20).
+const SPARSE: u8 = 4;
+
+/// The 2K + 1 counts, each in LEB128.
+fn dense_counts(counts: &[u64]) -> Vec<u8> {
+    let mut out = Vec::new();
+    counts.iter().for_each(|&c| leb128::write(&mut out, c));
+    out
+}
+
+/// Version 20: how many counts are not 0, then each one's gap from the one
+/// before and its count.
+fn sparse_counts(counts: &[u64]) -> Vec<u8> {
+    let mut out = Vec::new();
+    leb128::write(&mut out, counts.iter().filter(|&&c| c > 0).count() as u64);
+    let mut next = 0;
+    for (i, &c) in counts.iter().enumerate().filter(|(_, &c)| c > 0) {
+        leb128::write(&mut out, (i - next) as u64);
+        leb128::write(&mut out, c);
+        next = i + 1;
+    }
+    out
+}
+
+fn read_dense(payload: &[u8], at: &mut usize, k: usize) -> Option<Vec<u64>> {
+    (0..2 * k + 1).map(|_| leb128::read(payload, at, 5)).collect()
+}
+
+/// Sparse counts, each inside -K..=K and none listed twice.
+fn read_sparse(payload: &[u8], at: &mut usize, k: usize) -> Option<Vec<u64>> {
+    let mut counts = vec![0u64; 2 * k + 1];
+    let listed = leb128::read(payload, at, 2).filter(|&n| n <= counts.len() as u64)?;
+    let mut next = 0usize;
+    for _ in 0..listed {
+        let i = next.checked_add(usize::try_from(leb128::read(payload, at, 2)?).ok()?)?;
+        *counts.get_mut(i)? = leb128::read(payload, at, 5).filter(|&c| c > 0)?;
+        next = i + 1;
+    }
+    Some(counts)
 }
 
 /// The values the range coder's `words` hold under the counts' model.
@@ -207,16 +293,19 @@ fn decode_values(words: Vec<u32>, counts: &[u64], k: usize) -> Option<Vec<i32>> 
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used)]
-    use super::{Mode, ResidualUnit, MAX_VALUE};
+    use super::{Mode, Modes, ResidualUnit, MAX_VALUE};
 
     #[test]
     fn units_read_back_and_cost_about_their_entropy() {
         // Mostly 0 and ±1, as a residual a step finer than the video's error is.
         let values: Vec<i32> = (0..3000).map(|i: i32| ((i * 7919) % 13 - 6) / 4).collect();
         let unit = ResidualUnit { mode: Mode::Delta, spatial: true, values };
-        let bytes = unit.to_bytes().unwrap();
-        assert_eq!(ResidualUnit::parse(&bytes, 3000, true, 0).unwrap(), unit);
-        assert!(ResidualUnit::parse(&bytes, 3000, false, 0).is_err(), "mode 3 in a file without spatial units");
+        let bytes = unit.to_bytes(Modes::default()).unwrap();
+        assert_eq!(ResidualUnit::parse(&bytes, 3000, Modes::ALL, 0).unwrap(), unit);
+        assert!(
+            ResidualUnit::parse(&bytes, 3000, Modes::default(), 0).is_err(),
+            "mode 3 in a file without spatial units"
+        );
         let mut hist = std::collections::HashMap::new();
         unit.values.iter().for_each(|v| *hist.entry(*v).or_insert(0.0) += 1.0);
         let entropy: f64 = hist.values().map(|c: &f64| -c * (c / 3000.0).log2()).sum();
@@ -227,27 +316,56 @@ mod tests {
     #[test]
     fn broken_units_are_errors() {
         let unit = ResidualUnit { mode: Mode::Intra, spatial: false, values: vec![0, 1, -1, 2000, 0, 0] };
-        let bytes = unit.to_bytes().unwrap();
+        let bytes = unit.to_bytes(Modes::default()).unwrap();
         // Clamped to the largest value a unit may hold.
-        assert_eq!(ResidualUnit::parse(&bytes, 6, true, 0).unwrap().values[3], MAX_VALUE as i32);
-        assert!(ResidualUnit::parse(&bytes, 9, true, 0).is_err(), "counts for another mesh");
-        assert!(ResidualUnit::parse(&[], 6, true, 0).is_err());
-        assert!(ResidualUnit::parse(&[4, 0, 6], 6, true, 0).is_err(), "unknown mode");
-        assert!(ResidualUnit::parse(&[2, 0, 6], 6, false, 0).is_err(), "a spatial mode in a version 18 file");
+        assert_eq!(ResidualUnit::parse(&bytes, 6, Modes::ALL, 0).unwrap().values[3], MAX_VALUE as i32);
+        assert!(ResidualUnit::parse(&bytes, 9, Modes::ALL, 0).is_err(), "counts for another mesh");
+        assert!(ResidualUnit::parse(&[], 6, Modes::ALL, 0).is_err());
+        assert!(ResidualUnit::parse(&[4, 0, 6], 6, Modes::ALL, 0).is_err(), "unknown mode");
+        assert!(
+            ResidualUnit::parse(&[2, 0, 6], 6, Modes::default(), 0).is_err(),
+            "a spatial mode in a version 18 file"
+        );
         // K = 1 with no value at ±1: not the largest value.
-        assert!(ResidualUnit::parse(&[0, 1, 0, 6, 0], 6, true, 0).is_err(), "a K past the values");
-        assert!(ResidualUnit::parse(&bytes[..bytes.len() - 1], 6, true, 0).is_err(), "a cut word");
+        assert!(ResidualUnit::parse(&[0, 1, 0, 6, 0], 6, Modes::ALL, 0).is_err(), "a K past the values");
+        assert!(ResidualUnit::parse(&bytes[..bytes.len() - 1], 6, Modes::ALL, 0).is_err(), "a cut word");
         for cut in 0..bytes.len() {
-            let _ = ResidualUnit::parse(&bytes[..cut], 6, true, 0);
+            let _ = ResidualUnit::parse(&bytes[..cut], 6, Modes::ALL, 0);
         }
         let mut flipped = bytes.clone();
         for i in 0..flipped.len() {
             flipped[i] ^= 0x5a;
-            let _ = ResidualUnit::parse(&flipped, 6, true, 0);
+            let _ = ResidualUnit::parse(&flipped, 6, Modes::ALL, 0);
             flipped[i] ^= 0x5a;
         }
+        assert!(ResidualUnit::parse(&[4, 0, 1, 0, 6], 6, Modes::default(), 0).is_err(), "sparse counts in a v19 file");
         // All zero: the counts say so and no word follows.
         let zero = ResidualUnit { mode: Mode::Intra, spatial: false, values: vec![0; 6] };
-        assert_eq!(ResidualUnit::parse(&zero.to_bytes().unwrap(), 6, false, 0).unwrap(), zero);
+        assert_eq!(
+            ResidualUnit::parse(&zero.to_bytes(Modes::default()).unwrap(), 6, Modes::default(), 0).unwrap(),
+            zero
+        );
+    }
+
+    /// A histogram that spans one large value (a vertex coded whole, the
+    /// rest small) lists its counts sparsely, and reads back either way.
+    #[test]
+    fn sparse_counts_cost_what_they_hold() {
+        let mut values: Vec<i32> = (0..600).map(|i: i32| (i % 5) - 2).collect();
+        values[7] = 900;
+        let unit = ResidualUnit { mode: Mode::Intra, spatial: true, values };
+        let (dense, sparse) = (unit.to_bytes(Modes { spatial: true, sparse: false }), unit.to_bytes(Modes::ALL));
+        let (dense, sparse) = (dense.unwrap(), sparse.unwrap());
+        assert_eq!(sparse[0], 2 + 4, "the sparse flag");
+        assert!(sparse.len() + 1500 < dense.len(), "{} bytes against {}", sparse.len(), dense.len());
+        for bytes in [&dense, &sparse] {
+            assert_eq!(ResidualUnit::parse(bytes, 600, Modes::ALL, 0).unwrap(), unit);
+        }
+        // A gap past the histogram, a count listed as 0: errors, not panics.
+        assert!(ResidualUnit::parse(&[4, 1, 1, 3, 6], 6, Modes::ALL, 0).is_err());
+        assert!(ResidualUnit::parse(&[4, 1, 2, 0, 6, 0, 0], 6, Modes::ALL, 0).is_err());
+        for cut in 0..sparse.len() {
+            let _ = ResidualUnit::parse(&sparse[..cut], 600, Modes::ALL, 0);
+        }
     }
 }

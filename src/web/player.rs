@@ -57,7 +57,7 @@ impl Player {
             (&self.source, self.dec.as_mut(), self.reader.file().and_then(|f| f.source_mesh.as_ref()))
         {
             dec.set_source_mesh(mesh).map_err(js)?;
-            self.source = Some(SourceMeshDecoder::new(dec.grid(), mesh));
+            self.source = Some(SourceMeshDecoder::for_header(dec.header(), dec.grid(), mesh));
         }
         self.give_skin()
     }
@@ -101,7 +101,9 @@ impl Player {
         skinned: &[f32],
     ) -> std::result::Result<Vec<f32>, JsError> {
         let source = self.source.as_ref().ok_or_else(|| JsError::new("the file carries no source mesh"))?;
-        let n = self.dec.as_ref().map_or(0, |d| d.grid().len());
+        // A file without a grid (version 20) decodes no grid frame.
+        let gridless = source.origin.is_some();
+        let n = self.dec.as_ref().filter(|_| !gridless).map_or(0, |d| d.grid().len());
         if grid_frame.len() != 3 * n {
             return Err(JsError::new(&format!("{} values for a grid of {n} samples", grid_frame.len())));
         }

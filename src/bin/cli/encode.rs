@@ -59,8 +59,15 @@ pub struct Args {
     /// what they miss as a geometry video, for
     /// articulated motion (format version 17; docs/RESULTS.md, "Bones on
     /// the vertices").
+    /// `vertices`: no grid and no video: your mesh's faces once and its
+    /// vertices every frame, each as what its neighbours (or the frame
+    /// before) predict misses, to the vertex RMS error --vertex-residual
+    /// asks (default 0.05 % of the diagonal), --target-error asks, or the
+    /// finest a --kbps holds; no parameterization. For clips of a few
+    /// frames, where a video's fixed cost is most of the file (format
+    /// version 20; docs/RESULTS.md, "Clips of a few frames").
     #[arg(long, default_value = "auto", value_parser = CodecChoice::parse,
-          value_name = "auto|normal|predictive|conformal|gv|skinned")]
+          value_name = "auto|normal|predictive|conformal|gv|skinned|vertices")]
     codec: CodecChoice,
     /// The decoder the file names as intended, `cgv` (the predictive one)
     /// or `paper` (only for --codec conformal, whose default it is);
@@ -435,7 +442,10 @@ fn print_sizes(report: &cgv::codec::EncodeReport) {
     if report.skin_bytes > 0 {
         println!("  bone weights    {:>10} bytes (--bones: the skin's weights, once)", report.skin_bytes);
     }
-    if report.vertex_residual_bytes > 0 {
+    let gridless = report.codec == cgv::format::Representation::Vertices;
+    if gridless {
+        println!("  vertices        {:>10} bytes (each vertex, every frame)", report.vertex_residual_bytes);
+    } else if report.vertex_residual_bytes > 0 {
         println!(
             "  vertex residual {:>10} bytes (--vertex-residual: what the video missed at each vertex, every frame)",
             report.vertex_residual_bytes
@@ -452,6 +462,8 @@ fn print_sizes(report: &cgv::codec::EncodeReport) {
             "  source mesh     {:>10} bytes (the input's faces, vertex places and rest pose ({} bytes), once)",
             report.source_mesh_bytes, report.rest_pose_bytes
         );
+    } else if gridless {
+        println!("  source mesh     {:>10} bytes (the input's faces, once)", report.source_mesh_bytes);
     } else if report.source_mesh_bytes > 0 {
         println!(
             "  source mesh     {:>10} bytes (the input's faces and vertex places, once; --no-source-mesh leaves it out)",
@@ -518,15 +530,16 @@ fn print_report(
             );
         }
         print_sizes(report);
-        let p = &report.parameterization;
-        super::warn_folds(&p.distortion);
-        if let Some(score) = p.score {
-            let diagonal = cgv::mesh::Bounds::of(&src.read_frame(opts.reference)?).diagonal() as f64;
-            println!(
-                "  grid: resamples the reference frame to {:.4} % of its bounding-box diagonal (RMS surface distance; {} area-correction passes kept)",
-                100.0 * score / diagonal,
-                p.area_passes
-            );
+        if let Some(p) = &report.parameterization {
+            super::warn_folds(&p.distortion);
+            if let Some(score) = p.score {
+                let diagonal = cgv::mesh::Bounds::of(&src.read_frame(opts.reference)?).diagonal() as f64;
+                println!(
+                    "  grid: resamples the reference frame to {:.4} % of its bounding-box diagonal (RMS surface distance; {} area-correction passes kept)",
+                    100.0 * score / diagonal,
+                    p.area_passes
+                );
+            }
         }
         print_rate(args, report, target);
     }

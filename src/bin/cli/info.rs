@@ -241,7 +241,11 @@ fn cgv_info(args: &Args) -> Result<()> {
     println!("{} (.cgv format version {})", path.display(), file.version);
     println!("  codec         {} ({}), intended solver {}", h.representation(), representation_text(h), h.solver);
     println!("  frames        {} at {} fps ({:.2} s)", h.frames, h.fps, seconds);
-    println!("  grid          {0} x {0} ({1})", h.grid, h.seam);
+    let gridless = h.representation() == cgv::format::Representation::Vertices;
+    match gridless {
+        true => println!("  grid          none (the vertices are coded as themselves)"),
+        false => println!("  grid          {0} x {0} ({1})", h.grid, h.seam),
+    }
     println!("  size          {} bytes, {:.1} kbit/s", file.bytes, file.bytes as f64 * 8.0 / 1000.0 / seconds);
     println!("  key frames    {} ({:?}...)", h.key_frames.len(), &h.key_frames[..h.key_frames.len().min(5)]);
     match h.random_access {
@@ -272,14 +276,9 @@ fn cgv_info(args: &Args) -> Result<()> {
             }
         );
     }
-    println!(
-        "  settings      QP {}{}, GOP {}, {}, {} layer(s)",
-        h.settings.qp,
-        h.settings.kbps.map(|k| format!(" (target {k} kbit/s)")).unwrap_or_default(),
-        h.settings.gop,
-        if h.settings.cabac { "CABAC" } else { "CAVLC" },
-        h.settings.layers
-    );
+    if !gridless {
+        print_settings(h);
+    }
     println!("  source        {} ({} vertices, diagonal {})", h.source.label, h.source.vertices, h.source.diagonal);
     println!("  {}", mesh_line(&file));
     if let Some(a) = &h.appearance {
@@ -294,6 +293,18 @@ fn cgv_info(args: &Args) -> Result<()> {
         print_passes(&file.frames, "relaxed", "tangential relaxation passes", |f| f.relax);
     }
     Ok(())
+}
+
+/// The video's settings.
+fn print_settings(h: &cgv::format::Header) {
+    println!(
+        "  settings      QP {}{}, GOP {}, {}, {} layer(s)",
+        h.settings.qp,
+        h.settings.kbps.map(|k| format!(" (target {k} kbit/s)")).unwrap_or_default(),
+        h.settings.gop,
+        if h.settings.cabac { "CABAC" } else { "CAVLC" },
+        h.settings.layers
+    );
 }
 
 /// The bones (versions 13 and 17) and the vertex residual (18), if any.
@@ -320,12 +331,13 @@ fn print_bones_and_residual(file: &cgv::format::CgvFile) {
             100.0 * f64::from(r.step) / diagonal
         );
         // The unit's first byte: 0 / 1 itself or its change, 2 / 3 the same
-        // predicted over the surface (version 19).
+        // predicted over the surface (version 19), plus 4 for sparse
+        // counts (version 20).
         let mut modes = [0usize; 4];
         file.frames
             .iter()
             .filter_map(|f| f.residual.as_ref()?.first())
-            .for_each(|&m| modes[usize::from(m.min(3))] += 1);
+            .for_each(|&m| modes[usize::from((m & 3).min(3))] += 1);
         println!(
             "                frames coded as the residual {}, its change {}; predicted over the surface: {}, {}",
             modes[0], modes[1], modes[2], modes[3]
@@ -406,5 +418,6 @@ fn representation_text(h: &cgv::format::Header) -> &'static str {
         R::Predictive => "closed-loop x, y, z corrections to a prediction",
         R::Normal => "closed-loop corrections along the normal, x, y, z coarser",
         R::Skinned => "bones on the source mesh's vertices; what they miss as x, y, z every frame",
+        R::Vertices => "the source mesh's own vertices every frame, no grid and no video",
     }
 }

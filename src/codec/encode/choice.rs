@@ -23,13 +23,14 @@ pub enum CodecChoice {
 const ALIASES: [(&str, CodecChoice); 1] = [("cgv", CodecChoice::Auto)];
 
 impl CodecChoice {
-    pub const ALL: [CodecChoice; 6] = [
+    pub const ALL: [CodecChoice; 7] = [
         CodecChoice::Auto,
         CodecChoice::Named(Representation::Normal),
         CodecChoice::Named(Representation::Predictive),
         CodecChoice::Named(Representation::Conformal),
         CodecChoice::Named(Representation::Gv),
         CodecChoice::Named(Representation::Skinned),
+        CodecChoice::Named(Representation::Vertices),
     ];
 
     pub fn name(self) -> &'static str {

@@ -26,6 +26,7 @@ pub mod residual_step;
 mod simulate;
 mod target;
 mod vertex_bones;
+mod vertices;
 mod weights_refit;
 
 pub use bones::{DEFAULT_BONES, MIN_BONE_FRAMES};
@@ -37,6 +38,7 @@ pub use request::{EncodeRequest, Encoded, GridChoice, Made};
 pub use simulate::MOTION_MARGIN;
 pub use target::{encode_to_error, prepare_for_error, residual_qp_of, TargetReport, RESIDUAL_QP};
 pub use vertex_bones::{skinned_bones, skinned_grid, COARSE_WEIGHTS_QP};
+pub use vertices::{encode_vertices_into, DEFAULT_VERTEX_PERCENT};
 
 use super::h264::VideoSettings;
 use crate::error::{Error, Result};
@@ -260,7 +262,7 @@ impl EncodeOptions {
 
     /// The header's `codec` field for this representation.
     pub fn codec(&self) -> CodecKind {
-        if matches!(self.representation, Representation::Gv | Representation::Skinned) {
+        if matches!(self.representation, Representation::Gv | Representation::Skinned | Representation::Vertices) {
             CodecKind::Gv
         } else {
             CodecKind::Cgv
@@ -324,7 +326,8 @@ pub struct EncodeReport {
     /// Bytes of the vertex residual (format version 18; 0 without), not
     /// in `side_bytes`.
     pub vertex_residual_bytes: usize,
-    pub parameterization: Parameterization,
+    /// The map of the reference frame (none: the vertices codec has no grid).
+    pub parameterization: Option<Parameterization>,
     pub seconds_parameterize: f64,
     pub seconds_coding: f64,
     pub seconds_total: f64,
@@ -368,6 +371,9 @@ pub fn encode_into<S: Sink>(
     open: &mut dyn FnMut() -> Result<S>,
     progress: &mut dyn FnMut(&str, usize, usize),
 ) -> Result<(S, EncodeReport)> {
+    if opts.representation == Representation::Vertices {
+        return encode_vertices_into(src, opts, open, progress);
+    }
     let image = prepare(src, opts)?;
     encode_on_budget_into(src, opts, &image, open, progress)
 }
@@ -487,7 +493,7 @@ fn report_of(
         rest_pose_bytes,
         frame_mesh_bytes: coded.frame_mesh_bytes,
         vertex_residual_bytes: coded.vertex_residual_bytes,
-        parameterization: image.param.clone(),
+        parameterization: Some(image.param.clone()),
         seconds_parameterize,
         seconds_coding: coded.seconds_coding,
         seconds_total: seconds_parameterize + t_start.elapsed().as_secs_f64(),

@@ -146,7 +146,7 @@ impl Plan {
 /// frame 0 decodes at most twice what one from a point would, and a point
 /// would cost a seed (the default motion, 72 frames at 2 s: 33.3 KB at QP
 /// 30 with a point at frame 60, 25.5 KB without).
-fn random_access_interval(seconds: f32, fps: f32, frames: usize) -> Option<u32> {
+pub(super) fn random_access_interval(seconds: f32, fps: f32, frames: usize) -> Option<u32> {
     // At most the format's frame count: past it a point is never reached.
     let k = (seconds * fps).round().clamp(1.0, format::MAX_FRAMES as f32) as u32;
     (seconds > 0.0 && 2 * k as usize <= frames).then_some(k)

@@ -175,6 +175,9 @@ impl EncodeRequest {
         progress: &mut dyn FnMut(&str, usize, usize),
     ) -> Result<Encoded<S>> {
         let skinned = self.codec == CodecChoice::Named(crate::format::Representation::Skinned);
+        if self.codec == CodecChoice::Named(crate::format::Representation::Vertices) {
+            return self.encode_vertices(src, open, progress);
+        }
         if skinned && self.base.bones.is_none() {
             let mut r = self.clone();
             r.base.bones = Some(skinned_bones(src.topology().vertex_count));
@@ -201,5 +204,25 @@ impl EncodeRequest {
         let (opts, image) = prepare_for_error(src, opts, percent / 100.0, auto)?;
         let (bytes, report, target) = encode_to_error(src, &opts, self.codec, &image, percent / 100.0, progress)?;
         Ok(Encoded { file: Made::Bytes(bytes), options: opts, report, target: Some(target) })
+    }
+}
+
+impl EncodeRequest {
+    /// The vertices codec: its error is the quantizer's, known without
+    /// decoding, so a target error is asked of it directly (the vertex RMS
+    /// is the target; the surface RMS, measured on the surface, is at most
+    /// about that).
+    fn encode_vertices<S: Sink>(
+        &self,
+        src: &dyn FrameSource,
+        open: &mut dyn FnMut() -> Result<S>,
+        progress: &mut dyn FnMut(&str, usize, usize),
+    ) -> Result<Encoded<S>> {
+        let mut opts = self.options_on(src.fps(), Some(crate::format::MIN_GRID as usize))?;
+        if let Some(percent) = self.target_error {
+            opts.vertex_residual = Some(percent as f32);
+        }
+        let (sink, report) = super::encode_vertices_into(src, &opts, open, progress)?;
+        Ok(Encoded { file: Made::Streamed(sink), options: opts, report, target: None })
     }
 }

@@ -1,0 +1,97 @@
+//! The vertices codec (format version 20): no grid, no video, the input's
+//! own vertices every frame to the asked error, or the finest a budget
+//! holds; a step finer than its values hold is refused.
+
+#![allow(clippy::unwrap_used)]
+
+use cgv::codec::{encode, EncodeOptions, FileDecoder};
+use cgv::format::Representation;
+use cgv::mesh::{Bounds, FrameSource};
+use cgv::solve::SolverKind;
+use glam::Vec3;
+
+fn options(percent: Option<f32>, kbps: Option<f32>) -> EncodeOptions {
+    let mut opts =
+        EncodeOptions { representation: Representation::Vertices, vertex_residual: percent, ..Default::default() };
+    opts.video.kbps = kbps;
+    opts
+}
+
+/// Every frame's decoded vertices, as the input indexes them.
+fn decoded(bytes: &[u8], src: &dyn FrameSource) -> Vec<Vec<Vec3>> {
+    let file = cgv::format::read(bytes).unwrap();
+    assert_eq!(file.header.representation(), Representation::Vertices);
+    let mut dec = FileDecoder::new(file, SolverKind::Predictive).unwrap();
+    let mesh = dec.source_mesh().unwrap();
+    (0..src.frame_count()).map(|_| src.on_input(dec.next_source_frame(&mesh).unwrap().1)).collect()
+}
+
+/// The worst coordinate error over all frames, and the vertex RMS relative
+/// to the first frame's diagonal.
+fn errors(src: &dyn FrameSource, got: &[Vec<Vec3>]) -> (f32, f64) {
+    let (mut worst, mut sum, mut n) = (0f32, 0f64, 0usize);
+    for (f, frame) in got.iter().enumerate() {
+        for (a, b) in frame.iter().zip(src.read_frame(f).unwrap()) {
+            worst = worst.max((*a - b).abs().max_element());
+            sum += f64::from((*a - b).length_squared());
+            n += 1;
+        }
+    }
+    let diagonal = f64::from(Bounds::of(&src.read_frame(0).unwrap()).diagonal());
+    (worst, (sum / n as f64).sqrt() / diagonal)
+}
+
+#[test]
+fn a_clip_comes_back_within_half_a_step_at_every_vertex() {
+    // The plain figure and the textured one (its stored vertices split at
+    // the UV seams, each copy coded and decoded alike).
+    for spec in ["builtin:walk", "builtin:walk-textured"] {
+        let src = cgv::mesh::open_sequence(spec, &Default::default()).unwrap();
+        let (bytes, report) = encode(src.as_ref(), &options(Some(0.1), None), &mut |_, _, _| {}).unwrap();
+        let file = cgv::format::read(&bytes).unwrap();
+        assert_eq!((file.version, file.header.streams.len()), (20, 0), "{spec}");
+        assert_eq!(file.header.appearance.is_some(), spec.ends_with("textured"), "{spec}");
+        let step = file.header.vertex_residual.unwrap().step;
+        let (worst, rms) = errors(src.as_ref(), &decoded(&bytes, src.as_ref()));
+        assert!(worst <= 0.5 * step * 1.001, "{spec}: a coordinate {worst} off, step {step}");
+        // A uniform quantizer's error: half a step's RMS over three axes.
+        assert!((rms / 0.001 - 1.0).abs() < 0.05, "{spec}: vertex RMS {rms}");
+        assert_eq!(report.bytes, bytes.len());
+        assert!(report.source_mesh_bytes + report.vertex_residual_bytes < bytes.len(), "{report:?}");
+    }
+}
+
+#[test]
+fn a_budget_gets_the_finest_error_it_holds() {
+    let src = cgv::mesh::builtin::motion(12);
+    let mut last = f64::INFINITY;
+    for kbps in [500.0, 1400.0] {
+        let (bytes, report) = encode(&src, &options(None, Some(kbps)), &mut |_, _, _| {}).unwrap();
+        let miss = report.budget_miss.unwrap();
+        assert!((-cgv::codec::BUDGET_TOLERANCE..=0.0).contains(&miss), "{kbps} kbit/s: {miss:+.3}");
+        let (_, rms) = errors(&src, &decoded(&bytes, &src));
+        assert!(rms < last, "{kbps} kbit/s: {rms} after {last}");
+        last = rms;
+    }
+    // Below the codec's smallest file: refused, saying so.
+    let small = encode(&src, &options(None, Some(5.0)), &mut |_, _, _| {}).unwrap_err().to_string();
+    assert!(small.contains("smallest file"), "{small}");
+    // Above its finest file: refused too, saying what that file takes.
+    let large = encode(&src, &options(None, Some(20000.0)), &mut |_, _, _| {}).unwrap_err().to_string();
+    assert!(large.contains("finest file"), "{large}");
+}
+
+#[test]
+fn a_step_finer_than_a_unit_holds_is_refused() {
+    // The figure walks 40 diagonals away from where it starts: a vertex
+    // 1023 steps from the first frame's centre bounds the step.
+    let mut src = cgv::mesh::builtin::motion(4);
+    let diagonal = Bounds::of(&src.frames[0]).diagonal();
+    src.frames[3].iter_mut().for_each(|p| p.x += 40.0 * diagonal);
+    let e = encode(&src, &options(Some(0.01), None), &mut |_, _, _| {}).unwrap_err().to_string();
+    assert!(e.contains("at least") && e.contains("--vertex-residual"), "{e}");
+    let (bytes, _) = encode(&src, &options(Some(5.0), None), &mut |_, _, _| {}).unwrap();
+    let step = cgv::format::read(&bytes).unwrap().header.vertex_residual.unwrap().step;
+    let (worst, _) = errors(&src, &decoded(&bytes, &src));
+    assert!(worst <= 0.5 * step * 1.001, "a coordinate {worst} off, step {step}");
+}
