@@ -298,18 +298,20 @@ fn v19_spatial_residual_fixture_decodes_as_frozen() {
 #[test]
 fn v20_vertices_fixture_decodes_as_frozen() {
     // No grid and no video: the vertices themselves, every frame, from the
-    // header's origin (`--codec vertices`), their units' counts sparse
-    // where that is shorter; random-access points at 0 and 3.
+    // header's origin (`--codec vertices`), their units' counts sparse and
+    // values in contexts where that is shorter; random-access points at 0
+    // and 3.
     let name = "v20/walk-vertices.cgv";
     let f = open(name);
     assert_eq!(f.version, 20);
     assert_eq!(f.header.representation(), format::Representation::Vertices);
     assert!(f.header.streams.is_empty() && f.units.iter().all(Vec::is_empty));
     let r = f.header.vertex_residual.expect("a vertex residual");
-    assert!(r.origin.is_some() && r.sparse && r.spatial);
-    // Spatial at the points (a histogram as wide as the figure: its counts
-    // sparse), its change spatial between (a narrow one: dense).
-    assert_eq!(residual_modes(&f), [6, 3, 3, 6, 3, 3]);
+    assert!(r.origin.is_some() && r.sparse && r.contexts && r.spatial);
+    // Every unit in contexts (flag 8): spatial at the points (2), its
+    // change spatial between (3), the counts sparse (flag 4) where a
+    // histogram is as wide as the figure (frame 3's).
+    assert_eq!(residual_modes(&f), [10, 11, 11, 14, 11, 11]);
     within_half_a_step(&f);
     check_residual_fixture(name, f, 6);
 }

@@ -25,14 +25,15 @@ pub struct VertexResidual {
     residual: Vec<Vec3>,
     /// Version 19: the walk spatial units follow (none: a version 18 file).
     order: Option<VertexOrder>,
-    /// Version 20: the encoder may list a unit's counts sparsely.
-    sparse: bool,
+    /// Version 20: the encoder may list a unit's counts sparsely and code
+    /// its values in contexts.
+    version_20: bool,
 }
 
 impl VertexResidual {
     /// The residual of `vertices` vertices on `step` (the header's).
     pub fn new(step: f32, vertices: usize) -> VertexResidual {
-        VertexResidual { step, residual: vec![Vec3::ZERO; vertices], order: None, sparse: false }
+        VertexResidual { step, residual: vec![Vec3::ZERO; vertices], order: None, version_20: false }
     }
 
     /// Version 19: spatial units walk the source mesh's `faces`.
@@ -40,9 +41,10 @@ impl VertexResidual {
         self.order = Some(VertexOrder::new(faces, self.residual.len()));
     }
 
-    /// Version 20: the encoder lists a unit's counts sparsely where shorter.
-    pub fn set_sparse(&mut self, sparse: bool) {
-        self.sparse = sparse;
+    /// Version 20: the encoder lists a unit's counts sparsely and codes
+    /// its values in contexts where that is shorter.
+    pub fn set_version_20(&mut self, on: bool) {
+        self.version_20 = on;
     }
 
     /// Whether spatial units can be applied (or coded).
@@ -119,7 +121,8 @@ impl VertexResidual {
                 }
             }
             for unit in units {
-                let bytes = unit.to_bytes(Modes { spatial: self.order.is_some(), sparse: self.sparse })?;
+                let v20 = self.version_20;
+                let bytes = unit.to_bytes(Modes { spatial: self.order.is_some(), sparse: v20, contexts: v20 })?;
                 if best.as_ref().is_none_or(|(_, b)| bytes.len() < b.len()) {
                     best = Some((unit, bytes));
                 }

@@ -397,7 +397,7 @@ impl Header {
     /// predictions, 3 for a CGV file without H, 2 for motion corrections,
     /// else 1.
     pub fn min_version(&self) -> u16 {
-        if self.vertex_residual.is_some_and(|r| r.sparse || r.origin.is_some()) {
+        if self.vertex_residual.is_some_and(|r| r.sparse || r.contexts || r.origin.is_some()) {
             20
         } else if self.vertex_residual.is_some_and(|r| r.spatial) {
             19

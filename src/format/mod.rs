@@ -48,6 +48,7 @@ pub mod places;
 pub mod predictor;
 pub mod quant;
 pub mod reader;
+pub mod residual_values;
 pub mod skin;
 pub mod source_mesh;
 pub mod stream;

@@ -37,16 +37,12 @@
 //! bits each. constriction is used rather than a hand-written coder: it
 //! is kept, documented, and its range coder is fixed across releases.
 
-use super::{leb128, ContainerError};
-use constriction::stream::model::DefaultContiguousCategoricalEntropyModel;
-use constriction::stream::queue::{DefaultRangeDecoder, DefaultRangeEncoder};
-use constriction::stream::{Decode, Encode};
+use super::residual_values::{self, Histogram};
+use super::ContainerError;
 
 /// The largest |value| a unit may hold: the encoder clamps beyond it (a
 /// residual over 1023 steps means a step far too fine for the video).
 pub const MAX_VALUE: u32 = 1023;
-/// The model's probability precision, in bits (constriction's default).
-const PRECISION: u32 = 24;
 
 /// The header's `vertex_residual`: version 18.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -60,6 +56,10 @@ pub struct VertexResidualInfo {
     /// Version 20: units may list their histogram's counts sparsely.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub sparse: bool,
+    /// Version 20: units may code their values in contexts
+    /// (`super::residual_values`).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub contexts: bool,
     /// Version 20: a file without video (no streams): the residual is the
     /// vertex itself less this point (the first frame's bounding-box
     /// centre), so that the decoder adds it to this and nothing else.
@@ -74,11 +74,13 @@ pub struct Modes {
     pub spatial: bool,
     /// Version 20: sparse counts.
     pub sparse: bool,
+    /// Version 20: values coded in contexts.
+    pub contexts: bool,
 }
 
 impl Modes {
     /// Every layout this version writes.
-    pub const ALL: Modes = Modes { spatial: true, sparse: true };
+    pub const ALL: Modes = Modes { spatial: true, sparse: true, contexts: true };
 }
 
 impl VertexResidualInfo {
@@ -96,7 +98,7 @@ impl VertexResidualInfo {
 
     /// The unit layouts the header allows.
     pub fn modes(&self) -> Modes {
-        Modes { spatial: self.spatial, sparse: self.sparse }
+        Modes { spatial: self.spatial, sparse: self.sparse, contexts: self.contexts }
     }
 }
 
@@ -119,63 +121,36 @@ pub struct ResidualUnit {
     pub values: Vec<i32>,
 }
 
-/// The fixed-point model of a unit's histogram: each value of -K..=K gets
-/// 1 + its share of the rest (so that every value can be coded), the most
-/// frequent one what rounding leaves. Integers only: encoder and decoder,
-/// native and wasm, build the same model.
-fn model(counts: &[u64]) -> Option<DefaultContiguousCategoricalEntropyModel> {
-    let total: u64 = counts.iter().sum();
-    let room = (1u64 << PRECISION).checked_sub(counts.len() as u64)?;
-    if total == 0 {
-        return None;
-    }
-    let mut p: Vec<u32> = counts.iter().map(|&c| (1 + c * room / total) as u32).collect();
-    let left = (1u64 << PRECISION) - p.iter().map(|&q| u64::from(q)).sum::<u64>();
-    let most = (0..counts.len()).max_by_key(|&i| (counts[i], std::cmp::Reverse(i)))?;
-    p[most] += left as u32;
-    DefaultContiguousCategoricalEntropyModel::from_nonzero_fixed_point_probabilities(&p, false).ok()
-}
-
 impl ResidualUnit {
     /// The unit's bytes (values beyond [`MAX_VALUE`] are the caller's to
-    /// clamp; they are clamped here too), its counts listed sparsely where
-    /// `modes` allows that and it is shorter. `None` only if the range
-    /// coder fails, which a model giving every value a nonzero share rules
-    /// out.
+    /// clamp; they are clamped here too): with or without contexts, the
+    /// counts dense or sparse, as `modes` allows and whichever is shortest.
+    /// `None` only if the range coder fails, which a model giving every
+    /// value a nonzero share rules out.
     pub fn to_bytes(&self, modes: Modes) -> Option<Vec<u8>> {
         let max = MAX_VALUE as i32;
         let values: Vec<i32> = self.values.iter().map(|&v| v.clamp(-max, max)).collect();
-        let k = values.iter().map(|v| v.unsigned_abs()).max().unwrap_or(0);
-        let mut counts = vec![0u64; 2 * k as usize + 1];
-        for &v in &values {
-            counts[(v + k as i32) as usize] += 1;
-        }
         let mode = u8::from(self.mode == Mode::Delta) + 2 * u8::from(self.spatial);
-        let dense = dense_counts(&counts);
-        let sparse = modes.sparse.then(|| sparse_counts(&counts)).filter(|s| s.len() < dense.len());
-        let mut out = vec![mode + if sparse.is_some() { SPARSE } else { 0 }];
-        leb128::write(&mut out, u64::from(k));
-        out.extend(sparse.unwrap_or(dense));
-        // One value alone needs no words: the counts say it all.
-        if counts.iter().filter(|&&c| c > 0).count() <= 1 {
-            return Some(out);
+        let mut best: Option<Vec<u8>> = None;
+        for contexts in [false, true].into_iter().filter(|&c| !c || modes.contexts) {
+            let (coded, sparse) = residual_values::encode(&values, modes.sparse, contexts)?;
+            let flags = if sparse { SPARSE } else { 0 } + if contexts { CONTEXTED } else { 0 };
+            let unit = [&[mode + flags][..], &coded].concat();
+            if best.as_ref().is_none_or(|b| unit.len() < b.len()) {
+                best = Some(unit);
+            }
         }
-        let mut coder = DefaultRangeEncoder::new();
-        let symbols = values.iter().map(|&v| (v + k as i32) as usize);
-        coder.encode_iid_symbols(symbols, model(&counts)?.as_view()).ok()?;
-        let Ok(words) = coder.into_compressed();
-        out.extend(words.iter().flat_map(|w| w.to_le_bytes()));
-        Some(out)
+        best
     }
 
     /// Reads a unit of `count` values (3 V) from a frame chunk at byte
     /// `offset` (named in errors): [`Self::check`], then the values.
     pub fn parse(payload: &[u8], count: usize, modes: Modes, offset: usize) -> Result<ResidualUnit, ContainerError> {
-        let (mode, spatial, counts, at) = Self::check(payload, count, modes, offset)?;
-        let k = counts.len() / 2;
+        let (mode, spatial, hists, at) = Self::check(payload, count, modes, offset)?;
+        let contexts = payload.first().is_some_and(|m| m & CONTEXTED != 0);
         let words: Vec<u32> =
             payload[at..].chunks_exact(4).map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]])).collect();
-        let values = decode_values(words, &counts, k).ok_or_else(|| ContainerError::Chunk {
+        let values = residual_values::decode(words, &hists, contexts).ok_or_else(|| ContainerError::Chunk {
             offset,
             msg: "vertex residual: the coded values do not decode".into(),
         })?;
@@ -183,21 +158,23 @@ impl ResidualUnit {
     }
 
     /// What a reader checks of a unit without range decoding it (the
-    /// decoder's [`Self::parse`] does): its mode, its largest value and
-    /// counts, and whole words after them; modes 2 and 3, and sparse
-    /// counts, only where the header allows them (`modes`). Returns the
-    /// mode, whether it is spatial, the counts and where the words start.
+    /// decoder's [`Self::parse`] does): its mode, its histograms, and whole
+    /// words after them; modes 2 and 3, sparse counts and contexts only
+    /// where the header allows them (`modes`). Returns the mode, whether it
+    /// is spatial, the histograms and where the words start.
     pub fn check(
         payload: &[u8],
         count: usize,
         modes: Modes,
         offset: usize,
-    ) -> Result<(Mode, bool, Vec<u64>, usize), ContainerError> {
+    ) -> Result<(Mode, bool, Vec<Histogram>, usize), ContainerError> {
         let bad = |msg: String| ContainerError::Chunk { offset, msg: format!("vertex residual: {msg}") };
         let first = *payload.first().ok_or_else(|| bad("an empty unit".into()))?;
-        let sparse = first & SPARSE != 0;
-        let (mode, spatial) = match first & !SPARSE {
-            _ if sparse && !modes.sparse => return Err(bad(format!("unknown mode {first}"))),
+        let (sparse, contexts) = (first & SPARSE != 0, first & CONTEXTED != 0);
+        let (mode, spatial) = match first & !(SPARSE | CONTEXTED) {
+            _ if sparse && !modes.sparse || contexts && !modes.contexts => {
+                return Err(bad(format!("unknown mode {first}")))
+            }
             0 => (Mode::Intra, false),
             1 => (Mode::Delta, false),
             2 if modes.spatial => (Mode::Intra, true),
@@ -205,90 +182,18 @@ impl ResidualUnit {
             _ => return Err(bad(format!("unknown mode {first}"))),
         };
         let mut at = 1;
-        let k = leb128::read(payload, &mut at, 2).filter(|&k| k <= u64::from(MAX_VALUE));
-        let k = k.ok_or_else(|| bad(format!("a bad largest value (at most {MAX_VALUE})")))? as usize;
-        let counts = match sparse {
-            false => read_dense(payload, &mut at, k),
-            true => read_sparse(payload, &mut at, k),
-        }
-        .ok_or_else(|| bad("a bad count".into()))?;
-        let total: u64 = counts.iter().sum();
-        if total != count as u64 {
-            return Err(bad(format!("counts sum to {total}, not the {count} values of the mesh's vertices")));
-        }
-        if k > 0 && counts[0] + counts[2 * k] == 0 {
-            return Err(bad(format!("K = {k} is not the largest value")));
-        }
+        let hists = residual_values::check(payload, &mut at, count, sparse, contexts).map_err(bad)?;
         if (payload.len() - at) % 4 != 0 {
             return Err(bad(format!("{} bytes of coded values, not whole 32-bit words", payload.len() - at)));
         }
-        Ok((mode, spatial, counts, at))
+        Ok((mode, spatial, hists, at))
     }
 }
 
 /// The mode byte's flag of sparse counts (version 20).
 const SPARSE: u8 = 4;
-
-/// The 2K + 1 counts, each in LEB128.
-fn dense_counts(counts: &[u64]) -> Vec<u8> {
-    let mut out = Vec::new();
-    counts.iter().for_each(|&c| leb128::write(&mut out, c));
-    out
-}
-
-/// Version 20: how many counts are not 0, then each one's gap from the one
-/// before and its count.
-fn sparse_counts(counts: &[u64]) -> Vec<u8> {
-    let mut out = Vec::new();
-    leb128::write(&mut out, counts.iter().filter(|&&c| c > 0).count() as u64);
-    let mut next = 0;
-    for (i, &c) in counts.iter().enumerate().filter(|(_, &c)| c > 0) {
-        leb128::write(&mut out, (i - next) as u64);
-        leb128::write(&mut out, c);
-        next = i + 1;
-    }
-    out
-}
-
-fn read_dense(payload: &[u8], at: &mut usize, k: usize) -> Option<Vec<u64>> {
-    (0..2 * k + 1).map(|_| leb128::read(payload, at, 5)).collect()
-}
-
-/// Sparse counts, each inside -K..=K and none listed twice.
-fn read_sparse(payload: &[u8], at: &mut usize, k: usize) -> Option<Vec<u64>> {
-    let mut counts = vec![0u64; 2 * k + 1];
-    let listed = leb128::read(payload, at, 2).filter(|&n| n <= counts.len() as u64)?;
-    let mut next = 0usize;
-    for _ in 0..listed {
-        let i = next.checked_add(usize::try_from(leb128::read(payload, at, 2)?).ok()?)?;
-        *counts.get_mut(i)? = leb128::read(payload, at, 5).filter(|&c| c > 0)?;
-        next = i + 1;
-    }
-    Some(counts)
-}
-
-/// The values the range coder's `words` hold under the counts' model.
-fn decode_values(words: Vec<u32>, counts: &[u64], k: usize) -> Option<Vec<i32>> {
-    let count: u64 = counts.iter().sum();
-    if count == 0 {
-        return words.is_empty().then(Vec::new);
-    }
-    let mut present = (0..counts.len()).filter(|&i| counts[i] > 0);
-    if let (Some(only), None) = (present.next(), present.next()) {
-        return words.is_empty().then(|| vec![only as i32 - k as i32; count as usize]);
-    }
-    let model = model(counts)?;
-    let mut decoder = DefaultRangeDecoder::from_compressed(words).ok()?;
-    let symbols = decoder.decode_iid_symbols(count as usize, model.as_view());
-    let values: Result<Vec<i32>, _> = symbols.map(|s| s.map(|s| s as i32 - k as i32)).collect();
-    let values = values.ok()?;
-    // A value whose count is 0 only a broken unit decodes.
-    let mut seen = vec![0u64; counts.len()];
-    for &v in &values {
-        seen[(v + k as i32) as usize] += 1;
-    }
-    (seen == counts).then_some(values)
-}
+/// The mode byte's flag of values coded in contexts (version 20).
+const CONTEXTED: u8 = 8;
 
 #[cfg(test)]
 mod tests {
@@ -354,7 +259,9 @@ mod tests {
         let mut values: Vec<i32> = (0..600).map(|i: i32| (i % 5) - 2).collect();
         values[7] = 900;
         let unit = ResidualUnit { mode: Mode::Intra, spatial: true, values };
-        let (dense, sparse) = (unit.to_bytes(Modes { spatial: true, sparse: false }), unit.to_bytes(Modes::ALL));
+        let sparse_only = Modes { spatial: true, sparse: true, contexts: false };
+        let (dense, sparse) =
+            (unit.to_bytes(Modes { spatial: true, sparse: false, contexts: false }), unit.to_bytes(sparse_only));
         let (dense, sparse) = (dense.unwrap(), sparse.unwrap());
         assert_eq!(sparse[0], 2 + 4, "the sparse flag");
         assert!(sparse.len() + 1500 < dense.len(), "{} bytes against {}", sparse.len(), dense.len());
@@ -366,6 +273,39 @@ mod tests {
         assert!(ResidualUnit::parse(&[4, 1, 2, 0, 6, 0, 0], 6, Modes::ALL, 0).is_err());
         for cut in 0..sparse.len() {
             let _ = ResidualUnit::parse(&sparse[..cut], 600, Modes::ALL, 0);
+        }
+    }
+
+    /// Values whose size follows their neighbour's (runs of quiet and of
+    /// busy vertices, as a surface's smooth parts and creases give): coded
+    /// in contexts they take fewer bytes, read back exactly, and only where
+    /// the header allows contexts.
+    #[test]
+    fn values_in_contexts_cost_less_where_neighbours_agree() {
+        let values: Vec<i32> = (0..6000)
+            .map(|i: i32| {
+                let busy = (i / 300) % 2 == 1;
+                let r = (i * 7919 + 13) % 97;
+                if busy {
+                    r % 9 - 4
+                } else {
+                    i32::from(r == 0) - i32::from(r == 1)
+                }
+            })
+            .collect();
+        let unit = ResidualUnit { mode: Mode::Delta, spatial: false, values };
+        let flat = unit.to_bytes(Modes { spatial: false, sparse: true, contexts: false }).unwrap();
+        let contexts = unit.to_bytes(Modes::ALL).unwrap();
+        assert_eq!(contexts[0] & 8, 8, "the contexts flag");
+        assert!(contexts.len() * 10 < flat.len() * 9, "{} bytes against {}", contexts.len(), flat.len());
+        assert_eq!(ResidualUnit::parse(&contexts, 6000, Modes::ALL, 0).unwrap(), unit);
+        let sparse_only = Modes { spatial: true, sparse: true, contexts: false };
+        assert!(ResidualUnit::parse(&contexts, 6000, sparse_only, 0).is_err(), "contexts in a header without them");
+        let mut flipped = contexts.clone();
+        for i in (0..flipped.len()).step_by(7) {
+            flipped[i] ^= 0x11;
+            let _ = ResidualUnit::parse(&flipped, 6000, Modes::ALL, 0);
+            flipped[i] ^= 0x11;
         }
     }
 }

@@ -68,12 +68,18 @@ impl ResidualCoding {
     pub fn new(grid: Grid, mesh: &SourceMesh, welded: Option<Vec<u32>>, step: f32) -> ResidualCoding {
         let mut coder = VertexResidual::new(step, mesh.places.len());
         coder.set_faces(&mesh.faces);
-        coder.set_sparse(true);
+        coder.set_version_20(true);
         ResidualCoding { mesh: SourceMeshDecoder::new(grid, mesh), welded, coder, step }
     }
 
     pub fn info(&self) -> VertexResidualInfo {
-        VertexResidualInfo { step: self.step, spatial: self.coder.spatial(), sparse: true, origin: None }
+        VertexResidualInfo {
+            step: self.step,
+            spatial: self.coder.spatial(),
+            sparse: true,
+            contexts: true,
+            origin: None,
+        }
     }
 
     /// The frame's unit: `input` (the source's frame: with bones on the

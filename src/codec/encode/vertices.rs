@@ -255,7 +255,7 @@ fn write(
     sink.put(&mesh_chunk)?;
     let mut coder = VertexResidual::new(step, input.mesh.places.len());
     coder.set_faces(&input.mesh.faces);
-    coder.set_sparse(true);
+    coder.set_version_20(true);
     let (mut bytes, mut residual_bytes, mut offsets) = (prefix.len() + mesh_chunk.len(), 0, Vec::new());
     for f in 0..header.frames {
         progress("coding", f as usize, header.frames as usize);
@@ -316,6 +316,7 @@ fn header_of(src: &dyn FrameSource, input: &Input, opts: &EncodeOptions, step: f
             step,
             spatial: true,
             sparse: true,
+            contexts: true,
             origin: Some(input.origin.to_array()),
         }),
     }
