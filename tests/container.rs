@@ -551,7 +551,7 @@ fn file_with_source(h: &Header, info: format::SourceMeshInfo, chunk: Vec<u8>) ->
 
 /// `mesh` as versions 6 to 11 describe it (no walk).
 fn plain_info(mesh: &format::SourceMesh) -> format::SourceMeshInfo {
-    format::SourceMeshInfo { walk: false, ..mesh.info() }
+    format::SourceMeshInfo { walk: false, around: false, ..mesh.info() }
 }
 
 /// `mesh`'s chunk as versions 6 to 11 write it.
@@ -624,18 +624,24 @@ fn face_set(faces: &[[u32; 3]]) -> Vec<[u32; 3]> {
 #[test]
 fn version_twelve_codes_faces_as_a_walk_and_places_from_predictions() {
     let h = header();
-    for mesh in [source_mesh(), larger_source_mesh(24)] {
-        let bytes = file_with_source(&h, mesh.info(), format::write_source_mesh(&mesh));
-        let f = format::read(&bytes).unwrap();
-        assert_eq!((f.version, f.header.min_version()), (format::VERSION, 12));
-        let back = f.source_mesh.unwrap();
-        // Every face with its vertices in their order, perhaps in another
-        // order of faces; every vertex's place and offset exactly.
-        assert_eq!(face_set(&back.faces), face_set(&mesh.faces));
-        assert_eq!((&back.places, &back.offsets), (&mesh.places, &mesh.offsets));
-        // A version-11 file cannot hold it.
-        let e = format::read(&with_version(bytes, 11)).unwrap_err();
-        assert!(matches!(&e, ContainerError::Header(m) if m.contains("version 11")), "{e}");
+    // Version 12's references, and version 20's (next new vertex, neighbours).
+    for (around, version) in [(false, 12), (true, 20)] {
+        for mesh in [source_mesh(), larger_source_mesh(24)] {
+            let info = format::SourceMeshInfo { around, ..mesh.info() };
+            let chunk = format::write_chunk(format::TAG_SOURCE_MESH, 0, 0, &mesh.to_bytes_with(around));
+            let bytes = file_with_source(&h, info, chunk);
+            let f = format::read(&bytes).unwrap();
+            assert_eq!((f.version, f.header.min_version()), (format::VERSION, version));
+            let back = f.source_mesh.unwrap();
+            // Every face with its vertices in their order, perhaps in another
+            // order of faces; every vertex's place and offset exactly.
+            assert_eq!(face_set(&back.faces), face_set(&mesh.faces));
+            assert_eq!((&back.places, &back.offsets), (&mesh.places, &mesh.offsets));
+            // A file of the version before cannot hold it.
+            let e = format::read(&with_version(bytes, version - 1)).unwrap_err();
+            let before = format!("version {}", version - 1);
+            assert!(matches!(&e, ContainerError::Header(m) if m.contains(&before)), "{e}");
+        }
     }
     // Smaller than versions 6 to 11 stored it: scrambled faces walked, places predicted.
     let mesh = larger_source_mesh(24);
@@ -703,10 +709,24 @@ fn bad_source_meshes_are_errors() {
     }
     // Counts past the limits, in the header itself.
     for info in [
-        format::SourceMeshInfo { vertices: 2, faces: 1, offset_step: None, loose: None, walk: false },
-        format::SourceMeshInfo { vertices: 3, faces: 0, offset_step: None, loose: None, walk: false },
-        format::SourceMeshInfo { vertices: 3, faces: 1, offset_step: Some(0.0), loose: None, walk: false },
-        format::SourceMeshInfo { vertices: 3, faces: 1, offset_step: Some(f32::NAN), loose: None, walk: false },
+        format::SourceMeshInfo { vertices: 2, faces: 1, offset_step: None, loose: None, walk: false, around: false },
+        format::SourceMeshInfo { vertices: 3, faces: 0, offset_step: None, loose: None, walk: false, around: false },
+        format::SourceMeshInfo {
+            vertices: 3,
+            faces: 1,
+            offset_step: Some(0.0),
+            loose: None,
+            walk: false,
+            around: false,
+        },
+        format::SourceMeshInfo {
+            vertices: 3,
+            faces: 1,
+            offset_step: Some(f32::NAN),
+            loose: None,
+            walk: false,
+            around: false,
+        },
     ] {
         let e = format::write_header(&Header { source_mesh: Some(info), ..h.clone() }).unwrap_err();
         assert!(matches!(&e, ContainerError::Header(m) if m.contains("source mesh")), "{e}");

@@ -46,7 +46,7 @@ pub fn to_unit(mesh: &SourceMesh) -> Vec<u8> {
     leb128::write(&mut out, mesh.faces.len() as u64);
     let step = mesh.offsets.as_ref().map_or(0.0, |o| o.step);
     out.extend_from_slice(&step.to_le_bytes());
-    out.extend_from_slice(&mesh.to_bytes());
+    out.extend_from_slice(&mesh.to_bytes_with(false));
     out
 }
 
@@ -68,7 +68,14 @@ pub fn parse_unit(unit: &[u8], frame: u32, offset: usize) -> Result<SourceMesh, 
     if !(step.is_finite() && step >= 0.0) {
         return Err(bad(format!("offsets' step {step}")));
     }
-    let info = SourceMeshInfo { vertices, faces, offset_step: (step > 0.0).then_some(step), loose: None, walk: true };
+    let info = SourceMeshInfo {
+        vertices,
+        faces,
+        offset_step: (step > 0.0).then_some(step),
+        loose: None,
+        walk: true,
+        around: false,
+    };
     info.validate().map_err(bad)?;
     SourceMesh::parse(&unit[at + 4..], &info, offset).map_err(|e| match e {
         ContainerError::Chunk { offset, msg } => {

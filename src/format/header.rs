@@ -383,7 +383,8 @@ pub const SEAM_RULE: &str = "octahedral-half-turn";
 
 impl Header {
     /// The oldest format version that can hold this header: 20 for a file
-    /// without streams or a vertex residual with sparse counts, 19 for a
+    /// without streams, a vertex residual with sparse counts or contexts,
+    /// or a source mesh whose faces name neighbours, 19 for a
     /// spatially predicted vertex residual, 18 for a vertex residual, 17
     /// for bones
     /// on the source mesh's vertices, 16 for frame
@@ -397,7 +398,8 @@ impl Header {
     /// predictions, 3 for a CGV file without H, 2 for motion corrections,
     /// else 1.
     pub fn min_version(&self) -> u16 {
-        if self.vertex_residual.is_some_and(|r| r.sparse || r.contexts || r.origin.is_some()) {
+        let around = self.source_mesh.is_some_and(|m| m.around);
+        if around || self.vertex_residual.is_some_and(|r| r.sparse || r.contexts || r.origin.is_some()) {
             20
         } else if self.vertex_residual.is_some_and(|r| r.spatial) {
             19

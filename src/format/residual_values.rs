@@ -6,14 +6,23 @@
 //! ```text
 //! histogram  K (LEB128, at most MAX_VALUE), then the counts of -K..=K:
 //!            2K+1 LEB128, or (sparse, version 20) how many are not 0 and
-//!            for each its gap from the one before and its count
+//!            for each its gap from the one before and its count; with
+//!            escapes (version 20), then the count beyond ±K (LEB128)
+//! escapes    (version 20) each value beyond its histogram's ±K, LEB128
 //! words      u32 LE ...
 //! ```
 //!
+//! With escapes (version 20) a histogram holds -L..=L, L at most the
+//! largest |value|, and one more count, of the values beyond (the
+//! escape symbol's); each such value follows the histograms as a zigzag
+//! LEB128, in the unit's order, before the words. A value far out (a part's
+//! first vertex, coded whole) then costs two bytes rather than a count of
+//! its own and a rare symbol's 14 bits.
+//!
 //! One histogram, or (version 20, with contexts) [`CONTEXTS`] of them: a
-//! value is then coded under the model of its context, the size of the
-//! value three before it (the same coordinate of the vertex before, in the
-//! unit's order) up to 3. A smooth surface's guesses miss by little in
+//! value is then coded under the model of its context, the sizes of the
+//! values three and six before it (the same coordinate of the two
+//! vertices before, in the unit's order) summed, up to 5. A smooth surface's guesses miss by little in
 //! smooth regions and by more at creases, so a value's neighbour says
 //! which histogram it follows (face-poses' and wolf's vertices files 2 to
 //! 7 % smaller than with one histogram, docs/RESULTS.md). A histogram
@@ -25,79 +34,145 @@ use constriction::stream::model::DefaultContiguousCategoricalEntropyModel;
 use constriction::stream::queue::{DefaultRangeDecoder, DefaultRangeEncoder};
 use constriction::stream::{Decode, Encode};
 
-/// The models of a unit with contexts, for a value three before of size
-/// 0, 1, 2 and 3 or more.
-pub const CONTEXTS: usize = 4;
+/// The models of a unit with contexts, for the sizes of the two values
+/// before of that coordinate summing to 0, 1, 2, 3, 4 and 5 or more.
+pub const CONTEXTS: usize = 6;
 /// The model's probability precision, in bits (constriction's default).
 const PRECISION: u32 = 24;
 
-/// One histogram: the largest |value| K and the counts of -K..=K.
+/// Which of version 20's layouts a unit uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct Layout {
+    /// The counts listed sparsely.
+    pub sparse: bool,
+    /// [`CONTEXTS`] histograms.
+    pub contexts: bool,
+    /// Each histogram's values beyond ±K escaped.
+    pub escapes: bool,
+}
+
+/// One histogram: K, the counts of -K..=K and, with escapes, of the values
+/// beyond (the last count: the escape symbol's).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Histogram {
     k: usize,
     counts: Vec<u64>,
+    escapes: bool,
 }
 
-/// How a histogram's values are coded.
+/// How a histogram's symbols are coded.
 enum Coding {
     /// No value has this context.
     Empty,
-    /// One value alone: no words.
-    Only(i32),
+    /// One symbol alone: no words.
+    Only(usize),
     Model(DefaultContiguousCategoricalEntropyModel),
 }
 
 impl Histogram {
-    fn of(values: impl Iterator<Item = i32> + Clone) -> Histogram {
-        let k = values.clone().map(|v| v.unsigned_abs() as usize).max().unwrap_or(0);
-        let mut counts = vec![0u64; 2 * k + 1];
-        values.for_each(|v| counts[(v + k as i32) as usize] += 1);
-        Histogram { k, counts }
+    /// The histogram of `values` on -K..=K, K the one of `ks` that codes
+    /// them in the fewest bits (estimated; the largest |value| without
+    /// escapes).
+    fn of(values: &[i32], escapes: bool) -> Histogram {
+        let largest = values.iter().map(|v| v.unsigned_abs() as usize).max().unwrap_or(0);
+        let mut ks = vec![largest];
+        if escapes {
+            ks.extend((0..10).map(|j| (1usize << j) - 1).filter(|&k| k < largest));
+        }
+        let mut best: Option<(f64, Histogram)> = None;
+        for k in ks {
+            let mut counts = vec![0u64; 2 * k + 1 + usize::from(escapes)];
+            for &v in values {
+                let at = if v.unsigned_abs() as usize <= k { (v + k as i32) as usize } else { 2 * k + 1 };
+                counts[at] += 1;
+            }
+            let h = Histogram { k, counts, escapes };
+            let bits = h.estimated_bits();
+            if best.as_ref().is_none_or(|(b, _)| bits < *b) {
+                best = Some((bits, h));
+            }
+        }
+        best.map_or(Histogram { k: 0, counts: vec![0; 1 + usize::from(escapes)], escapes }, |(_, h)| h)
+    }
+
+    /// The symbols' entropy, about 3 bytes a listed count and 2 an escaped
+    /// value: what choosing K weighs.
+    fn estimated_bits(&self) -> f64 {
+        let total = self.total() as f64;
+        let entropy: f64 =
+            self.counts.iter().filter(|&&c| c > 0).map(|&c| -(c as f64) * (c as f64 / total).log2()).sum();
+        let listed = self.counts.iter().filter(|&&c| c > 0).count() as f64;
+        entropy + 24.0 * listed + 16.0 * self.escaped() as f64
     }
 
     fn total(&self) -> u64 {
         self.counts.iter().sum()
     }
 
-    /// K and the counts, dense or sparse.
-    fn write(&self, sparse: bool, out: &mut Vec<u8>) {
-        leb128::write(out, self.k as u64);
-        if !sparse {
-            self.counts.iter().for_each(|&c| leb128::write(out, c));
-            return;
-        }
-        leb128::write(out, self.counts.iter().filter(|&&c| c > 0).count() as u64);
-        let mut next = 0;
-        for (i, &c) in self.counts.iter().enumerate().filter(|(_, &c)| c > 0) {
-            leb128::write(out, (i - next) as u64);
-            leb128::write(out, c);
-            next = i + 1;
+    /// How many values lie beyond ±K.
+    fn escaped(&self) -> u64 {
+        if self.escapes {
+            self.counts.last().copied().unwrap_or(0)
+        } else {
+            0
         }
     }
 
-    /// K and its counts (a count at -K or K where K > 0), each listed
-    /// inside -K..=K and none twice; a message says what is wrong.
-    fn read(payload: &[u8], at: &mut usize, sparse: bool) -> Result<Histogram, String> {
+    /// K and the counts, dense or sparse, and with escapes their count.
+    fn write(&self, sparse: bool, out: &mut Vec<u8>) {
+        let values = &self.counts[..2 * self.k + 1];
+        leb128::write(out, self.k as u64);
+        if sparse {
+            leb128::write(out, values.iter().filter(|&&c| c > 0).count() as u64);
+            let mut next = 0;
+            for (i, &c) in values.iter().enumerate().filter(|(_, &c)| c > 0) {
+                leb128::write(out, (i - next) as u64);
+                leb128::write(out, c);
+                next = i + 1;
+            }
+        } else {
+            values.iter().for_each(|&c| leb128::write(out, c));
+        }
+        if self.escapes {
+            leb128::write(out, self.escaped());
+        }
+    }
+
+    /// K and its counts, each listed inside -K..=K and none twice (without
+    /// escapes, a count at -K or K where K > 0); a message says what is
+    /// wrong.
+    fn read(payload: &[u8], at: &mut usize, layout: Layout) -> Result<Histogram, String> {
         let k = leb128::read(payload, at, 2).filter(|&k| k <= u64::from(MAX_VALUE));
         let k = k.ok_or(format!("a bad largest value (at most {MAX_VALUE})"))? as usize;
-        let counts = match sparse {
+        let mut counts = match layout.sparse {
             false => (0..2 * k + 1).map(|_| leb128::read(payload, at, 5)).collect(),
             true => read_sparse(payload, at, k),
         }
         .ok_or("a bad count")?;
-        if k > 0 && counts[0] + counts[2 * k] == 0 {
+        if layout.escapes {
+            counts.push(leb128::read(payload, at, 5).ok_or("a bad count of escaped values")?);
+        } else if k > 0 && counts[0] + counts[2 * k] == 0 {
             return Err(format!("K = {k} is not the largest value"));
         }
-        Ok(Histogram { k, counts })
+        Ok(Histogram { k, counts, escapes: layout.escapes })
     }
 
     fn coding(&self) -> Option<Coding> {
         let mut present = (0..self.counts.len()).filter(|&i| self.counts[i] > 0);
         Some(match (present.next(), present.next()) {
             (None, _) => Coding::Empty,
-            (Some(only), None) => Coding::Only(only as i32 - self.k as i32),
+            (Some(only), None) => Coding::Only(only),
             _ => Coding::Model(model(&self.counts)?),
         })
+    }
+
+    /// The symbol of `v`: its place in -K..=K, or the escape.
+    fn symbol(&self, v: i32) -> usize {
+        if v.unsigned_abs() as usize <= self.k {
+            (v + self.k as i32) as usize
+        } else {
+            2 * self.k + 1
+        }
     }
 }
 
@@ -113,10 +188,10 @@ fn read_sparse(payload: &[u8], at: &mut usize, k: usize) -> Option<Vec<u64>> {
     Some(counts)
 }
 
-/// The fixed-point model of a histogram: each value of -K..=K gets 1 +
-/// its share of the rest (so that every value can be coded), the most
-/// frequent one what rounding leaves. Integers only: encoder and decoder,
-/// native and wasm, build the same model.
+/// The fixed-point model of a histogram: each symbol gets 1 + its share of
+/// the rest (so that every symbol can be coded), the most frequent one
+/// what rounding leaves. Integers only: encoder and decoder, native and
+/// wasm, build the same model.
 fn model(counts: &[u64]) -> Option<DefaultContiguousCategoricalEntropyModel> {
     let total: u64 = counts.iter().sum();
     let room = (1u64 << PRECISION).checked_sub(counts.len() as u64)?;
@@ -130,64 +205,86 @@ fn model(counts: &[u64]) -> Option<DefaultContiguousCategoricalEntropyModel> {
     DefaultContiguousCategoricalEntropyModel::from_nonzero_fixed_point_probabilities(&p, false).ok()
 }
 
-/// Value `i`'s context among `values` (0 without contexts).
+/// Value `i`'s context among `values` (0 without contexts): |value i - 3|
+/// + |value i - 6| (those that exist), up to 5.
 fn context(values: &[i32], i: usize, contexts: bool) -> usize {
-    match (contexts, i.checked_sub(3)) {
-        (true, Some(j)) => (values[j].unsigned_abs() as usize).min(CONTEXTS - 1),
-        _ => 0,
+    if !contexts {
+        return 0;
     }
+    let size = |back: usize| i.checked_sub(back).map_or(0, |j| values[j].unsigned_abs() as usize);
+    (size(3) + size(6)).min(CONTEXTS - 1)
 }
 
-/// The histograms and words of `values` (each within ±[`MAX_VALUE`]), with
-/// or without contexts, the counts sparse where `sparse` allows and that
-/// is shorter; and whether they are. `None` only if the range coder fails.
-pub fn encode(values: &[i32], sparse: bool, contexts: bool) -> Option<(Vec<u8>, bool)> {
-    let n = if contexts { CONTEXTS } else { 1 };
-    let of = |c: usize| (0..values.len()).filter(move |&i| context(values, i, contexts) == c).map(|i| values[i]);
-    let hists: Vec<Histogram> = (0..n).map(|c| Histogram::of(of(c))).collect();
+fn zigzag(v: i32) -> u64 {
+    u64::from(((v << 1) ^ (v >> 31)) as u32)
+}
+
+/// The histograms, escapes and words of `values` (each within
+/// ±[`MAX_VALUE`]) in `layout`, the counts sparse only where that is
+/// shorter (the layout returned says). `None` only if the range coder
+/// fails.
+pub fn encode(values: &[i32], layout: Layout) -> Option<(Vec<u8>, Layout)> {
+    let n = if layout.contexts { CONTEXTS } else { 1 };
+    let of = |c: usize| -> Vec<i32> {
+        (0..values.len()).filter(|&i| context(values, i, layout.contexts) == c).map(|i| values[i]).collect()
+    };
+    let hists: Vec<Histogram> = (0..n).map(|c| Histogram::of(&of(c), layout.escapes)).collect();
     let written = |sparse: bool| {
         let mut out = Vec::new();
         hists.iter().for_each(|h| h.write(sparse, &mut out));
         out
     };
-    let (dense, listed) = (written(false), sparse.then(|| written(true)));
+    let (dense, listed) = (written(false), layout.sparse.then(|| written(true)));
     let listed = listed.filter(|s| s.len() < dense.len());
-    let sparse = listed.is_some();
+    let used = Layout { sparse: listed.is_some(), ..layout };
     let mut out = listed.unwrap_or(dense);
     let codings: Vec<Coding> = hists.iter().map(Histogram::coding).collect::<Option<_>>()?;
     let mut coder = DefaultRangeEncoder::new();
     for (i, &v) in values.iter().enumerate() {
-        let c = context(values, i, contexts);
+        let (c, h) = (context(values, i, layout.contexts), &hists[context(values, i, layout.contexts)]);
+        let symbol = h.symbol(v);
+        if symbol > 2 * h.k {
+            leb128::write(&mut out, zigzag(v));
+        }
         if let Coding::Model(m) = &codings[c] {
-            coder.encode_symbol((v + hists[c].k as i32) as usize, m.as_view()).ok()?;
+            coder.encode_symbol(symbol, m.as_view()).ok()?;
         }
     }
     let Ok(words) = coder.into_compressed();
     out.extend(words.iter().flat_map(|w| w.to_le_bytes()));
-    Some((out, sparse))
+    Some((out, used))
 }
 
-/// The histograms of a unit of `count` values at `at` (moved past them),
-/// checked: their counts add up to `count`.
+/// The histograms of a unit of `count` values at `at` and its escaped
+/// values (`at` moved past them), checked: their counts add up to `count`
+/// and every escaped value lies within ±[`MAX_VALUE`].
 pub fn check(
     payload: &[u8],
     at: &mut usize,
     count: usize,
-    sparse: bool,
-    contexts: bool,
-) -> Result<Vec<Histogram>, String> {
-    let n = if contexts { CONTEXTS } else { 1 };
-    let hists = (0..n).map(|_| Histogram::read(payload, at, sparse)).collect::<Result<Vec<_>, _>>()?;
+    layout: Layout,
+) -> Result<(Vec<Histogram>, Vec<i32>), String> {
+    let n = if layout.contexts { CONTEXTS } else { 1 };
+    let hists = (0..n).map(|_| Histogram::read(payload, at, layout)).collect::<Result<Vec<_>, _>>()?;
     let total: u64 = hists.iter().map(Histogram::total).sum();
     if total != count as u64 {
         return Err(format!("counts sum to {total}, not the {count} values of the mesh's vertices"));
     }
-    Ok(hists)
+    let escaped: u64 = hists.iter().map(Histogram::escaped).sum();
+    let escapes = (0..escaped)
+        .map(|_| {
+            let z = leb128::read(payload, at, 2).filter(|&z| z <= 2 * u64::from(MAX_VALUE));
+            z.map(|z| (z >> 1) as i32 ^ -((z & 1) as i32)).ok_or("a bad escaped value")
+        })
+        .collect::<Result<Vec<i32>, _>>()?;
+    Ok((hists, escapes))
 }
 
-/// The values the words hold under the histograms' models; `None` if they
-/// do not decode to values matching the histograms.
-pub fn decode(words: Vec<u32>, hists: &[Histogram], contexts: bool) -> Option<Vec<i32>> {
+/// The values the words hold under the histograms' models, the escaped
+/// ones taken in order from `escapes`; `None` if they do not decode to
+/// values matching the histograms (an escaped value within its
+/// histogram's ±K included).
+pub fn decode(words: Vec<u32>, (hists, escapes): (&[Histogram], &[i32]), contexts: bool) -> Option<Vec<i32>> {
     let count: u64 = hists.iter().map(Histogram::total).sum();
     let codings: Vec<Coding> = hists.iter().map(Histogram::coding).collect::<Option<_>>()?;
     let coded = codings.iter().any(|c| matches!(c, Coding::Model(_)));
@@ -196,19 +293,24 @@ pub fn decode(words: Vec<u32>, hists: &[Histogram], contexts: bool) -> Option<Ve
     }
     let mut decoder = DefaultRangeDecoder::from_compressed(words).ok()?;
     let mut values: Vec<i32> = Vec::with_capacity(count as usize);
+    let mut escaped = escapes.iter();
     let mut seen: Vec<Vec<u64>> = hists.iter().map(|h| vec![0; h.counts.len()]).collect();
     for i in 0..count as usize {
         let c = context(&values, i, contexts);
-        let k = hists.get(c)?.k as i32;
-        let v = match codings.get(c)? {
+        let h = hists.get(c)?;
+        let symbol = match codings.get(c)? {
             Coding::Empty => return None,
-            Coding::Only(v) => *v,
-            Coding::Model(m) => decoder.decode_symbol(m.as_view()).ok()? as i32 - k,
+            Coding::Only(s) => *s,
+            Coding::Model(m) => decoder.decode_symbol(m.as_view()).ok()?,
         };
-        *seen[c].get_mut((v + k) as usize)? += 1;
+        let v = match symbol > 2 * h.k {
+            true => escaped.next().copied().filter(|v| v.unsigned_abs() as usize > h.k)?,
+            false => symbol as i32 - h.k as i32,
+        };
+        *seen[c].get_mut(symbol)? += 1;
         values.push(v);
     }
-    // A value whose count is 0, or counts a context never reaches, only a
+    // A symbol whose count is 0, or counts a context never reaches, only a
     // broken unit decodes.
     seen.iter().zip(hists).all(|(s, h)| *s == h.counts).then_some(values)
 }

@@ -72,6 +72,10 @@ pub struct SourceMeshInfo {
     /// predictions (absent: versions 6 to 11's plain layout).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub walk: bool,
+    /// Version 20: the walk's references may name the next new vertex in
+    /// index order and a vertex's neighbours (`super::connectivity`).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub around: bool,
 }
 
 impl SourceMeshInfo {
@@ -177,6 +181,7 @@ impl SourceMesh {
             offset_step: self.offsets.as_ref().map(|o| o.step),
             loose: self.loose_count(),
             walk: true,
+            around: true,
         }
     }
 
@@ -185,10 +190,17 @@ impl SourceMesh {
         self.loose_of.iter().copied().max().filter(|&m| m > 0)
     }
 
-    /// The chunk's payload (version 12): the faces in the input's order
-    /// or walked, whichever deflates smaller.
+    /// The chunk's payload as [`Self::info`] describes it (version 20's
+    /// references): the faces in the input's order or walked, whichever
+    /// deflates smaller.
     pub fn to_bytes(&self) -> Vec<u8> {
-        let [input, walked] = [Order::Input, Order::Walk].map(|o| self.payload(o));
+        self.to_bytes_with(true)
+    }
+
+    /// The payload by version 12's references (`around` false: a frame
+    /// mesh's, version 16) or version 20's.
+    pub fn to_bytes_with(&self, around: bool) -> Vec<u8> {
+        let [input, walked] = [Order::Input, Order::Walk].map(|o| self.payload(o, around));
         if walked.len() < input.len() {
             walked
         } else {
@@ -197,7 +209,7 @@ impl SourceMesh {
     }
 
     /// The payload with the faces coded in `order`.
-    fn payload(&self, order: Order) -> Vec<u8> {
+    fn payload(&self, order: Order, around: bool) -> Vec<u8> {
         let v = self.places.len();
         let faces: Vec<[u32; 3]> = match order {
             Order::Input => self.faces.clone(),
@@ -206,7 +218,7 @@ impl SourceMesh {
         // The low bits every place leaves zero (the encoder leaves 16).
         let shift = self.places.iter().flatten().map(|q| q.trailing_zeros()).min().unwrap_or(0).min(MAX_SHIFT);
         let mut raw = vec![order as u8, shift as u8];
-        raw.extend(connectivity::encode(&faces, v));
+        raw.extend(connectivity::encode(&faces, v, around));
         let max = i64::from(u32::MAX >> shift);
         let coded = places::walk(&faces, v, max, &mut |vertex, guess| {
             let p = self.places[vertex as usize].map(|q| i64::from(q >> shift));
@@ -332,7 +344,7 @@ fn parse_walked(raw: &[u8], at: &mut usize, info: &SourceMeshInfo) -> Result<Fac
         return Err(format!("face order {order} or place shift {shift} is not one this reader knows"));
     }
     *at = 2;
-    let faces = connectivity::decode(raw, at, info.faces, info.vertices)?;
+    let faces = connectivity::decode(raw, at, info.faces, info.vertices, info.around)?;
     let shift = u32::from(shift);
     let max = i64::from(u32::MAX >> shift);
     let mut places = vec![[0u32; 2]; info.vertices as usize];

@@ -37,7 +37,7 @@
 //! bits each. constriction is used rather than a hand-written coder: it
 //! is kept, documented, and its range coder is fixed across releases.
 
-use super::residual_values::{self, Histogram};
+use super::residual_values::{self, Histogram, Layout};
 use super::ContainerError;
 
 /// The largest |value| a unit may hold: the encoder clamps beyond it (a
@@ -132,9 +132,12 @@ impl ResidualUnit {
         let values: Vec<i32> = self.values.iter().map(|&v| v.clamp(-max, max)).collect();
         let mode = u8::from(self.mode == Mode::Delta) + 2 * u8::from(self.spatial);
         let mut best: Option<Vec<u8>> = None;
-        for contexts in [false, true].into_iter().filter(|&c| !c || modes.contexts) {
-            let (coded, sparse) = residual_values::encode(&values, modes.sparse, contexts)?;
-            let flags = if sparse { SPARSE } else { 0 } + if contexts { CONTEXTED } else { 0 };
+        // Version 20's contexts and escapes come together (the header's
+        // `contexts`), or neither.
+        for rich in [false, true].into_iter().filter(|&c| !c || modes.contexts) {
+            let layout = Layout { sparse: modes.sparse, contexts: rich, escapes: rich };
+            let (coded, used) = residual_values::encode(&values, layout)?;
+            let flags = if used.sparse { SPARSE } else { 0 } + if rich { CONTEXTED } else { 0 };
             let unit = [&[mode + flags][..], &coded].concat();
             if best.as_ref().is_none_or(|b| unit.len() < b.len()) {
                 best = Some(unit);
@@ -146,13 +149,12 @@ impl ResidualUnit {
     /// Reads a unit of `count` values (3 V) from a frame chunk at byte
     /// `offset` (named in errors): [`Self::check`], then the values.
     pub fn parse(payload: &[u8], count: usize, modes: Modes, offset: usize) -> Result<ResidualUnit, ContainerError> {
-        let (mode, spatial, hists, at) = Self::check(payload, count, modes, offset)?;
+        let (mode, spatial, (hists, escapes), at) = Self::check(payload, count, modes, offset)?;
         let contexts = payload.first().is_some_and(|m| m & CONTEXTED != 0);
         let words: Vec<u32> =
             payload[at..].chunks_exact(4).map(|w| u32::from_le_bytes([w[0], w[1], w[2], w[3]])).collect();
-        let values = residual_values::decode(words, &hists, contexts).ok_or_else(|| ContainerError::Chunk {
-            offset,
-            msg: "vertex residual: the coded values do not decode".into(),
+        let values = residual_values::decode(words, (&hists, &escapes), contexts).ok_or_else(|| {
+            ContainerError::Chunk { offset, msg: "vertex residual: the coded values do not decode".into() }
         })?;
         Ok(ResidualUnit { mode, spatial, values })
     }
@@ -161,13 +163,14 @@ impl ResidualUnit {
     /// decoder's [`Self::parse`] does): its mode, its histograms, and whole
     /// words after them; modes 2 and 3, sparse counts and contexts only
     /// where the header allows them (`modes`). Returns the mode, whether it
-    /// is spatial, the histograms and where the words start.
+    /// is spatial, the histograms and escaped values, and where the words
+    /// start.
     pub fn check(
         payload: &[u8],
         count: usize,
         modes: Modes,
         offset: usize,
-    ) -> Result<(Mode, bool, Vec<Histogram>, usize), ContainerError> {
+    ) -> Result<(Mode, bool, Coded, usize), ContainerError> {
         let bad = |msg: String| ContainerError::Chunk { offset, msg: format!("vertex residual: {msg}") };
         let first = *payload.first().ok_or_else(|| bad("an empty unit".into()))?;
         let (sparse, contexts) = (first & SPARSE != 0, first & CONTEXTED != 0);
@@ -182,17 +185,22 @@ impl ResidualUnit {
             _ => return Err(bad(format!("unknown mode {first}"))),
         };
         let mut at = 1;
-        let hists = residual_values::check(payload, &mut at, count, sparse, contexts).map_err(bad)?;
+        let layout = Layout { sparse, contexts, escapes: contexts };
+        let coded = residual_values::check(payload, &mut at, count, layout).map_err(bad)?;
         if (payload.len() - at) % 4 != 0 {
             return Err(bad(format!("{} bytes of coded values, not whole 32-bit words", payload.len() - at)));
         }
-        Ok((mode, spatial, hists, at))
+        Ok((mode, spatial, coded, at))
     }
 }
 
+/// A unit's histograms and escaped values, as read.
+pub type Coded = (Vec<Histogram>, Vec<i32>);
+
 /// The mode byte's flag of sparse counts (version 20).
 const SPARSE: u8 = 4;
-/// The mode byte's flag of values coded in contexts (version 20).
+/// The mode byte's flag of values coded in contexts, with escapes (version
+/// 20).
 const CONTEXTED: u8 = 8;
 
 #[cfg(test)]
