@@ -95,3 +95,35 @@ fn a_step_finer_than_a_unit_holds_is_refused() {
     let (worst, _) = errors(&src, &decoded(&bytes, &src));
     assert!(worst <= 0.5 * step * 1.001, "a coordinate {worst} off, step {step}");
 }
+
+/// `cgv eval --codecs vertices`: each rate point's size met by the step,
+/// measured on the input's own vertices (the file's own mesh line counted),
+/// the error falling as the rate grows.
+#[test]
+fn the_vertices_entry_of_eval_meets_its_sizes_by_the_step() {
+    use cgv::eval::{self, EvalCodec, EvalOptions, Rates};
+    let src = cgv::mesh::builtin::motion(6);
+    let mut opts = EvalOptions {
+        codecs: vec![EvalCodec::VERTICES],
+        rates: Rates::Kbps(vec![700.0, 1400.0]),
+        surface_every: 3,
+        ..Default::default()
+    };
+    opts.base.grid = 16;
+    let report = eval::run(&src, &opts, &|_| {}).unwrap();
+    let [low, high] = [&report.points[0].results[0], &report.points[1].results[0]];
+    for (r, p) in [(low, &report.points[0]), (high, &report.points[1])] {
+        assert!(r.matched && r.vertex_residual.is_some() && r.own_mesh_bytes.is_some(), "{r:?}");
+        assert!(
+            (r.bytes as f64 / p.target_bytes as f64 - 1.0).abs() <= opts.tolerance,
+            "{} of {}",
+            r.bytes,
+            p.target_bytes
+        );
+        // A uniform quantizer on twice the asked error: the vertex RMS is it.
+        let asked = f64::from(r.vertex_residual.unwrap()) / 100.0;
+        assert!((r.source.vertex_rms / asked - 1.0).abs() < 0.1, "{} for {asked}", r.source.vertex_rms);
+        assert!(r.surface_rms.is_some_and(|s| s < r.source.vertex_rms), "{r:?}");
+    }
+    assert!(high.source.vertex_rms < 0.5 * low.source.vertex_rms);
+}

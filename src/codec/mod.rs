@@ -38,11 +38,12 @@ pub use encode::residual_step;
 #[cfg(not(target_arch = "wasm32"))]
 pub use encode::{
     auto_corrections, auto_grid, auto_grid_for_error, auto_normal_correction, encode, encode_into, encode_on_budget,
-    encode_on_budget_into, encode_prepared, encode_prepared_into, encode_to_error, encode_vertices_into, prepare,
-    prepare_for_error, residual_qp_of, skinned_bones, skinned_grid, BudgetResidual, CodecChoice, EncodeOptions,
-    EncodeReport, EncodeRequest, Encoded, GridChoice, Made, TargetReport, AUTO_GRID_BITS, AUTO_GRID_FLOOR_MARGIN,
-    AUTO_MOTION_QP, AUTO_SCALED_BITS, BUDGET_TOLERANCE, DEFAULT_BONES, DEFAULT_RANDOM_ACCESS, DEFAULT_VERTEX_PERCENT,
-    MAX_PASSES, MIN_BONE_FRAMES, MOTION_MARGIN, PAPER_ANCHORS, RESIDUAL_BUDGET_BITS, RESIDUAL_QP,
+    encode_on_budget_into, encode_prepared, encode_prepared_into, encode_to_error, encode_vertices_into,
+    finest_vertex_percent, prepare, prepare_for_error, residual_qp_of, skinned_bones, skinned_grid, BudgetResidual,
+    CodecChoice, EncodeOptions, EncodeReport, EncodeRequest, Encoded, GridChoice, Made, TargetReport, AUTO_GRID_BITS,
+    AUTO_GRID_FLOOR_MARGIN, AUTO_MOTION_QP, AUTO_SCALED_BITS, BUDGET_TOLERANCE, DEFAULT_BONES, DEFAULT_RANDOM_ACCESS,
+    DEFAULT_VERTEX_PERCENT, MAX_PASSES, MIN_BONE_FRAMES, MOTION_MARGIN, PAPER_ANCHORS, RESIDUAL_BUDGET_BITS,
+    RESIDUAL_QP,
 };
 pub use reconstruct::{
     frame_values, place_loose, FrameStats, Reconstructor, SequenceDecoder, SourceMeshDecoder, DEFAULT_MEMORY_LIMIT,

@@ -102,7 +102,9 @@ impl VertexResidual {
                 })
                 .collect()
         };
-        let mut best: Option<(ResidualUnit, Vec<u8>)> = None;
+        // The smallest unit that reaches every vertex within half a step;
+        // one that clamps a value only where none reaches.
+        let mut best: Option<(bool, ResidualUnit, Vec<u8>)> = None;
         for mode in [Mode::Intra, Mode::Delta] {
             let q = match mode {
                 Mode::Intra => wanted(&|_| Vec3::ZERO),
@@ -111,24 +113,25 @@ impl VertexResidual {
             let max = MAX_VALUE as i32;
             let reached = q.iter().flatten().all(|x| x.abs() <= max);
             let plain = q.iter().flatten().map(|x| (*x).clamp(-max, max)).collect();
-            let mut units = vec![ResidualUnit { mode, spatial: false, values: plain }];
+            let mut units = vec![(reached, ResidualUnit { mode, spatial: false, values: plain })];
             if let Some(order) = &self.order {
                 // A guess that misses by more than a value holds leaves its
                 // vertex off: spatial only where it reaches what plain does.
                 let (values, rebuilt) = order.code(&q, max);
                 if rebuilt == q || !reached {
-                    units.push(ResidualUnit { mode, spatial: true, values });
+                    units.push((rebuilt == q, ResidualUnit { mode, spatial: true, values }));
                 }
             }
-            for unit in units {
+            for (reaches, unit) in units {
                 let v20 = self.version_20;
                 let bytes = unit.to_bytes(Modes { spatial: self.order.is_some(), sparse: v20, contexts: v20 })?;
-                if best.as_ref().is_none_or(|(_, b)| bytes.len() < b.len()) {
-                    best = Some((unit, bytes));
+                let better = |(r, _, b): &(bool, ResidualUnit, Vec<u8>)| (reaches, bytes.len() < b.len()) > (*r, false);
+                if best.as_ref().is_none_or(better) {
+                    best = Some((reaches, unit, bytes));
                 }
             }
         }
-        let (unit, bytes) = best?;
+        let (_, unit, bytes) = best?;
         self.apply(&unit).ok()?;
         Some(bytes)
     }

@@ -78,12 +78,15 @@ impl EvalCodec {
     /// [`crate::codec::RESIDUAL_QP`]'s QP for the skinned codec.
     pub const SKINNED_RESIDUAL: EvalCodec =
         EvalCodec { representation: Representation::Skinned, corrections: None, residual: true };
+    /// No grid and no video (format v20): the input's vertices every frame,
+    /// the rate point's size met by their step.
+    pub const VERTICES: EvalCodec = EvalCodec::of(Representation::Vertices, None);
 
     /// What `cgv eval` runs unless told otherwise.
     pub const ALL: [EvalCodec; 4] = [EvalCodec::GV, EvalCodec::CONFORMAL, EvalCodec::PREDICTIVE, EvalCodec::NORMAL];
 
     /// Every codec `--codecs` names, in the order reports list them.
-    pub const NAMED: [EvalCodec; 10] = [
+    pub const NAMED: [EvalCodec; 11] = [
         EvalCodec::GV,
         EvalCodec::CONFORMAL,
         EvalCodec::PREDICTIVE,
@@ -94,6 +97,7 @@ impl EvalCodec {
         EvalCodec::NORMAL_MOTION,
         EvalCodec::SKINNED,
         EvalCodec::SKINNED_RESIDUAL,
+        EvalCodec::VERTICES,
     ];
 
     /// The encodes a best-of entry matches at each rate point (codec,
@@ -102,7 +106,7 @@ impl EvalCodec {
     /// corrections the bones carry the motion alone, which is the lowest
     /// rates' best use of bits (a skinned mesh's size).
     pub fn variants(self, bones: bool) -> Option<Vec<(EvalCodec, u32)>> {
-        if self.corrections.is_some() || !self.closed_loop() || self.residual {
+        if self.corrections.is_some() || !self.closed_loop() || self.residual || self.vertices() {
             return None;
         }
         let with = |c| EvalCodec::of(self.representation, Some(c));
@@ -130,6 +134,18 @@ impl EvalCodec {
         self.representation == Representation::Skinned
     }
 
+    /// Whether its files have no grid (format v20).
+    pub(super) fn vertices(self) -> bool {
+        self.representation == Representation::Vertices
+    }
+
+    /// Whether it is measured on the input's own vertices, which its
+    /// decoder gives (the skinned codec's grid is what its bones miss; the
+    /// vertices codec has none).
+    pub(super) fn on_vertices(self) -> bool {
+        self.skinned() || self.vertices()
+    }
+
     fn closed_loop(self) -> bool {
         matches!(self.representation, Representation::Predictive | Representation::Normal)
     }
@@ -141,7 +157,7 @@ impl EvalCodec {
             representation: self.representation,
             solver: self.solver(),
             corrections: self.corrections.unwrap_or(CorrectionMode::Scaled),
-            source_mesh: self.skinned(),
+            source_mesh: self.on_vertices(),
             ..base.clone()
         }
     }

@@ -475,13 +475,17 @@ impl Ctx<'_> {
         o.layers = layers;
         // Loose vertices are rebuilt through the source mesh, and the
         // skinned codec's bones act on it.
-        o.source_mesh = !self.prepared.carrier.loose.is_empty() || codec.skinned();
+        o.source_mesh = !self.prepared.carrier.loose.is_empty() || codec.on_vertices();
         if codec.skinned() {
             let bones = o.bones.filter(|&b| b > 0);
             o.bones = bones.or(Some(crate::codec::skinned_bones(self.src.topology().vertex_count)));
         }
         let t = std::time::Instant::now();
-        let (bytes, report) = encode_prepared(self.src, &o, self.prepared, &mut |_, _, _| {})?;
+        let (bytes, report) = match codec.vertices() {
+            // No grid: the geometry image is not used.
+            true => crate::codec::encode(self.src, &o, &mut |_, _, _| {})?,
+            false => encode_prepared(self.src, &o, self.prepared, &mut |_, _, _| {})?,
+        };
         let size = bytes.len() - report.source_mesh_bytes;
         let (encode_seconds, mesh_bytes) = (t.elapsed().as_secs_f64(), report.source_mesh_bytes);
         Ok(Try { qp, layers, rc: rc.map(|r| r.1), residual, mesh_bytes, bytes, size, encode_seconds })
@@ -569,7 +573,7 @@ impl Ctx<'_> {
     }
 
     fn job(&self, codec: EvalCodec, target: usize) -> Result<CodecResult> {
-        if codec.residual() {
+        if codec.residual() || codec.vertices() {
             let (t, matched, tries) = self.search_residual(codec, target)?;
             return self.measure(codec, t, matched, tries);
         }
@@ -631,7 +635,7 @@ impl Ctx<'_> {
         let mut per_frame = Vec::with_capacity(n);
         // The skinned codec's grid is what its bones miss: it is measured
         // on the input's own vertices, which its decoder gives.
-        let own = dec.source_mesh().filter(|_| codec.skinned());
+        let own = dec.source_mesh().filter(|_| codec.on_vertices());
         for f in 0..n {
             let (x, stats) = dec.next_frame()?;
             video += stats.video_seconds;

@@ -185,6 +185,7 @@ impl PeerReport {
 /// first; the baselines (GV, conformal) only when nothing else ran.
 fn our_codecs(r: &Report) -> Vec<EvalCodec> {
     let ran: Vec<EvalCodec> = [
+        EvalCodec::VERTICES,
         EvalCodec::SKINNED_RESIDUAL,
         EvalCodec::SKINNED,
         EvalCodec::NORMAL,

@@ -84,8 +84,9 @@ fn peers(s: &mut String, r: &Report) {
          second is the like-for-like figure. Errors: the same frames, the same surface distance (to the grid \
          mesh for ours), the same diagonal; the peers' vertex RMSE is on each input vertex's decoded vertex of \
          nearest trajectory, ours on the input's vertices rebuilt from the decoded grid. Our bits at a peer's \
-         error are read off our curve, log–log between neighbouring points; a codec whose files carry the \
-         mesh (skinned) counts its own.\n",
+         error are read off our curve, log–log between neighbouring points; a codec whose files always carry \
+         the mesh (skinned, vertices) counts its own mesh line in \"with your mesh\", and \"grid mesh out\" \
+         leaves that line out (a vertices file has no grid: that column is not a file it can make).\n",
         r.source_mesh_bytes, r.frames
     );
     let _ = writeln!(s, "| peer | setting | bits per input vertex per frame | kbit/s @30 fps | vertex RMSE | surface RMS | surface max | KG error (%) | ours at its surface RMS, grid mesh out | with your mesh | we need | ours at its vertex RMSE, your mesh | we need |");
@@ -173,10 +174,11 @@ fn quality(s: &mut String, r: &Report) {
         for c in &p.results {
             let _ = writeln!(
                 s,
-                "| {} | {} | {:.2} | {} | {} | {} | {} | {:.2} | {} | {:.3} | {:.1} | {:.2} | {:.2} |",
+                "| {} | {} | {} | {} | {} | {} | {} | {:.2} | {} | {:.3} | {:.1} | {:.2} | {:.2} |",
                 p.name,
                 c.codec,
-                c.smoothness * 1e4,
+                // A codec without a grid (vertices) has no samples to be smooth.
+                Some(c.smoothness * 1e4).filter(|x| x.is_finite()).map_or("–".into(), |x| format!("{x:.2}")),
                 pct(c.vertex_rms),
                 pct(c.vertex_max),
                 opt_pct(c.surface_rms),

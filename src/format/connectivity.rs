@@ -72,12 +72,13 @@ struct State {
 }
 
 /// Version 20: the indices not named yet, the last new vertex, the
-/// neighbours.
+/// neighbours (by vertex, only of vertices the faces use: a file that
+/// declares many vertices and few faces holds little).
 struct Around20 {
     unused: Unused,
     named: Vec<bool>,
     last_new: Option<u32>,
-    neighbours: Vec<Vec<u32>>,
+    neighbours: std::collections::HashMap<u32, Vec<u32>>,
 }
 
 impl State {
@@ -86,7 +87,7 @@ impl State {
             unused: Unused::new(vertex_count),
             named: vec![false; vertex_count],
             last_new: None,
-            neighbours: vec![Vec::new(); vertex_count],
+            neighbours: std::collections::HashMap::new(),
         });
         State { edges: Vec::new(), vertices: Vec::new(), used: vec![false; vertex_count], next: 0, around }
     }
@@ -103,7 +104,7 @@ impl State {
     /// not the first), one list after the other.
     fn neighbours(&self, near: [u32; 2]) -> impl Iterator<Item = u32> + '_ {
         let lists = self.around.as_ref().map(|a| &a.neighbours);
-        let list = move |v: u32| lists.and_then(|l| l.get(v as usize)).into_iter().flatten().copied();
+        let list = move |v: u32| lists.and_then(|l| l.get(&v)).into_iter().flatten().copied();
         list(near[0]).chain(list(near[1]).filter(move |_| near[1] != near[0]))
     }
 
@@ -126,7 +127,7 @@ impl State {
         }
         if let Some(a) = &mut self.around {
             for (x, y) in [(0, 1), (1, 2), (2, 0), (1, 0), (2, 1), (0, 2)] {
-                let list = &mut a.neighbours[f[x] as usize];
+                let list = a.neighbours.entry(f[x]).or_default();
                 if f[x] != f[y] && list.len() < MAX_NEIGHBOURS && !list.contains(&f[y]) {
                     list.push(f[y]);
                 }

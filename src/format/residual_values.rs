@@ -29,7 +29,10 @@
 //! with one value alone codes no words for it: its count says it all.
 
 use super::leb128;
-use super::vertex_residual::MAX_VALUE;
+
+/// The largest |value| a unit may hold: the encoder clamps beyond it (a
+/// residual over 1023 steps means a step far too fine for the video).
+pub const MAX_VALUE: u32 = 1023;
 use constriction::stream::model::DefaultContiguousCategoricalEntropyModel;
 use constriction::stream::queue::{DefaultRangeDecoder, DefaultRangeEncoder};
 use constriction::stream::{Decode, Encode};

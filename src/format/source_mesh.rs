@@ -86,6 +86,9 @@ impl SourceMeshInfo {
                 self.vertices, self.faces
             ));
         }
+        if self.around && !self.walk {
+            return Err("source mesh: `around` references need the walk's coding (`walk`)".into());
+        }
         if let Some(step) = self.offset_step {
             if !(step.is_finite() && step > 0.0) {
                 return Err(format!("source mesh offset step {step} is not a positive number"));

@@ -14,7 +14,8 @@
 //!                      previous frame's decoded residual (zero at a
 //!                      random-access point); version 19: 2 and 3, the same
 //!                      predicted over the surface (`super::vertex_order`);
-//!                      version 20: plus 4 where the counts are sparse
+//!                      version 20: plus 4 where the counts are sparse,
+//!                      plus 8 for six histograms (contexts) with escapes
 //! K        LEB128      the largest |value| (at most MAX_VALUE)
 //! counts   2K+1 LEB128 how many values are -K, ..., K (their sum is 3V);
 //!                      sparse (version 20): how many counts are not 0,
@@ -37,12 +38,9 @@
 //! bits each. constriction is used rather than a hand-written coder: it
 //! is kept, documented, and its range coder is fixed across releases.
 
+pub use super::residual_values::MAX_VALUE;
 use super::residual_values::{self, Histogram, Layout};
 use super::ContainerError;
-
-/// The largest |value| a unit may hold: the encoder clamps beyond it (a
-/// residual over 1023 steps means a step far too fine for the video).
-pub const MAX_VALUE: u32 = 1023;
 
 /// The header's `vertex_residual`: version 18.
 #[derive(Debug, Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]

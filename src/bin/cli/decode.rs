@@ -103,6 +103,12 @@ pub fn source_mesh(
             "{}: the skinned codec's grid is what its bones miss, not a surface: use --mesh source (or auto)",
             path.display()
         ),
+        (MeshChoice::Grid, _) if dec.file.header.representation() == cgv::format::Representation::Vertices => {
+            anyhow::bail!(
+                "{}: a vertices file has no grid, only your mesh: use --mesh source (or auto)",
+                path.display()
+            )
+        }
         (MeshChoice::Grid, _) => None,
         (_, Some(s)) => Some(s),
         (MeshChoice::Source, None) => anyhow::bail!(

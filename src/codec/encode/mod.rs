@@ -38,7 +38,7 @@ pub use request::{EncodeRequest, Encoded, GridChoice, Made};
 pub use simulate::MOTION_MARGIN;
 pub use target::{encode_to_error, prepare_for_error, residual_qp_of, TargetReport, RESIDUAL_QP};
 pub use vertex_bones::{skinned_bones, skinned_grid, COARSE_WEIGHTS_QP};
-pub use vertices::{encode_vertices_into, DEFAULT_VERTEX_PERCENT};
+pub use vertices::{encode_vertices_into, finest_vertex_percent, DEFAULT_VERTEX_PERCENT};
 
 use super::h264::VideoSettings;
 use crate::error::{Error, Result};

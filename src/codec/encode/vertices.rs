@@ -48,10 +48,13 @@ pub fn encode_vertices_into<S: Sink>(
     check(opts)?;
     let input = Input::read(src, progress)?;
     let finest = input.finest_percent();
+    let step_percent = |p: f64| p.max(finest);
     let (percent, searched) = match opts.video.kbps {
         None => {
             let p = f64::from(opts.vertex_residual.unwrap_or(DEFAULT_VERTEX_PERCENT));
-            if p < finest {
+            // The finest has a margin of its own: a percentage rounded
+            // through f32 just below it holds its values too.
+            if p < finest * (1.0 - 1e-5) {
                 return Err(Error::Argument(format!(
                     "{}: a vertices file holds each vertex within {MAX_VALUE} steps of the first frame's centre, \
                      so this motion's error is at least {finest:.4} % of the diagonal (--vertex-residual {finest:.4} \
@@ -64,7 +67,7 @@ pub fn encode_vertices_into<S: Sink>(
         Some(kbps) => search_budget(src, &input, opts, f64::from(kbps), finest)?,
     };
     let mut sink = open()?;
-    let mut report = write(src, &input, opts, percent, &mut sink, progress)?;
+    let mut report = write(src, &input, opts, step_percent(percent), &mut sink, progress)?;
     report.passes = searched + 1;
     report.seconds_total = t0.elapsed().as_secs_f64();
     report.seconds_coding = report.seconds_total;
@@ -72,6 +75,12 @@ pub fn encode_vertices_into<S: Sink>(
         report.budget_miss = Some(report.bytes as f64 / budget_bytes(src, f64::from(kbps)) - 1.0);
     }
     Ok((sink, report))
+}
+
+/// The finest vertex RMS error (percent of the first frame's diagonal) a
+/// vertices file of `src` can ask for (`cgv eval` searches above it).
+pub fn finest_vertex_percent(src: &dyn FrameSource) -> Result<f64> {
+    Ok(Input::read(src, &mut |_, _, _| {})?.finest_percent())
 }
 
 /// What the codec refuses: options that need a grid or a video.
@@ -209,6 +218,8 @@ fn search_budget(
         return Ok((finest, 2));
     }
     let (mut lo, mut hi, mut passes) = (finest.ln(), coarsest.ln(), 2);
+    // The error of the finest file measured within the budget.
+    let mut kept = coarsest;
     // Within the tolerance of the budget, or 30 halvings of the range.
     while passes < 32 {
         let mid = 0.5 * (lo + hi);
@@ -217,13 +228,13 @@ fn search_budget(
         if bytes > budget {
             lo = mid;
         } else {
-            hi = mid;
+            (hi, kept) = (mid, mid.exp());
             if bytes >= budget * (1.0 - BUDGET_TOLERANCE) {
                 break;
             }
         }
     }
-    Ok((hi.exp(), passes))
+    Ok((kept, passes))
 }
 
 /// Writes the file at `percent` into `sink`.
@@ -240,16 +251,18 @@ fn write(
     let container = |e| Error::Container { path: src.label().into(), source: e };
     let prefix = format::write_header(&header).map_err(container)?;
     let mut mesh_chunk = format::write_chunk(format::TAG_SOURCE_MESH, 0, 0, &input.payload);
+    if let Some(a) = src.appearance() {
+        mesh_chunk.extend(format::write_appearance(&a.look));
+    }
+    // Each chunk within the reader's limit (both together, as the grid
+    // codecs check them).
     if mesh_chunk.len() > format::MAX_CHUNK {
         let e = format::ContainerError::TooLarge {
-            what: "source mesh",
+            what: "source mesh and appearance",
             value: mesh_chunk.len() as u64,
             limit: format::MAX_CHUNK as u64,
         };
         return Err(container(e));
-    }
-    if let Some(a) = src.appearance() {
-        mesh_chunk.extend(format::write_appearance(&a.look));
     }
     sink.put(&prefix)?;
     sink.put(&mesh_chunk)?;
