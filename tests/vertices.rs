@@ -127,3 +127,34 @@ fn the_vertices_entry_of_eval_meets_its_sizes_by_the_step() {
     }
     assert!(high.source.vertex_rms < 0.5 * low.source.vertex_rms);
 }
+
+/// `auto` picks the vertices codec for a clip of fewer than 24 frames that
+/// keeps the input's mesh and leaves the grid to it; a budget below its
+/// smallest file goes to the closed loop (whose mesh line, with places and
+/// offsets, is larger still: refused), one above its finest gets the
+/// finest; a grid size asked for keeps the grid.
+#[test]
+fn auto_picks_the_vertices_codec_for_a_clip_of_a_few_frames() {
+    use cgv::codec::{CodecChoice, EncodeRequest, GridChoice};
+    let src = cgv::mesh::builtin::motion(8);
+    let encode = |grid: GridChoice, kbps: Option<f32>| {
+        let mut base = EncodeOptions::default();
+        base.video.kbps = kbps;
+        let r = EncodeRequest { base, codec: CodecChoice::Auto, grid, ..Default::default() };
+        r.encode(&src, &mut || Ok(Vec::new()), &mut |_, _, _| {}).map(|m| m.report)
+    };
+    let request = |grid, kbps| encode(grid, kbps).unwrap();
+    let plain = request(GridChoice::Auto, None);
+    assert_eq!(plain.codec, Representation::Vertices);
+    let small = encode(GridChoice::Auto, Some(40.0)).unwrap_err().to_string();
+    assert!(small.contains("source mesh") && small.contains("ask for more"), "{small}");
+    let ample = request(GridChoice::Auto, Some(50_000.0));
+    assert_eq!(ample.codec, Representation::Vertices);
+    assert!(ample.budget_miss.is_some_and(|m| m < -0.5), "{:?}", ample.budget_miss);
+    assert_ne!(request(GridChoice::Size(16), None).codec, Representation::Vertices);
+    // 24 frames and more: the skinned codec, as before.
+    let long = cgv::mesh::builtin::motion(24);
+    let r = EncodeRequest { grid: GridChoice::Size(16), ..Default::default() };
+    let made = r.encode(&long, &mut || Ok(Vec::new()), &mut |_, _, _| {}).unwrap();
+    assert_ne!(made.report.codec, Representation::Vertices);
+}
