@@ -152,6 +152,15 @@ fn auto_picks_the_vertices_codec_for_a_clip_of_a_few_frames() {
     assert_eq!(ample.codec, Representation::Vertices);
     assert!(ample.budget_miss.is_some_and(|m| m < -0.5), "{:?}", ample.budget_miss);
     assert_ne!(request(GridChoice::Size(16), None).codec, Representation::Vertices);
+    // A clip that moves far from where it starts holds no 0.05 % step:
+    // the closed loop, saying why.
+    let mut far = cgv::mesh::builtin::motion(4);
+    let diagonal = Bounds::of(&far.frames[0]).diagonal();
+    far.frames[3].iter_mut().for_each(|p| p.x += 40.0 * diagonal);
+    let r = EncodeRequest { codec: CodecChoice::Auto, ..Default::default() };
+    let made = r.encode(&far, &mut || Ok(Vec::new()), &mut |_, _, _| {}).unwrap();
+    assert_ne!(made.report.codec, Representation::Vertices);
+    assert!(made.report.auto_passed_over.as_deref().is_some_and(|w| w.contains("at least")), "{:?}", made.report);
     // 24 frames and more: the skinned codec, as before.
     let long = cgv::mesh::builtin::motion(24);
     let r = EncodeRequest { grid: GridChoice::Size(16), ..Default::default() };

@@ -513,6 +513,9 @@ fn pick_mesh(
     carried: Option<cgv::codec::SourceMeshDecoder>,
 ) -> PyResult<Option<cgv::codec::SourceMeshDecoder>> {
     match (mesh, carried) {
+        ("grid", Some(m)) if m.origin.is_some() => {
+            Err(invalid("a vertices file has no grid, only your mesh: use mesh=\"source\" or \"auto\"".into()))
+        }
         ("grid", _) | ("auto", None) => Ok(None),
         ("source" | "auto", Some(m)) => Ok(Some(m)),
         ("source", None) => Err(invalid("the file carries no source mesh (encode with source_mesh=True)".into())),

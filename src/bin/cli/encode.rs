@@ -104,7 +104,9 @@ pub struct Args {
     /// 0.05 %), measured as `cgv eval` does on 12 frames spread over the
     /// motion (the skinned codec's on your mesh, the others' on the grid);
     /// the QP is searched (7 to 12 encodes). A target below what the file
-    /// reaches at QP 0 is refused with the error it reaches.
+    /// reaches at QP 0 is refused with the error it reaches. The vertices
+    /// codec (auto's pick for a clip under 24 frames) takes it as its
+    /// vertex RMS, which bounds the surface RMS with room (about 2.5x).
     #[arg(long, value_name = "PERCENT", conflicts_with_all = ["kbps", "qp"])]
     target_error: Option<f64>,
     /// A key frame (λ) every N frames; 0 for the first frame only.

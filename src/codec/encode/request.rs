@@ -251,10 +251,11 @@ impl EncodeRequest {
 }
 
 impl EncodeRequest {
-    /// `auto`'s vertices file (`self`), with what a budget outside its
-    /// range makes instead: below its smallest file, `asked`'s closed loop
-    /// (the report says why); above its finest, the finest (the report's
-    /// `budget_miss` says how far below the budget).
+    /// `auto`'s vertices file (`self`), with what a request outside its
+    /// range makes instead: below its smallest file, or finer than its
+    /// values hold, `asked`'s closed loop (the report says why); above its
+    /// finest file, the finest (the report's `budget_miss` says how far
+    /// below the budget).
     fn encode_vertices_for_auto<S: Sink>(
         &self,
         asked: &EncodeRequest,
@@ -263,7 +264,10 @@ impl EncodeRequest {
         progress: &mut dyn FnMut(&str, usize, usize),
     ) -> Result<Encoded<S>> {
         match self.encode_vertices(src, open, progress) {
-            Err(Error::BudgetTooSmall(why)) => {
+            // Below its smallest file, or an error finer than its values
+            // hold (a clip that moves far from where it starts), or a
+            // budget and an error both asked: the closed loop's rules.
+            Err(Error::BudgetTooSmall(why) | Error::Argument(why)) => {
                 let mut other = asked.encode_as_asked(src, open, progress)?;
                 other.report.auto_passed_over = Some(format!("vertices: {why}"));
                 Ok(other)
