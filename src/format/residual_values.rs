@@ -84,12 +84,11 @@ impl Histogram {
         }
         let mut best: Option<(f64, Histogram)> = None;
         for k in ks {
-            let mut counts = vec![0u64; 2 * k + 1 + usize::from(escapes)];
+            let mut h = Histogram { k, counts: vec![0u64; 2 * k + 1 + usize::from(escapes)], escapes };
             for &v in values {
-                let at = if v.unsigned_abs() as usize <= k { (v + k as i32) as usize } else { 2 * k + 1 };
-                counts[at] += 1;
+                let s = h.symbol(v);
+                h.counts[s] += 1;
             }
-            let h = Histogram { k, counts, escapes };
             let bits = h.estimated_bits();
             if best.as_ref().is_none_or(|(b, _)| bits < *b) {
                 best = Some((bits, h));
@@ -228,9 +227,9 @@ fn zigzag(v: i32) -> u64 {
 /// fails.
 pub fn encode(values: &[i32], layout: Layout) -> Option<(Vec<u8>, Layout)> {
     let n = if layout.contexts { CONTEXTS } else { 1 };
-    let of = |c: usize| -> Vec<i32> {
-        (0..values.len()).filter(|&i| context(values, i, layout.contexts) == c).map(|i| values[i]).collect()
-    };
+    let contexts: Vec<usize> = (0..values.len()).map(|i| context(values, i, layout.contexts)).collect();
+    let of =
+        |c: usize| -> Vec<i32> { values.iter().zip(&contexts).filter(|(_, &x)| x == c).map(|(&v, _)| v).collect() };
     let hists: Vec<Histogram> = (0..n).map(|c| Histogram::of(&of(c), layout.escapes)).collect();
     let written = |sparse: bool| {
         let mut out = Vec::new();
@@ -243,8 +242,8 @@ pub fn encode(values: &[i32], layout: Layout) -> Option<(Vec<u8>, Layout)> {
     let mut out = listed.unwrap_or(dense);
     let codings: Vec<Coding> = hists.iter().map(Histogram::coding).collect::<Option<_>>()?;
     let mut coder = DefaultRangeEncoder::new();
-    for (i, &v) in values.iter().enumerate() {
-        let (c, h) = (context(values, i, layout.contexts), &hists[context(values, i, layout.contexts)]);
+    for (&v, &c) in values.iter().zip(&contexts) {
+        let h = &hists[c];
         let symbol = h.symbol(v);
         if symbol > 2 * h.k {
             leb128::write(&mut out, zigzag(v));
