@@ -18,7 +18,8 @@ pub const EIGENPAIRS: usize = 32;
 pub const TIMES: usize = 5;
 const DETECT_TIME: usize = 1;
 /// Maxima closer than this (in units of the square root of the surface
-/// area) to a stronger one are one feature.
+/// area) to a stronger one are one feature; the weaker are kept as
+/// [`Feature::weak`] candidates.
 pub const SEPARATION: f32 = 0.15;
 
 /// A feature point.
@@ -30,9 +31,15 @@ pub struct Feature {
     /// log of the signature at [`TIMES`] times, each relative to the
     /// surface's mean signature at that time (the scaled HKS of Sun et al.).
     pub descriptor: [f32; TIMES],
+    /// A maximum within [`SEPARATION`] of a stronger one: no feature of its
+    /// own, but a track that finds nothing else close by in this frame may
+    /// take it (a new maximum beside a foot can outgrow the foot's for a
+    /// frame or two; pcow's and samba's cones missed 4-12 % of frames so).
+    pub weak: bool,
 }
 
-/// The features of a frame (`faces` over `positions`), strongest first.
+/// The features of a frame (`faces` over `positions`), strongest first,
+/// then the weak candidates.
 pub fn features(faces: &[[u32; 3]], positions: &[Vec3]) -> Result<Vec<Feature>> {
     Ok(features_near(faces, positions, None)?.0)
 }
@@ -53,7 +60,9 @@ pub fn features_near(faces: &[[u32; 3]], positions: &[Vec3], last: Option<Found>
     Ok((maxima(faces, positions, &spectrum), spectrum))
 }
 
-/// The signature's local maxima at the detection time, a feature each.
+/// The signature's local maxima at the detection time, a feature each:
+/// the strong first (each the strongest within [`SEPARATION`]), then the
+/// weak, each strongest first.
 fn maxima(faces: &[[u32; 3]], positions: &[Vec3], spectrum: &Spectrum) -> Vec<Feature> {
     let times = diffusion_times(&spectrum.values);
     let hks: Vec<Vec<f64>> = times.iter().map(|&t| spectrum.hks(t)).collect();
@@ -65,21 +74,23 @@ fn maxima(faces: &[[u32; 3]], positions: &[Vec3], spectrum: &Spectrum) -> Vec<Fe
         .collect();
     maxima.sort_by(|&a, &b| detect[b as usize].total_cmp(&detect[a as usize]));
     let radius = SEPARATION * surface_area(faces, positions).sqrt();
-    let mut kept: Vec<u32> = Vec::new();
+    let (mut kept, mut weak): (Vec<u32>, Vec<u32>) = (Vec::new(), Vec::new());
     for v in maxima {
         let p = positions[v as usize];
         if kept.iter().all(|&k| positions[k as usize].distance(p) > radius) {
             kept.push(v);
+        } else {
+            weak.push(v);
         }
     }
     let means: Vec<f64> = hks.iter().map(|h| h.iter().sum::<f64>() / h.len().max(1) as f64).collect();
-    kept.into_iter()
-        .map(|v| Feature {
-            vertex: v,
-            position: positions[v as usize],
-            descriptor: std::array::from_fn(|k| (hks[k][v as usize] / means[k].max(f64::MIN_POSITIVE)).ln() as f32),
-        })
-        .collect()
+    let feature = |v: u32, weak: bool| Feature {
+        vertex: v,
+        position: positions[v as usize],
+        descriptor: std::array::from_fn(|k| (hks[k][v as usize] / means[k].max(f64::MIN_POSITIVE)).ln() as f32),
+        weak,
+    };
+    kept.into_iter().map(|v| feature(v, false)).chain(weak.into_iter().map(|v| feature(v, true))).collect()
 }
 
 /// [`TIMES`] log-spaced times over Sun et al.'s range for these eigenvalues.

@@ -110,9 +110,11 @@ pub struct Tracked {
 }
 
 impl Tracked {
-    /// Features found per frame, on average.
+    /// Features found per frame, on average (the weak candidates not
+    /// counted).
     pub fn features_per_frame(&self) -> f64 {
-        self.features.iter().map(Vec::len).sum::<usize>() as f64 / self.features.len().max(1) as f64
+        let strong = self.features.iter().flatten().filter(|f| !f.weak).count();
+        strong as f64 / self.features.len().max(1) as f64
     }
 
     /// The share of frames each cone's track was seen in.
