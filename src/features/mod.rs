@@ -8,13 +8,17 @@
 //! - [`detect`]: its local maxima at a short diffusion time, the body's
 //!   extremities;
 //! - [`track`]: features matched between adjacent frames into tracks;
+//! - [`jumps`]: frames whose grid jumps, found by its speed;
 //! - [`register`]: every frame mapped onto the grid with four tracked
 //!   features as the map's cones: a registered motion;
-//! - [`follow`]: each frame's cut where the previous frame's ran.
+//! - [`follow`]: each frame's cut where the previous frame's ran;
+//! - [`smooth`]: the registered grid smoothed in time along the surface.
 
 pub mod detect;
 pub mod follow;
 pub mod hks;
+pub mod jumps;
 pub mod nearest;
 pub mod register;
+pub mod smooth;
 pub mod track;

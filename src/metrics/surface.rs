@@ -42,6 +42,11 @@ impl Target {
         p.distance(proj.point) as f64
     }
 
+    /// The point of this mesh nearest `p`.
+    pub fn nearest_point(&self, p: Vec3) -> Vec3 {
+        self.mesh.project_local_point(p, false).point
+    }
+
     /// [`distance`](Self::distance), given a triangle of this mesh near
     /// `p`: its distance bounds the search, so the tree is walked only
     /// where something is as near (the same figure, found sooner).

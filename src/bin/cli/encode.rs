@@ -415,13 +415,16 @@ fn registered(args: &Args) -> Result<(Box<dyn cgv::mesh::FrameSource>, Vec<u32>)
         .with_context(|| format!("registering {}", dir.display()))?;
     eprintln!(
         "registered {} frames on {n}²: {:.1} features a frame, {} tracks, the cones' tracks seen in {} of the frames, \
-         {} frames turned back to the first's sides, {} that no symmetry matches; {:.1} s features, {:.1} s maps",
+         {} frames turned back to the first's sides, {} that no symmetry matches, {} bridged from their neighbours (their grid jumped), \
+         {} smoothed in time; {:.1} s features, {:.1} s maps",
         r.frames,
         r.features_per_frame,
         r.tracks,
         r.cones_seen.map(|x| format!("{:.0} %", 100.0 * x)).join(" / "),
         r.turned_frames,
         r.unmatched_frames,
+        r.bridged_frames,
+        r.smoothed_frames,
         r.seconds_features,
         r.seconds_maps
     );

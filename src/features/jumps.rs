@@ -1,0 +1,188 @@
+//! Frames whose grid jumps: a map fixed by its cones can still take its
+//! cut another way round the body (the seed paper's section 4.2 maps each
+//! frame on its own), and then every sample lands elsewhere on the body in
+//! that frame. Such a frame is found by the grid's own speed, without a
+//! registered truth: a sample moves with the body, a few percent of the
+//! diagonal a frame, and a jump moves every sample 10-40 %. A frame that
+//! still jumps when mapped again is [`bridged`] from its neighbours.
+
+use super::nearest::nearest_vertices;
+use crate::error::Result;
+use crate::grid::Grid;
+use crate::metrics::surface::Target;
+use crate::resample::quantized_place;
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// A frame is a jump where its grid lies further from the last steady
+/// frame's than this many times the median speed, plus the median for
+/// each further frame between them (horse-gallop's 24-frame capture:
+/// steady frames 0.9-2.5 % of the diagonal a frame, jumps 15-35 %; an
+/// allowance of 4 medians per frame let a 15 % jump two frames on pass).
+pub const JUMP: f32 = 4.0;
+
+/// RMS distance between two grids' samples.
+pub fn rms_distance(a: &[Vec3], b: &[Vec3]) -> f32 {
+    let sum: f32 = a.iter().zip(b).map(|(x, y)| x.distance_squared(*y)).sum();
+    (sum / a.len().max(1) as f32).sqrt()
+}
+
+/// The median of a capture's per-frame speeds (each grid's RMS move from
+/// the frame before's).
+pub fn median(mut speeds: Vec<f32>) -> f32 {
+    speeds.sort_by(f32::total_cmp);
+    speeds.get(speeds.len() / 2).copied().unwrap_or(0.0)
+}
+
+/// Whether grid `g`, `frames` after the steady grid `steady`, jumped.
+pub fn jumped(g: &[Vec3], steady: &[Vec3], frames: usize, median: f32) -> bool {
+    rms_distance(g, steady) > median * (JUMP + frames.saturating_sub(1) as f32)
+}
+
+/// A frame's grid rebuilt from the steady frames around it: each sample
+/// where a straight line in time between its places in `before` and
+/// `after` (each a frame index and its grid; either may be missing) puts
+/// it in frame `t`, moved onto the frame's surface (`positions`,
+/// `faces`); and each of the frame's vertices placed at its nearest
+/// sample, so that its own mesh (`--mesh frames`) is rebuilt on this grid.
+pub fn bridged(
+    grid: Grid,
+    t: usize,
+    before: Option<(usize, &[Vec3])>,
+    after: Option<(usize, &[Vec3])>,
+    positions: &[Vec3],
+    faces: &[[u32; 3]],
+) -> Result<(Vec<Vec3>, Vec<[u32; 2]>)> {
+    let target = Target::new(positions, faces)?;
+    let line: Vec<Vec3> = match (before, after) {
+        (Some((a, p)), Some((b, q))) => {
+            let w = (t - a) as f32 / (b - a).max(1) as f32;
+            p.iter().zip(q).map(|(x, y)| x.lerp(*y, w)).collect()
+        }
+        (Some((_, p)), None) | (None, Some((_, p))) => p.to_vec(),
+        (None, None) => return Ok((Vec::new(), Vec::new())),
+    };
+    let samples = fitted(grid, line, &target, positions);
+    let n = grid.n;
+    let places = nearest_vertices(positions, &samples)
+        .into_iter()
+        .map(|s| quantized_place(grid.uv((s as usize % n) as i64, (s as usize / n) as i64)))
+        .collect();
+    Ok((samples, places))
+}
+
+/// Rounds of [`fitted`]: each moves the samples by their smoothed pulls.
+const FIT_ROUNDS: usize = 80;
+/// Passes of the 3 x 3 box over the grid that smooth the pulls.
+const PULL_PASSES: usize = 4;
+
+/// `line` moved onto the surface as a whole: each sample's pull to its
+/// nearest point there, smoothed over the grid, moves it, a few rounds,
+/// before each lands on its nearest point. Each on its own, a galloping
+/// leg's samples, predicted across the arc the hoof swings, snap to the
+/// leg's side and leave the hoof bare (horse-gallop's bridged frames
+/// resampled 0.5-1 % off where their neighbours were 0.07 %).
+fn fitted(grid: Grid, mut line: Vec<Vec3>, target: &Target, vertices: &[Vec3]) -> Vec<Vec3> {
+    for _ in 0..FIT_ROUNDS {
+        let mut pulls: Vec<(Vec3, f32)> = line.par_iter().map(|&p| (target.nearest_point(p) - p, 1.0)).collect();
+        // Each vertex of the frame pulls its nearest sample to it, so that
+        // no part of the body is left bare.
+        for (v, s) in vertices.iter().zip(nearest_vertices(vertices, &line)) {
+            let s = s as usize;
+            pulls[s] = (pulls[s].0 + (*v - line[s]), pulls[s].1 + 1.0);
+        }
+        let pulls = box_smoothed(grid.n, pulls.into_iter().map(|(d, c)| d / c).collect(), PULL_PASSES);
+        line.iter_mut().zip(pulls).for_each(|(p, d)| *p += d);
+    }
+    line.par_iter().map(|&p| target.nearest_point(p)).collect()
+}
+
+/// `values` on an `n` x `n` grid (row by row), each pass replaced by the
+/// mean of its 3 x 3 neighbourhood (clipped at the square's sides).
+fn box_smoothed(n: usize, mut values: Vec<Vec3>, passes: usize) -> Vec<Vec3> {
+    for _ in 0..passes {
+        values = (0..n * n)
+            .into_par_iter()
+            .map(|k| {
+                let (i, j) = (k % n, k / n);
+                let (mut sum, mut count) = (Vec3::ZERO, 0.0);
+                for y in j.saturating_sub(1)..(j + 2).min(n) {
+                    for x in i.saturating_sub(1)..(i + 2).min(n) {
+                        sum += values[y * n + x];
+                        count += 1.0;
+                    }
+                }
+                sum / count
+            })
+            .collect();
+    }
+    values
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The frames of `grids` that jump, each judged against the last
+    /// steady frame before it (as the registration walks them).
+    fn jumping_frames(grids: &[Vec<Vec3>]) -> Vec<usize> {
+        let m = median(grids.windows(2).map(|w| rms_distance(&w[1], &w[0])).collect());
+        let (mut steady, mut out) = (0, Vec::new());
+        for t in 1..grids.len() {
+            if jumped(&grids[t], &grids[steady], t - steady, m) {
+                out.push(t);
+            } else {
+                steady = t;
+            }
+        }
+        out
+    }
+
+    /// A grid moving steadily, with frames 4 and 5 thrown across the body
+    /// and frame 9 once: those three are the jumps, and the frames after
+    /// each are steady again; faster motion alone is no jump.
+    #[test]
+    fn jumps_are_found_and_steady_motion_is_not() {
+        let grids: Vec<Vec<Vec3>> = (0..12)
+            .map(|t| {
+                let shift = if [4, 5, 9].contains(&t) { 0.5 } else { 0.0 };
+                (0..16).map(|i| Vec3::new(i as f32 * 0.1 + shift, 0.02 * t as f32, (i % 3) as f32 * 0.01)).collect()
+            })
+            .collect();
+        assert_eq!(jumping_frames(&grids), vec![4, 5, 9]);
+        let fast: Vec<Vec<Vec3>> =
+            (0..12).map(|t| (0..16).map(|i| Vec3::new(i as f32, 0.02 * (t * t) as f32, 0.0)).collect()).collect();
+        assert!(jumping_frames(&fast).is_empty());
+    }
+
+    /// A square patch sampled by a 6 x 6 grid that the frames before and
+    /// after hold above and below it, shifted along it: the bridged grid
+    /// lies on the patch, unfolded (each row's samples in order), each
+    /// sample within 0.15 (three quarters of a step) of midway between its
+    /// two places (each vertex of the patch pulls the sample nearest it),
+    /// and each of the frame's vertices is placed at a sample.
+    #[test]
+    fn a_bridged_frame_lies_on_its_surface_between_its_neighbours() {
+        let grid = Grid::new(6).unwrap();
+        // The patch the grid covers, midway, with a vertex in the middle.
+        let plane = [
+            Vec3::new(0.15, 0.0, 0.0),
+            Vec3::new(1.15, 0.0, 0.0),
+            Vec3::new(1.15, 1.0, 0.0),
+            Vec3::new(0.15, 1.0, 0.0),
+            Vec3::new(0.65, 0.5, 0.0),
+        ];
+        let faces = [[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]];
+        let at = |dx: f32, z: f32| -> Vec<Vec3> {
+            (0..36).map(|k| Vec3::new((k % 6) as f32 * 0.2 + dx, (k / 6) as f32 * 0.2, z)).collect()
+        };
+        let (before, after) = (at(0.0, 0.1), at(0.3, -0.3));
+        let (g, places) = bridged(grid, 3, Some((2, &before)), Some((4, &after)), &plane, &faces).unwrap();
+        let truth = at(0.15, 0.0);
+        assert!(g.iter().zip(&truth).all(|(p, q)| p.distance(*q) < 0.15 && p.z.abs() < 1e-6), "{g:?}");
+        assert!((0..36).filter(|k| k % 6 != 5).all(|k| g[k].x < g[k + 1].x), "{g:?}");
+        assert_eq!(places.len(), plane.len());
+        let (none, _) = bridged(grid, 3, None, None, &plane, &faces).unwrap();
+        assert!(none.is_empty());
+    }
+}
