@@ -34,9 +34,16 @@ pub fn median(mut speeds: Vec<f32>) -> f32 {
     speeds.get(speeds.len() / 2).copied().unwrap_or(0.0)
 }
 
-/// Whether grid `g`, `frames` after the steady grid `steady`, jumped.
-pub fn jumped(g: &[Vec3], steady: &[Vec3], frames: usize, median: f32) -> bool {
-    rms_distance(g, steady) > median * (JUMP + frames.saturating_sub(1) as f32)
+/// The least move (a fraction of the diagonal) that is a jump: a capture
+/// that barely moves has a median speed near zero, and its maps' own
+/// noise would count as jumps.
+pub const LEAST_JUMP: f32 = 0.05;
+
+/// Whether grid `g`, `frames` after the steady grid `steady`, jumped
+/// (`diagonal`: the capture's).
+pub fn jumped(g: &[Vec3], steady: &[Vec3], frames: usize, median: f32, diagonal: f32) -> bool {
+    let d = rms_distance(g, steady);
+    d > median * (JUMP + frames.saturating_sub(1) as f32) && d > LEAST_JUMP * diagonal
 }
 
 /// A frame's grid rebuilt from the steady frames around it: each sample
@@ -129,7 +136,7 @@ mod tests {
         let m = median(grids.windows(2).map(|w| rms_distance(&w[1], &w[0])).collect());
         let (mut steady, mut out) = (0, Vec::new());
         for t in 1..grids.len() {
-            if jumped(&grids[t], &grids[steady], t - steady, m) {
+            if jumped(&grids[t], &grids[steady], t - steady, m, 1.0) {
                 out.push(t);
             } else {
                 steady = t;
@@ -153,6 +160,12 @@ mod tests {
         let fast: Vec<Vec<Vec3>> =
             (0..12).map(|t| (0..16).map(|i| Vec3::new(i as f32, 0.02 * (t * t) as f32, 0.0)).collect()).collect();
         assert!(jumping_frames(&fast).is_empty());
+        // A still grid whose maps wobble 1 % of the diagonal in one frame:
+        // its median speed is zero, and still no frame jumps.
+        let still: Vec<Vec<Vec3>> = (0..12)
+            .map(|t| (0..16).map(|i| Vec3::new(i as f32 * 0.05 + if t == 6 { 0.01 } else { 0.0 }, 0.0, 0.0)).collect())
+            .collect();
+        assert!(jumping_frames(&still).is_empty());
     }
 
     /// A square patch sampled by a 6 x 6 grid that the frames before and

@@ -416,10 +416,11 @@ fn steady_jumps(
     };
     let speed = |t: usize| jumps::rms_distance(&turned(&mapped[t]), &turned(&mapped[t - 1]));
     let median = jumps::median((1..mapped.len()).map(speed).collect());
+    let diagonal = Bounds::of(&frames[0].positions).diagonal();
     let (mut steady, mut s, mut left) = (turned(&mapped[0]), 0, Vec::new());
     for t in 1..mapped.len() {
         let g = turned(&mapped[t]);
-        if !jumps::jumped(&g, &steady, t - s, median) {
+        if !jumps::jumped(&g, &steady, t - s, median, diagonal) {
             (steady, s) = (g, t);
             continue;
         }
@@ -432,7 +433,7 @@ fn steady_jumps(
                 continue;
             }
             let a = turned(&again);
-            if !jumps::jumped(&a, &steady, t - s, median)
+            if !jumps::jumped(&a, &steady, t - s, median, diagonal)
                 && jumps::rms_distance(&a, &steady) < jumps::rms_distance(&g, &steady)
             {
                 (mapped[t], steady, s, fixed) = (again, a, t, true);
