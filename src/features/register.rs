@@ -316,8 +316,10 @@ pub fn register_tracked(
     // sides is turned back by the turn that puts them there.
     let agreeing = |r: &[usize; 4]| mapped.iter().filter(|m| symmetry_between(&m.sides, r).is_some()).count();
     let reference = mapped.iter().map(|m| m.sides).max_by_key(|r| agreeing(r)).unwrap_or([0, 1, 2, 3]);
-    remapped_to_agree(label, frames, &cones_at, &mut mapped, &reference, grid)?;
-    let jumping = steady_jumps(label, frames, &cones_at, &mut mapped, &reference, grid)?;
+    // Frame t mapped again with its cut traced from `trace`.
+    let remap = |t: usize, trace: &CutTrace| map_frame(label, &frames[t], &cones_at(t), Some(trace), grid);
+    remapped_to_agree(&remap, &mut mapped, &reference)?;
+    let jumping = steady_jumps(&remap, &mut mapped, &reference, grid, Bounds::of(&frames[0].positions).diagonal())?;
     let (mut positions, mut places, turned, unmatched) = turned_back(grid, mapped, &reference);
     let smoothed = bridged_and_smoothed(grid, frames, &jumping, &mut positions, &mut places)?;
     let report = RegisterReport {
@@ -339,18 +341,14 @@ pub fn register_tracked(
     Ok((Registered { grid, meshes }, report))
 }
 
+/// Frame `t` of a capture mapped again with its cut traced from a trace.
+type Remap<'a> = dyn Fn(usize, &CutTrace) -> Result<Mapped> + 'a;
+
 /// Each frame whose cones' order round the corner differs from
 /// `reference`'s mapped again with its cut traced from the nearest
 /// agreeing frame's before and after, each trace first as it is, then
 /// pulled [`RETRY_PULL`] times as hard, until one agrees.
-fn remapped_to_agree(
-    label: &Path,
-    frames: &[CaptureFrame],
-    cones_at: &dyn Fn(usize) -> [(Vec3, bool); 4],
-    mapped: &mut [Mapped],
-    reference: &[usize; 4],
-    grid: Grid,
-) -> Result<()> {
+fn remapped_to_agree(remap: &Remap, mapped: &mut [Mapped], reference: &[usize; 4]) -> Result<()> {
     let matches = |m: &Mapped| symmetry_between(&m.sides, reference).is_some();
     let good: Vec<usize> = (0..mapped.len()).filter(|&t| matches(&mapped[t])).collect();
     for t in 0..mapped.len() {
@@ -361,7 +359,7 @@ fn remapped_to_agree(
         let after = good.iter().find(|&&g| g > t);
         let tries = [1.0, RETRY_PULL].into_iter().flat_map(|pull| [before, after].map(|g| g.map(|&g| (g, pull))));
         for (g, pull) in tries.flatten() {
-            let again = map_frame(label, &frames[t], &cones_at(t), Some(&mapped[g].trace.pulled(pull)), grid)?;
+            let again = remap(t, &mapped[g].trace.pulled(pull))?;
             if matches(&again) {
                 mapped[t] = again;
                 break;
@@ -399,14 +397,14 @@ fn bridged_and_smoothed(
 /// round the body with its cones on the same sides) mapped again with the
 /// cut traced from the last steady frame's, then from the next frame's,
 /// each as it is and pulled [`RETRY_PULL`] times as hard; the first try
-/// that no longer jumps is kept. Returns the frames that still jump.
+/// that no longer jumps is kept. Returns the frames that still jump
+/// (`diagonal`: the capture's).
 fn steady_jumps(
-    label: &Path,
-    frames: &[CaptureFrame],
-    cones_at: &dyn Fn(usize) -> [(Vec3, bool); 4],
+    remap: &Remap,
     mapped: &mut [Mapped],
     reference: &[usize; 4],
     grid: Grid,
+    diagonal: f32,
 ) -> Result<Vec<usize>> {
     // Grids are compared as turned_back will store them; two at a time, so
     // that a long capture's grids are not held twice.
@@ -416,7 +414,6 @@ fn steady_jumps(
     };
     let speed = |t: usize| jumps::rms_distance(&turned(&mapped[t]), &turned(&mapped[t - 1]));
     let median = jumps::median((1..mapped.len()).map(speed).collect());
-    let diagonal = Bounds::of(&frames[0].positions).diagonal();
     let (mut steady, mut s, mut left) = (turned(&mapped[0]), 0, Vec::new());
     for t in 1..mapped.len() {
         let g = turned(&mapped[t]);
@@ -428,7 +425,7 @@ fn steady_jumps(
         let tries = neighbours.into_iter().flatten().flat_map(|n| [(n, 1.0), (n, RETRY_PULL)]);
         let mut fixed = false;
         for (from, pull) in tries {
-            let again = map_frame(label, &frames[t], &cones_at(t), Some(&mapped[from].trace.pulled(pull)), grid)?;
+            let again = remap(t, &mapped[from].trace.pulled(pull))?;
             if symmetry_between(&again.sides, reference).is_none() {
                 continue;
             }
@@ -588,11 +585,12 @@ fn best_cones(label: &Path, frames: &[CaptureFrame], tracked: &Tracked, grid: Gr
     };
     let runs: Vec<(usize, usize)> = (0..sets.len()).flat_map(|s| scored_frames.iter().map(move |&t| (s, t))).collect();
     let errors: Vec<Option<f64>> = runs.par_iter().map(|&(s, t)| score(&sets[s], t)).collect();
-    let scored: Vec<(f64, [usize; 4])> = (0..sets.len())
-        .filter_map(|s| {
-            let e: Option<Vec<f64>> = errors.iter().zip(&runs).filter(|(_, r)| r.0 == s).map(|(e, _)| *e).collect();
-            e.map(|e| (e.iter().sum::<f64>(), sets[s]))
-        })
+    // `runs` holds each set's frames together: a set whose map failed on
+    // any of them is out.
+    let scored: Vec<(f64, [usize; 4])> = errors
+        .chunks(scored_frames.len())
+        .zip(&sets)
+        .filter_map(|(e, set)| e.iter().copied().sum::<Option<f64>>().map(|e| (e, *set)))
         .collect();
     Ok(scored.into_iter().min_by(|a, b| a.0.total_cmp(&b.0)).map_or(tracked.cones, |x| x.1))
 }

@@ -47,12 +47,15 @@ pub fn smooth(grids: &mut [Vec<Vec3>], surfaces: &[Surface], faces: &[[u32; 3]],
         return Ok(0);
     }
     let own: Vec<Vec<Vec3>> = grids.to_vec();
+    // Each inner frame's surface, built once for all the passes.
+    let targets: Vec<Target> =
+        surfaces[1..grids.len() - 1].iter().map(|s| Target::new(s.0, s.1)).collect::<Result<_>>()?;
     for _ in 0..PASSES {
         // The frame before as it was before this pass.
         let mut before = grids[0].clone();
         for t in 1..grids.len() - 1 {
             let (p, q) = (&grids[t], &grids[t + 1]);
-            let target = Target::new(surfaces[t].0, surfaces[t].1)?;
+            let target = &targets[t - 1];
             let moved: Vec<Vec3> = (0..p.len())
                 .into_par_iter()
                 .map(|i| {
