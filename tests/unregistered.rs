@@ -277,7 +277,12 @@ fn a_clip_whose_topology_changes_halfway_gets_two_segments() {
 
 /// Measures a real sequence remeshed every frame against its registered
 /// self (not a pass/fail test): `CGV_PROBE=samba cargo test --release
-/// --test unregistered -- --ignored --nocapture`.
+/// --test unregistered -- --ignored --nocapture`. Each row's last column
+/// is the coding's own error (the decoded grid against the grid coded).
+/// Diagnostics: `CGV_JITTER=1` prints where the samples lie on the body
+/// frame to frame (`CGV_JITTER=pinned`: of the pinned motion), and
+/// `CGV_PINNED=1` codes frame 0's registered grid carried by the truth's
+/// correspondence (the capture's map without its swim) at each QP.
 #[test]
 #[ignore]
 fn unregistered_against_registered() {
@@ -362,6 +367,10 @@ fn unregistered_against_registered() {
         let f = &truth.frames[t];
         (0..f.len()).min_by(|&a, &b| f[a].distance_squared(p).total_cmp(&f[b].distance_squared(p))).unwrap()
     };
+    if let Ok(which) = std::env::var("CGV_JITTER") {
+        let pinned = (which == "pinned").then(|| pinned_motion(&truth, &registered.grid));
+        print_body_motion(&truth, &pinned.as_ref().unwrap_or(&registered.grid).frames);
+    }
     println!(
         "swim per frame (% of the diagonal): {:?}",
         swim.iter().map(|x| (x * 1e4).round() / 1e2).collect::<Vec<_>>()
@@ -418,6 +427,9 @@ fn unregistered_against_registered() {
         100.0 * own_err.iter().sum::<f64>() / frames as f64,
         100.0 * own_err.iter().cloned().fold(0.0, f64::max)
     );
+    // CGV_PINNED=1: frame 0's grid carried by the truth's correspondence
+    // (the capture's map without its swim), coded at each QP.
+    let pinned = std::env::var("CGV_PINNED").is_ok().then(|| pinned_motion(&truth, &registered.grid));
     // CGV_QPS=16,28 for some rows only (empty: none).
     let qps: Vec<u8> = std::env::var("CGV_QPS")
         .unwrap_or_else(|_| "16,22,28,34".into())
@@ -434,15 +446,27 @@ fn unregistered_against_registered() {
         let reg_err = surface_rms(&truth, grid, &reg);
         let (ubytes, decoded) = round_trip(&registered.grid, n, qp);
         let un_err = surface_rms(&truth, grid, &decoded);
+        // The coding's own error: the decoded grid against the grid coded.
+        let coding = surface_rms(&registered.grid, grid, &decoded);
         let mean = |e: &[f64]| 100.0 * e.iter().sum::<f64>() / e.len() as f64;
+        if let Some(p) = &pinned {
+            let (pbytes, pdec) = round_trip(p, n, qp);
+            println!(
+                "pinned QP {qp}: {:.3} b/v/f, {:.4} % against the truth, {:.4} % against its input",
+                bits(pbytes),
+                mean(&surface_rms(&truth, grid, &pdec)),
+                mean(&surface_rms(p, grid, &pdec))
+            );
+        }
         let worst = |e: &[f64]| e.iter().cloned().fold(0.0, f64::max) / (e.iter().sum::<f64>() / e.len() as f64);
         println!(
-            "| {name} ({frames}) | {n} | {qp} | {:.3} | {:.4} | {:.3} | {:.4} | {:.2} |",
+            "| {name} ({frames}) | {n} | {qp} | {:.3} | {:.4} | {:.3} | {:.4} | {:.2} | {:.4} |",
             bits(bytes.len()),
             mean(&reg_err),
             bits(ubytes),
             mean(&un_err),
-            worst(&un_err)
+            worst(&un_err),
+            mean(&coding)
         );
     }
 }
@@ -513,4 +537,123 @@ fn the_commands_make_report_and_code_a_capture() {
     assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("folder") && !bad.exists());
     let out = cgv(&["encode", "builtin:walk", "--mesh", "frames", "-o", bad.to_str().unwrap()]);
     assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("--unregistered") && !bad.exists());
+}
+
+/// The point of triangle `t` nearest `p`, as barycentric weights.
+fn nearest_on_triangle(p: Vec3, t: [Vec3; 3]) -> [f32; 3] {
+    let (a, b, c) = (t[0], t[1], t[2]);
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return [1.0, 0.0, 0.0];
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return [0.0, 1.0, 0.0];
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let v = d1 / (d1 - d3);
+        return [1.0 - v, v, 0.0];
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return [0.0, 0.0, 1.0];
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = d2 / (d2 - d6);
+        return [1.0 - w, 0.0, w];
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return [0.0, 1.0 - w, w];
+    }
+    let denom = 1.0 / (va + vb + vc);
+    let (v, w) = (vb * denom, vc * denom);
+    [1.0 - v - w, v, w]
+}
+
+/// The registered grid's frame 0 pinned to the truth's surface (each sample
+/// at its nearest point on a face around its nearest vertex) and carried
+/// through the truth's frames by its correspondence: the capture's map
+/// with no swim (a diagnostic: which of the two the coding pays for).
+fn pinned_motion(truth: &InMemory, registered: &InMemory) -> InMemory {
+    let spots = spots_on(truth, 0, &registered.frames[0]);
+    let frames = truth.frames.iter().map(|f| spots.iter().map(|s| at_spot(truth, f, *s)).collect()).collect();
+    InMemory { frames, ..pinned_shell(registered) }
+}
+
+/// A face of the truth and barycentric weights on it.
+type Spot = (usize, [f32; 3]);
+
+/// Where each of `points` lies on truth frame `t`: its nearest point on a
+/// face round its nearest vertex.
+fn spots_on(truth: &InMemory, t: usize, points: &[Vec3]) -> Vec<Spot> {
+    let (f, faces) = (&truth.frames[t], &truth.topology.faces);
+    let mut around: Vec<Vec<usize>> = vec![Vec::new(); f.len()];
+    for (k, face) in faces.iter().enumerate() {
+        face.iter().for_each(|&v| around[v as usize].push(k));
+    }
+    points
+        .iter()
+        .map(|&p| {
+            let v =
+                (0..f.len()).min_by(|&a, &b| f[a].distance_squared(p).total_cmp(&f[b].distance_squared(p))).unwrap();
+            let on = |k: &usize| {
+                let w = nearest_on_triangle(p, faces[*k].map(|i| f[i as usize]));
+                (at_spot(truth, f, (*k, w)).distance(p), (*k, w))
+            };
+            around[v].iter().map(on).min_by(|a, b| a.0.total_cmp(&b.0)).unwrap().1
+        })
+        .collect()
+}
+
+/// The point of `frame` (a truth frame) at `spot`.
+fn at_spot(truth: &InMemory, frame: &[Vec3], (k, w): Spot) -> Vec3 {
+    let t = truth.topology.faces[k].map(|i| frame[i as usize]);
+    t[0] * w[0] + t[1] * w[1] + t[2] * w[2]
+}
+
+/// Where every 7th sample of `grid_frame` lies on the body: its spot on
+/// truth frame `t`, read on frame 0.
+fn body_places(truth: &InMemory, grid_frame: &[Vec3], t: usize) -> Vec<Vec3> {
+    let samples: Vec<Vec3> = grid_frame.iter().step_by(7).copied().collect();
+    spots_on(truth, t, &samples).into_iter().map(|s| at_spot(truth, &truth.frames[0], s)).collect()
+}
+
+/// `src` without its frames.
+fn pinned_shell(src: &InMemory) -> InMemory {
+    InMemory { label: src.label.clone(), fps: src.fps, topology: src.topology.clone(), frames: Vec::new() }
+}
+
+/// Prints where `grid_frames`' samples lie on the body ([`body_places`])
+/// from frame to frame: each step, and each second difference (motion
+/// that a predictor from the past cannot follow), RMS and median, in % of
+/// frame 0's diagonal; and the medians' means.
+fn print_body_motion(truth: &InMemory, grid_frames: &[Vec<Vec3>]) {
+    let diag = Bounds::of(&truth.frames[0]).diagonal();
+    let b: Vec<Vec<Vec3>> = (0..grid_frames.len()).map(|t| body_places(truth, &grid_frames[t], t)).collect();
+    let rms = |v: &[f32]| (v.iter().map(|x| x * x).sum::<f32>() / v.len() as f32).sqrt() / diag * 100.0;
+    let med = |v: &mut [f32]| {
+        v.sort_by(f32::total_cmp);
+        v[v.len() / 2] / diag * 100.0
+    };
+    let summary = |mut d: Vec<f32>| (rms(&d), med(&mut d));
+    let step: Vec<(f32, f32)> =
+        (1..b.len()).map(|t| summary(b[t].iter().zip(&b[t - 1]).map(|(x, y)| x.distance(*y)).collect())).collect();
+    let jitter: Vec<(f32, f32)> = (1..b.len().saturating_sub(1))
+        .map(|t| summary((0..b[t].len()).map(|i| (b[t + 1][i] - 2.0 * b[t][i] + b[t - 1][i]).length()).collect()))
+        .collect();
+    let mean_median = |v: &[(f32, f32)]| v.iter().map(|x| x.1).sum::<f32>() / v.len().max(1) as f32;
+    let show = |v: &[(f32, f32)]| v.iter().map(|(r, m)| format!("{r:.2}/{m:.2}")).collect::<Vec<_>>();
+    println!("body step per frame (RMS/median %): {:?}; mean median {:.3} %", show(&step), mean_median(&step));
+    println!(
+        "body jitter (second difference, RMS/median %): {:?}; mean median {:.3} %",
+        show(&jitter),
+        mean_median(&jitter)
+    );
 }
