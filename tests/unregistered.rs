@@ -282,7 +282,9 @@ fn a_clip_whose_topology_changes_halfway_gets_two_segments() {
 /// Diagnostics: `CGV_JITTER=1` prints where the samples lie on the body
 /// frame to frame (`CGV_JITTER=pinned`: of the pinned motion), and
 /// `CGV_PINNED=1` codes frame 0's registered grid carried by the truth's
-/// correspondence (the capture's map without its swim) at each QP.
+/// correspondence (the capture's map without its swim) at each QP;
+/// `CGV_TRUE_FRAMES=1` registers the sequence's own frames (one
+/// connectivity) in place of the remeshed capture.
 #[test]
 #[ignore]
 fn unregistered_against_registered() {
@@ -299,7 +301,15 @@ fn unregistered_against_registered() {
         topology: full.topology().clone(),
         frames: (start..start + frames).map(|t| full.read_frame(t).unwrap()).collect(),
     };
-    let capture = remeshed_from(&truth, frames, start);
+    let capture = if std::env::var("CGV_TRUE_FRAMES").is_ok() {
+        truth
+            .frames
+            .iter()
+            .map(|f| CaptureFrame { positions: f.clone(), faces: truth.topology.faces.clone() })
+            .collect()
+    } else {
+        remeshed_from(&truth, frames, start)
+    };
     let grid = Grid::new(n).unwrap();
     let r: usize = std::env::var("CGV_REGISTER_GRID").ok().and_then(|s| s.parse().ok()).unwrap_or(n);
     let (registered, report) = register(&dir, 30.0, &capture, Grid::new(r).unwrap()).unwrap();
