@@ -39,17 +39,19 @@ pub const PASSES: usize = 6;
 pub const OFF_SURFACE: f32 = 0.003;
 /// A frame whose smoothed grid resamples its surface this many times
 /// worse (surface RMS) than its own keeps its own. No horse-gallop frame
-/// takes the smoothed grid even at 1.3 (forced on all of them, the coded
-/// error at equal bits is the same); pcow's 20 of 22 frames that take it
-/// cost about 4 % more error at equal bits than 12 did at 1.05.
+/// takes the passes' grid even at 1.3 (forced on all of them, the coded
+/// error at equal bits is the same), nor any of pcow's since its cones
+/// were chosen anew (forced: its map's floor 0.055 -> 0.123 %); those are
+/// filtered along the surface instead ([`along_surface`]), under the same
+/// allowance.
 pub const WORSE: f64 = 1.3;
 
 /// A frame's own mesh: its positions and faces.
 pub type Surface<'a> = (&'a [Vec3], &'a [[u32; 3]]);
 
 /// `grids` (one per frame of `surfaces`, on the grid's `faces`) smoothed
-/// in time; returns how many frames took the smoothed grid. `diagonal`:
-/// the capture's.
+/// in time; returns how many frames took a smoothed grid (the passes' or
+/// the filter's). `diagonal`: the capture's.
 pub fn smooth(grids: &mut [Vec<Vec3>], surfaces: &[Surface], faces: &[[u32; 3]], diagonal: f32) -> Result<usize> {
     if grids.len() < 3 {
         return Ok(0);
