@@ -58,10 +58,7 @@ fn surface_rms(truth: &dyn FrameSource, grid: Grid, frames: &[Vec<Vec3>]) -> Vec
 fn swim(truth: &dyn FrameSource, registered: &InMemory) -> Vec<f32> {
     let frames: Vec<Vec<Vec3>> = (0..registered.frames.len()).map(|t| truth.read_frame(t).unwrap()).collect();
     let rest = &frames[0];
-    let nearest = |t: usize, p: Vec3| {
-        let f = &frames[t];
-        (0..f.len()).min_by(|&a, &b| f[a].distance_squared(p).total_cmp(&f[b].distance_squared(p))).unwrap()
-    };
+    let nearest = |t: usize, p: Vec3| nearest_vertex(&frames[t], p);
     let body =
         |t: usize| -> Vec<Vec3> { registered.frames[t].iter().step_by(7).map(|&p| rest[nearest(t, p)]).collect() };
     let b0 = body(0);
@@ -373,10 +370,7 @@ fn unregistered_against_registered() {
     let swim = swim(&truth, &registered.grid);
     let rest = &truth.frames[0];
     let diag = Bounds::of(rest).diagonal();
-    let nearest = |t: usize, p: Vec3| {
-        let f = &truth.frames[t];
-        (0..f.len()).min_by(|&a, &b| f[a].distance_squared(p).total_cmp(&f[b].distance_squared(p))).unwrap()
-    };
+    let nearest = |t: usize, p: Vec3| nearest_vertex(&truth.frames[t], p);
     if let Ok(which) = std::env::var("CGV_JITTER") {
         let pinned = (which == "pinned").then(|| pinned_motion(&truth, &registered.grid));
         print_body_motion(&truth, &pinned.as_ref().unwrap_or(&registered.grid).frames);
@@ -549,6 +543,11 @@ fn the_commands_make_report_and_code_a_capture() {
     assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("--unregistered") && !bad.exists());
 }
 
+/// The vertex of `f` nearest `p` (by brute force: a probe's few frames).
+fn nearest_vertex(f: &[Vec3], p: Vec3) -> usize {
+    (0..f.len()).min_by(|&a, &b| f[a].distance_squared(p).total_cmp(&f[b].distance_squared(p))).unwrap_or(0)
+}
+
 /// The point of triangle `t` nearest `p`, as barycentric weights.
 fn nearest_on_triangle(p: Vec3, t: [Vec3; 3]) -> [f32; 3] {
     let (a, b, c) = (t[0], t[1], t[2]);
@@ -611,8 +610,7 @@ fn spots_on(truth: &InMemory, t: usize, points: &[Vec3]) -> Vec<Spot> {
     points
         .iter()
         .map(|&p| {
-            let v =
-                (0..f.len()).min_by(|&a, &b| f[a].distance_squared(p).total_cmp(&f[b].distance_squared(p))).unwrap();
+            let v = nearest_vertex(f, p);
             let on = |k: &usize| {
                 let w = nearest_on_triangle(p, faces[*k].map(|i| f[i as usize]));
                 (at_spot(truth, f, (*k, w)).distance(p), (*k, w))

@@ -70,29 +70,29 @@ pub fn smooth(grids: &mut [Vec<Vec3>], surfaces: &[Surface], faces: &[[u32; 3]],
                 .into_par_iter()
                 .map(|i| {
                     let goal = p[i] + ((before[i] + q[i]) * 0.5 - p[i]) * 0.5;
-                    let on = target.nearest_point(goal);
-                    if on.distance(goal) > OFF_SURFACE * diagonal {
-                        p[i]
-                    } else {
-                        on
-                    }
+                    landed(target, p[i], goal, diagonal)
                 })
                 .collect();
             before = std::mem::replace(&mut grids[t], moved);
         }
     }
-    let refused = keep_closer(grids, &own, surfaces, faces, 1..grids.len() - 1)?;
+    // Each inner frame's own grid's resampling error, for both checks.
+    let own_rms: Vec<f64> = (1..grids.len() - 1)
+        .map(|t| symmetric(surfaces[t].0, surfaces[t].1, &own[t], faces).map(|d| d.rms))
+        .collect::<Result<_>>()?;
+    let refused = keep_closer(grids, &own, &own_rms, surfaces, faces, 1..grids.len() - 1)?;
     along_surface(grids, &targets, faces, diagonal, &refused);
-    let still = keep_closer(grids, &own, surfaces, faces, refused.iter().copied())?;
+    let still = keep_closer(grids, &own, &own_rms, surfaces, faces, refused.iter().copied())?;
     Ok(grids.len() - 2 - still.len())
 }
 
-/// Each frame of `frames` whose grid resamples its surface more than
-/// [`WORSE`] times as far off as its own grid (`own`) given its own back;
-/// returns those frames.
+/// Each inner frame of `frames` whose grid resamples its surface more
+/// than [`WORSE`] times as far off as its own grid (`own`, resampling at
+/// `own_rms[t - 1]`) given its own back; returns those frames.
 fn keep_closer(
     grids: &mut [Vec<Vec3>],
     own: &[Vec<Vec3>],
+    own_rms: &[f64],
     surfaces: &[Surface],
     faces: &[[u32; 3]],
     frames: impl Iterator<Item = usize>,
@@ -101,8 +101,7 @@ fn keep_closer(
     for t in frames {
         let (positions, frame_faces) = surfaces[t];
         let smoothed = symmetric(positions, frame_faces, &grids[t], faces)?.rms;
-        let mapped = symmetric(positions, frame_faces, &own[t], faces)?.rms;
-        if smoothed > WORSE * mapped {
+        if smoothed > WORSE * own_rms[t - 1] {
             grids[t].clone_from(&own[t]);
             refused.push(t);
         }
@@ -157,14 +156,21 @@ fn filtered_frame(
             let mean: Vec3 = weights.iter().enumerate().map(|(k, w)| grids[t + k - h][i] * *w).sum::<Vec3>() / total;
             let d = mean - p[i];
             let goal = p[i] + d - normals[i] * d.dot(normals[i]);
-            let on = target.nearest_point(goal);
-            if on.distance(goal) > OFF_SURFACE * diagonal {
-                p[i]
-            } else {
-                on
-            }
+            landed(target, p[i], goal, diagonal)
         })
         .collect()
+}
+
+/// A sample at `p` sent to `goal`: the surface's point nearest the goal,
+/// or `p` itself where the goal lies further than [`OFF_SURFACE`] from the
+/// surface (it would land on another part).
+fn landed(target: &Target, p: Vec3, goal: Vec3, diagonal: f32) -> Vec3 {
+    let on = target.nearest_point(goal);
+    if on.distance(goal) > OFF_SURFACE * diagonal {
+        p
+    } else {
+        on
+    }
 }
 
 #[cfg(test)]
