@@ -543,6 +543,54 @@ fn the_commands_make_report_and_code_a_capture() {
     assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("--unregistered") && !bad.exists());
 }
 
+/// A capture of GLB frames reads as the same capture in OBJ: each frame's
+/// own vertices and faces (welded as the glTF reader welds). `--frames A..B`
+/// takes frames A to B - 1 (not A to A + (B - A) - A). A folder with both
+/// kinds, and a glTF frame that is an animation, are refused by name.
+#[test]
+fn a_capture_of_glb_frames_reads_as_its_obj_frames() {
+    use cgv::features::register::read_capture;
+    use cgv::mesh::{gltf_out::write_glb, Topology};
+    let dir = common::temp_dir("unregistered-glb");
+    let (objs, glbs) = (dir.join("obj"), dir.join("glb"));
+    let out = cgv(&["unregister", "builtin:walk", "--frames", "0..4", "-o", objs.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    std::fs::create_dir_all(&glbs).unwrap();
+    let from_obj = read_capture(&objs, None).unwrap();
+    for (t, f) in from_obj.iter().enumerate() {
+        let topology = Topology { vertex_count: f.positions.len(), faces: f.faces.clone() };
+        let path = glbs.join(format!("frame_{t}.glb"));
+        write_glb(&path, &topology, 1, 30.0, "capture", None, |_| Ok(f.positions.clone())).unwrap();
+    }
+    let from_glb = read_capture(&glbs, None).unwrap();
+    assert_eq!(from_glb.len(), 4);
+    for (a, b) in from_obj.iter().zip(&from_glb) {
+        assert_eq!((a.positions.len(), a.faces.len()), (b.positions.len(), b.faces.len()));
+        let sq: f32 = a.positions.iter().zip(&b.positions).map(|(p, q)| p.distance_squared(*q)).sum();
+        assert!(sq < 1e-10, "positions {sq}");
+    }
+    let middle = read_capture(&glbs, Some("1..3".parse().unwrap())).unwrap();
+    assert_eq!(middle.len(), 2);
+    assert_eq!(middle[0].faces, from_glb[1].faces);
+    assert_eq!(middle[1].faces, from_glb[2].faces);
+    let info = cgv(&["info", glbs.to_str().unwrap(), "--unregistered", "--json"]);
+    assert!(info.status.success(), "{}", String::from_utf8_lossy(&info.stderr));
+    let report: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    assert_eq!(report["frames"], 4);
+    // Both kinds in one folder.
+    std::fs::copy(objs.join("0.obj"), glbs.join("0.obj")).unwrap();
+    let mixed = read_capture(&glbs, None).unwrap_err().to_string();
+    assert!(mixed.contains("both OBJ (1) and glTF (4)") && mixed.contains(glbs.to_str().unwrap()), "{mixed}");
+    std::fs::remove_file(glbs.join("0.obj")).unwrap();
+    // A frame that is an animation of 3 frames.
+    let f = &from_obj[0];
+    let topology = Topology { vertex_count: f.positions.len(), faces: f.faces.clone() };
+    let moving = glbs.join("frame_4.glb");
+    write_glb(&moving, &topology, 3, 30.0, "capture", None, |_| Ok(f.positions.clone())).unwrap();
+    let err = read_capture(&glbs, None).unwrap_err().to_string();
+    assert!(err.contains("frame_4.glb") && err.contains("bakes to 3 frames"), "{err}");
+}
+
 /// The vertex of `f` nearest `p` (by brute force: a probe's few frames).
 fn nearest_vertex(f: &[Vec3], p: Vec3) -> usize {
     (0..f.len()).min_by(|&a, &b| f[a].distance_squared(p).total_cmp(&f[b].distance_squared(p))).unwrap_or(0)

@@ -44,17 +44,18 @@ impl CaptureFrame {
     }
 }
 
-/// The frames of a folder of OBJ files (`frames`, if given, a range of
-/// them), each its own mesh.
+/// The frames of a folder of OBJ, or of glTF and GLB, files (`frames`, if
+/// given, a range of them), each its own mesh
+/// ([`crate::mesh::open::capture_files`]).
 pub fn read_capture(dir: &Path, frames: Option<FrameSelection>) -> Result<Vec<CaptureFrame>> {
-    let files = crate::mesh::obj::frame_files(dir)?;
-    let (a, b) = match frames {
+    let files = crate::mesh::open::capture_files(dir)?;
+    let (first, count) = match frames {
         Some(s) => s.resolve(files.len()).map_err(|e| Error::Argument(format!("{}: {e}", dir.display())))?,
         None => (0, files.len()),
     };
-    files[a..b]
+    files[first..first + count]
         .par_iter()
-        .map(|f| crate::mesh::obj::read_obj(f).map(|(positions, faces)| CaptureFrame { positions, faces }))
+        .map(|f| crate::mesh::open::read_still(f).map(|(positions, faces)| CaptureFrame { positions, faces }))
         .collect()
 }
 

@@ -130,17 +130,25 @@ pub fn frame_number(path: &Path) -> Option<u64> {
 /// The OBJ files of a folder, one per frame, in the order of the number
 /// in their names (2 before 10), then by name for files without one.
 pub fn frame_files(dir: &Path) -> Result<Vec<PathBuf>> {
+    let files = files_with(dir, &["obj"])?;
+    if files.is_empty() {
+        return Err(Error::Argument(format!("{}: no .obj files in this folder", dir.display())));
+    }
+    Ok(files)
+}
+
+/// The files of a folder whose extension is one of `extensions` (any
+/// case), ordered as [`frame_files`] orders them; none is not an error.
+pub fn files_with(dir: &Path, extensions: &[&str]) -> Result<Vec<PathBuf>> {
     let entries = std::fs::read_dir(dir).map_err(|e| Error::io(dir, e))?;
     let mut files = Vec::new();
     for entry in entries {
         let entry = entry.map_err(|e| Error::io(dir, e))?;
         let p = entry.path();
-        if p.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("obj")) {
+        let ext = p.extension().and_then(|e| e.to_str()).unwrap_or("");
+        if extensions.iter().any(|x| ext.eq_ignore_ascii_case(x)) {
             files.push(p);
         }
-    }
-    if files.is_empty() {
-        return Err(Error::Argument(format!("{}: no .obj files in this folder", dir.display())));
     }
     files.sort_by(|a, b| {
         (frame_number(a).is_none(), frame_number(a), a.file_name()).cmp(&(

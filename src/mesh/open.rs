@@ -9,7 +9,52 @@ use super::source::FrameSource;
 use super::topology::HoleFill;
 use super::{Frame, Topology};
 use crate::error::{Error, Result};
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// The frames of a capture folder (every frame its own mesh): its OBJ
+/// files, or else its glTF and GLB files, one a frame, ordered by the
+/// number in their names. A folder holding both kinds is refused: which
+/// are the frames is not clear.
+pub fn capture_files(dir: &Path) -> Result<Vec<PathBuf>> {
+    let obj = super::obj::files_with(dir, &["obj"])?;
+    let gltf = super::obj::files_with(dir, &["gltf", "glb"])?;
+    match (obj.is_empty(), gltf.is_empty()) {
+        (false, true) => Ok(obj),
+        (true, false) => Ok(gltf),
+        (true, true) => Err(Error::Argument(format!(
+            "{}: no .obj, .gltf or .glb files in this folder (a capture is one mesh file a frame)",
+            dir.display()
+        ))),
+        (false, false) => Err(Error::Argument(format!(
+            "{}: both OBJ ({}) and glTF ({}) files in this folder; a capture's frames are of one kind",
+            dir.display(),
+            obj.len(),
+            gltf.len()
+        ))),
+    }
+}
+
+/// One frame of a capture: an OBJ file, or a glTF or GLB file whose scene
+/// is one still mesh (all its primitives, coincident vertices welded),
+/// positions and faces.
+pub fn read_still(path: &Path) -> Result<(Frame, Vec<[u32; 3]>)> {
+    let is_obj = path.extension().and_then(|e| e.to_str()).is_some_and(|e| e.eq_ignore_ascii_case("obj"));
+    if is_obj {
+        return super::obj::read_obj(path);
+    }
+    let src = GltfSource::open(path, 30.0, None)?;
+    if src.frame_count() != 1 {
+        return Err(Error::Gltf {
+            path: path.to_path_buf(),
+            msg: format!(
+                "a capture frame is one still mesh, but this file's animation bakes to {} frames at 30 frames/s \
+                 (a motion whose frames share one mesh is read without --unregistered)",
+                src.frame_count()
+            ),
+        });
+    }
+    Ok((src.read_frame(0)?, src.topology().faces.clone()))
+}
 
 /// Options for [`open_sequence`].
 #[derive(Debug, Clone)]

@@ -130,7 +130,7 @@ pub struct Args {
     /// give back the grid mesh; smaller by what `source mesh` reports.
     #[arg(long)]
     no_source_mesh: bool,
-    /// INPUT is a folder of OBJ frames that are each their own mesh (a
+    /// INPUT is a folder of OBJ (or glTF/GLB) frames, each its own mesh (a
     /// capture without correspondence): features are found on every frame
     /// (heat kernel signature maxima), tracked, and every frame mapped onto
     /// the grid with four tracked features as its cones and its cut where

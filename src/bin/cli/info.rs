@@ -17,7 +17,7 @@ pub struct Args {
     /// Only read the first frame (skip checking every frame's vertex count, faces and coordinates).
     #[arg(long)]
     quick: bool,
-    /// INPUT is a folder of OBJ frames that are each their own mesh (a
+    /// INPUT is a folder of OBJ (or glTF/GLB) frames, each its own mesh (a
     /// capture without correspondence): report each frame's size, the
     /// features found (heat kernel signature maxima) and how well they track.
     #[arg(long)]
@@ -144,7 +144,7 @@ fn unregistered_info(args: &Args) -> Result<()> {
     if args.json {
         let report = serde_json::json!({
             "input": dir,
-            "kind": "unregistered OBJ frames",
+            "kind": "unregistered mesh frames",
             "frames": frames.len(),
             "vertices_min": lo,
             "vertices_max": hi,
