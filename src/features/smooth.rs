@@ -14,7 +14,7 @@
 //! as far off keeps its own grid.
 //!
 //! Such a frame (every frame of a galloping horse or a walking cow) is
-//! then filtered once along the surface ([`along_surface`]): each sample
+//! then filtered once along the surface (`Window::AlongSurface`): each sample
 //! moved to a quadratic's value at the frame, fitted to its places in the
 //! two frames before and after (Savitzky and Golay's 5-point smoothing, A.
 //! Savitzky and M. J. E. Golay, Anal. Chem. 36(8), 1964, table I), which a
@@ -42,7 +42,7 @@ pub const OFF_SURFACE: f32 = 0.003;
 /// takes the passes' grid even at 1.3 (forced on all of them, the coded
 /// error at equal bits is the same), nor any of pcow's since its cones
 /// were chosen anew (forced: its map's floor 0.055 -> 0.123 %); those are
-/// filtered along the surface instead ([`along_surface`]), under the same
+/// filtered along the surface instead (`Window::AlongSurface`), under the same
 /// allowance.
 pub const WORSE: f64 = 1.3;
 
@@ -60,28 +60,16 @@ pub fn smooth(grids: &mut [Vec<Vec3>], surfaces: &[Surface], faces: &[[u32; 3]],
     // Each inner frame's surface, built once for all the passes.
     let targets: Vec<Target> =
         surfaces[1..grids.len() - 1].iter().map(|s| Target::new(s.0, s.1)).collect::<Result<_>>()?;
+    let inner: Vec<usize> = (1..grids.len() - 1).collect();
     for _ in 0..PASSES {
-        // The frame before as it was before this pass.
-        let mut before = grids[0].clone();
-        for t in 1..grids.len() - 1 {
-            let (p, q) = (&grids[t], &grids[t + 1]);
-            let target = &targets[t - 1];
-            let moved: Vec<Vec3> = (0..p.len())
-                .into_par_iter()
-                .map(|i| {
-                    let goal = p[i] + ((before[i] + q[i]) * 0.5 - p[i]) * 0.5;
-                    landed(target, p[i], goal, diagonal)
-                })
-                .collect();
-            before = std::mem::replace(&mut grids[t], moved);
-        }
+        windowed(grids, &targets, faces, diagonal, &inner, Window::Midpoint);
     }
     // Each inner frame's own grid's resampling error, for both checks.
     let own_rms: Vec<f64> = (1..grids.len() - 1)
         .map(|t| symmetric(surfaces[t].0, surfaces[t].1, &own[t], faces).map(|d| d.rms))
         .collect::<Result<_>>()?;
     let refused = keep_closer(grids, &own, &own_rms, surfaces, faces, 1..grids.len() - 1)?;
-    along_surface(grids, &targets, faces, diagonal, &refused);
+    windowed(grids, &targets, faces, diagonal, &refused, Window::AlongSurface);
     let still = keep_closer(grids, &own, &own_rms, surfaces, faces, refused.iter().copied())?;
     Ok(grids.len() - 2 - still.len())
 }
@@ -111,14 +99,32 @@ fn keep_closer(
 
 /// Savitzky-Golay's quadratic 5-point smoothing weights (sum 35).
 const QUADRATIC_5: [f32; 5] = [-3.0, 12.0, 17.0, 12.0, -3.0];
-/// Where a frame lacks two neighbours a side: halfway to the midpoint.
+/// Halfway to the midpoint of the frames before and after.
 const HALFWAY_3: [f32; 3] = [1.0, 2.0, 1.0];
 
-/// The inner frames `frames` (ascending) of `grids` filtered once in time
-/// along the surface (`targets[t - 1]` is frame t's), each from the grids
-/// as they were: a frame's new grid is written once no later frame reads
-/// its old one, so at most three are held.
-fn along_surface(grids: &mut [Vec<Vec3>], targets: &[Target], faces: &[[u32; 3]], diagonal: f32, frames: &[usize]) {
+/// The two ways a frame is moved in time.
+#[derive(Clone, Copy, PartialEq)]
+enum Window {
+    /// A midpoint pass: [`HALFWAY_3`], the whole move.
+    Midpoint,
+    /// The filter along the surface: [`QUADRATIC_5`] (or [`HALFWAY_3`]
+    /// where a frame lacks two neighbours a side), the move's component
+    /// along the grid's normal dropped.
+    AlongSurface,
+}
+
+/// The inner frames `frames` (ascending) of `grids` moved once in time by
+/// `window` and put back on the surface (`targets[t - 1]` is frame t's),
+/// each from the grids as they were: a frame's new grid is written once no
+/// later frame reads its old one, so at most three are held.
+fn windowed(
+    grids: &mut [Vec<Vec3>],
+    targets: &[Target],
+    faces: &[[u32; 3]],
+    diagonal: f32,
+    frames: &[usize],
+    window: Window,
+) {
     let mut pending: std::collections::VecDeque<(usize, Vec<Vec3>)> = std::collections::VecDeque::new();
     for &t in frames {
         while pending.front().is_some_and(|(u, _)| u + 2 < t) {
@@ -126,9 +132,13 @@ fn along_surface(grids: &mut [Vec<Vec3>], targets: &[Target], faces: &[[u32; 3]]
                 grids[u] = g;
             }
         }
-        let weights: &[f32] = if t >= 2 && t + 2 < grids.len() { &QUADRATIC_5 } else { &HALFWAY_3 };
-        let filtered = filtered_frame(grids, t, weights, &targets[t - 1], faces, diagonal);
-        pending.push_back((t, filtered));
+        let weights: &[f32] = match window {
+            Window::AlongSurface if t >= 2 && t + 2 < grids.len() => &QUADRATIC_5,
+            _ => &HALFWAY_3,
+        };
+        let along = window == Window::AlongSurface;
+        let moved = moved_frame(grids, t, weights, along, &targets[t - 1], faces, diagonal);
+        pending.push_back((t, moved));
     }
     for (u, g) in pending {
         grids[u] = g;
@@ -136,26 +146,30 @@ fn along_surface(grids: &mut [Vec<Vec3>], targets: &[Target], faces: &[[u32; 3]]
 }
 
 /// Frame `t`'s samples moved to the `weights`' mean of their places in the
-/// frames around it, the move's normal component dropped, then onto the
-/// frame's surface; a sample whose goal lies further than [`OFF_SURFACE`]
-/// from it keeps its place.
-fn filtered_frame(
+/// frames around it (`along`: the move's normal component dropped), then
+/// onto the frame's surface; a sample whose goal lies further than
+/// [`OFF_SURFACE`] from it keeps its place.
+fn moved_frame(
     grids: &[Vec<Vec3>],
     t: usize,
     weights: &[f32],
+    along: bool,
     target: &Target,
     faces: &[[u32; 3]],
     diagonal: f32,
 ) -> Vec<Vec3> {
     let (h, total) = (weights.len() / 2, weights.iter().sum::<f32>());
     let p = &grids[t];
-    let normals = crate::mesh::vertex_normals(p, faces);
+    let normals = if along { crate::mesh::vertex_normals(p, faces) } else { Vec::new() };
     (0..p.len())
         .into_par_iter()
         .map(|i| {
             let mean: Vec3 = weights.iter().enumerate().map(|(k, w)| grids[t + k - h][i] * *w).sum::<Vec3>() / total;
             let d = mean - p[i];
-            let goal = p[i] + d - normals[i] * d.dot(normals[i]);
+            let goal = match normals.get(i) {
+                Some(&n) => p[i] + d - n * d.dot(n),
+                None => mean,
+            };
             landed(target, p[i], goal, diagonal)
         })
         .collect()
@@ -201,7 +215,7 @@ mod tests {
         for amplitude in [0.0, 0.02] {
             let jitter = |t: usize| if t % 2 == 0 { amplitude } else { -amplitude };
             let mut grids: Vec<Vec<Vec3>> = (0..9).map(|t| at(truth(t) + jitter(t))).collect();
-            along_surface(&mut grids, &targets, &faces, 40.0, &(1..8).collect::<Vec<_>>());
+            windowed(&mut grids, &targets, &faces, 40.0, &(1..8).collect::<Vec<_>>(), Window::AlongSurface);
             for (t, g) in grids.iter().enumerate().take(7).skip(2) {
                 let off = (g[5].x - at(truth(t))[5].x).abs();
                 assert!(off < amplitude * 13.0 / 35.0 + 1e-4, "frame {t}, jitter {amplitude}: {off}");
