@@ -275,7 +275,10 @@ fn a_clip_whose_topology_changes_halfway_gets_two_segments() {
 /// Measures a real sequence remeshed every frame against its registered
 /// self (not a pass/fail test): `CGV_PROBE=samba cargo test --release
 /// --test unregistered -- --ignored --nocapture`. Each row's last column
-/// is the coding's own error (the decoded grid against the grid coded).
+/// is the coding's own error (the decoded grid against the grid coded);
+/// it also prints the spacing drift (`cgv::metrics::spacing_drift`) of the
+/// registered grid against the pinned one (below) and, at each QP, of the
+/// decoded grid against the coded one.
 /// Diagnostics: `CGV_JITTER=1` prints where the samples lie on the body
 /// frame to frame (`CGV_JITTER=pinned`: of the pinned motion), and
 /// `CGV_PINNED=1` codes frame 0's registered grid carried by the truth's
@@ -367,6 +370,20 @@ fn unregistered_against_registered() {
         })
         .collect();
     println!("(boundary edges, edges of 3+ faces, parts) per frame: {edges:?}");
+    // Spacing drift (`cgv::metrics::spacing_drift`: each sample's grid
+    // spacing against the pinned grid's, frame 0's map carried by the
+    // truth): how far the map's sampling density moves on the body.
+    let register_stencils = cgv::grid::stencil::Stencils::new(Grid::new(r).unwrap());
+    let carried = pinned_motion(&truth, &registered.grid);
+    let drifts: Vec<f64> = (0..frames)
+        .map(|t| cgv::metrics::spacing_drift(&register_stencils, &carried.frames[t], &registered.grid.frames[t], &[]))
+        .collect();
+    println!(
+        "spacing drift against the pinned grid (%): mean {:.1}, worst frame {:.1}; per frame {:?}",
+        100.0 * drifts.iter().sum::<f64>() / frames as f64,
+        100.0 * drifts.iter().cloned().fold(0.0, f64::max),
+        drifts.iter().map(|x| (x * 1e3).round() / 10.0).collect::<Vec<_>>()
+    );
     let swim = swim(&truth, &registered.grid);
     let rest = &truth.frames[0];
     let diag = Bounds::of(rest).diagonal();
@@ -463,6 +480,19 @@ fn unregistered_against_registered() {
             );
         }
         let worst = |e: &[f64]| e.iter().cloned().fold(0.0, f64::max) / (e.iter().sum::<f64>() / e.len() as f64);
+        // The decoded grid's spacing against the coded one's (where both
+        // are on one grid).
+        if r == n {
+            let stencils = cgv::grid::stencil::Stencils::new(grid);
+            let coded_drift: Vec<f64> = (0..frames)
+                .map(|t| cgv::metrics::spacing_drift(&stencils, &registered.grid.frames[t], &decoded[t], &[]))
+                .collect();
+            println!(
+                "QP {qp}: spacing drift, decoded against coded (%): mean {:.1}, worst frame {:.1}",
+                100.0 * coded_drift.iter().sum::<f64>() / frames as f64,
+                100.0 * coded_drift.iter().cloned().fold(0.0, f64::max)
+            );
+        }
         println!(
             "| {name} ({frames}) | {n} | {qp} | {:.3} | {:.4} | {:.3} | {:.4} | {:.2} | {:.4} |",
             bits(bytes.len()),
