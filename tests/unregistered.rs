@@ -8,9 +8,9 @@
 mod common;
 
 use cgv::codec::{encode, EncodeOptions, FileDecoder};
-use cgv::features::register::{
-    register, register_tracked, segment_starts, track_capture, track_features, CaptureFrame,
-};
+use cgv::features::capture::CaptureFrame;
+use cgv::features::register::{register, register_tracked, track_capture, track_features};
+use cgv::features::segments::{longest_segment, segment_ranges, segment_starts};
 use cgv::grid::Grid;
 use cgv::mesh::unregister::{keep_for, remesh_frame};
 use cgv::mesh::{Bounds, FrameSource, InMemory};
@@ -53,27 +53,36 @@ fn surface_rms(truth: &dyn FrameSource, grid: Grid, frames: &[Vec<Vec3>]) -> Vec
 }
 
 /// Swim: where every 7th grid sample sits on the body (the original vertex
-/// nearest it, read on frame 0) against where it sits in frame 0, RMS per
-/// frame, relative to frame 0's diagonal.
-fn swim(truth: &dyn FrameSource, registered: &InMemory) -> Vec<f32> {
+/// nearest it, read on frame 0) against where it sits in its segment's
+/// first frame (`starts`: where segments after the first start, each its
+/// own map), RMS per frame, relative to frame 0's diagonal.
+fn swim(truth: &dyn FrameSource, registered: &InMemory, starts: &[u32]) -> Vec<f32> {
     let frames: Vec<Vec<Vec3>> = (0..registered.frames.len()).map(|t| truth.read_frame(t).unwrap()).collect();
     let rest = &frames[0];
     let nearest = |t: usize, p: Vec3| nearest_vertex(&frames[t], p);
     let body =
         |t: usize| -> Vec<Vec3> { registered.frames[t].iter().step_by(7).map(|&p| rest[nearest(t, p)]).collect() };
-    let b0 = body(0);
     let diag = Bounds::of(rest).diagonal();
+    let mut first = body(0);
     (0..frames.len())
         .map(|t| {
             let b = body(t);
-            (b.iter().zip(&b0).map(|(x, y)| x.distance_squared(*y)).sum::<f32>() / b.len() as f32).sqrt() / diag
+            if starts.contains(&(t as u32)) {
+                first = b.clone();
+            }
+            (b.iter().zip(&first).map(|(x, y)| x.distance_squared(*y)).sum::<f32>() / b.len() as f32).sqrt() / diag
         })
         .collect()
 }
 
 /// Encodes a registered motion on its grid's mesh and decodes the grid.
 fn round_trip(src: &InMemory, grid: usize, qp: u8) -> (usize, Vec<Vec<Vec3>>) {
-    let mut opts = EncodeOptions { grid, source_mesh: false, ..Default::default() };
+    round_trip_in(src, grid, qp, &[])
+}
+
+/// [`round_trip`] with segments (random-access points where a new map starts).
+fn round_trip_in(src: &InMemory, grid: usize, qp: u8, segments: &[u32]) -> (usize, Vec<Vec<Vec3>>) {
+    let mut opts = EncodeOptions { grid, source_mesh: false, segments: segments.to_vec(), ..Default::default() };
     opts.video.qp = qp;
     let (bytes, _) = encode(src, &opts, &mut |_, _, _| {}).unwrap();
     let file = cgv::format::read(&bytes).unwrap();
@@ -107,11 +116,11 @@ fn a_remeshed_walk_is_tracked_registered_and_coded() {
         assert!(extreme, "feature at {p} is on no extremity");
     }
     let grid = Grid::new(64).unwrap();
-    let (registered, report) = register(Path::new("walk"), 30.0, &frames, grid).unwrap();
+    let (registered, report) = register(Path::new("walk"), 30.0, &frames, grid, 0).unwrap();
     // Every frame's cut follows the last one's: all maps agree up to a
     // turn, and the grid stays where it was on the body.
     assert_eq!(report.unmatched_frames, 0, "{report:?}");
-    let swum = swim(&walk, &registered.grid);
+    let swum = swim(&walk, &registered.grid, &[]);
     assert!(swum.iter().all(|&s| s < SWIM_BOUND), "swim {swum:?}");
     // On the grid's own mesh the encoder maps nothing: each sample is its vertex.
     let opts = EncodeOptions { grid: 64, source_mesh: false, ..Default::default() };
@@ -133,7 +142,7 @@ fn each_frames_own_mesh_comes_back() {
     let walk = cgv::mesh::builtin::motion(6);
     let frames = remeshed(&walk, 6);
     let grid = Grid::new(64).unwrap();
-    let (registered, _) = register(Path::new("walk"), 30.0, &frames, grid).unwrap();
+    let (registered, _) = register(Path::new("walk"), 30.0, &frames, grid, 0).unwrap();
     let mut opts = EncodeOptions { grid: 64, source_mesh: false, frame_meshes: true, ..Default::default() };
     opts.video.qp = 20;
     let (bytes, report) = encode(&registered, &opts, &mut |_, _, _| {}).unwrap();
@@ -205,7 +214,7 @@ fn a_frame_with_a_feature_missing_still_maps_consistently() {
     let (registered, report) = register_tracked(label, 30.0, &frames, tracked, grid).unwrap();
     assert!(report.cones_seen.contains(&0.9), "the gap is bridged and the track a cone still: {report:?}");
     assert_eq!(report.unmatched_frames, 0, "{report:?}");
-    let swum = swim(&walk, &registered.grid);
+    let swum = swim(&walk, &registered.grid, &[]);
     assert!(swum.iter().all(|&s| s < SWIM_BOUND), "swim {swum:?}");
 }
 
@@ -231,7 +240,7 @@ fn frames_with_fins_map_as_well_as_their_neighbours() {
     };
     assert!(frames[1..].iter().all(|c| fins(c) > 0) && fins(&frames[0]) == 0, "the case this test is about");
     let grid = Grid::new(128).unwrap();
-    let (registered, report) = register(&dir, 30.0, &frames, grid).unwrap();
+    let (registered, report) = register(&dir, 30.0, &frames, grid, 0).unwrap();
     let err = surface_rms(&clip, grid, &registered.grid.frames);
     eprintln!("horse-gallop frames 4-7 (fins in 5-7): registration {err:?}; {report:?}");
     assert!(err.iter().all(|&e| e < 0.003), "{err:?}");
@@ -249,12 +258,17 @@ fn a_clip_whose_topology_changes_halfway_gets_two_segments() {
     let mut flicker = frames.clone();
     flicker[2].faces.swap_remove(0);
     assert_eq!(segment_starts(&flicker), [0]);
+    // At most 3 frames a segment: one every 3 frames.
+    assert_eq!(segment_ranges(&frames, 3), [0..3, 3..6, 6..8]);
     for f in &mut frames[4..] {
         f.faces.swap_remove(0);
     }
     assert_eq!(segment_starts(&frames), [0, 4]);
+    // Frames 3 and 6 lie within SEGMENT_FRAMES of the change at 4.
+    assert_eq!(segment_ranges(&frames, 3), [0..4, 4..8]);
+    assert_eq!(segment_ranges(&frames, 0), [0..4, 4..8]);
     let grid = Grid::new(32).unwrap();
-    let (registered, report) = register(Path::new("walk"), 30.0, &frames, grid).unwrap();
+    let (registered, report) = register(Path::new("walk"), 30.0, &frames, grid, 60).unwrap();
     assert_eq!((report.frames, &report.segments[..], report.unmatched_frames), (8, &[4][..], 0), "{report:?}");
     let opts = EncodeOptions { grid: 32, source_mesh: false, segments: report.segments.clone(), ..Default::default() };
     let (bytes, _) = encode(&registered, &opts, &mut |_, _, _| {}).unwrap();
@@ -312,7 +326,9 @@ fn unregistered_against_registered() {
     };
     let grid = Grid::new(n).unwrap();
     let r: usize = std::env::var("CGV_REGISTER_GRID").ok().and_then(|s| s.parse().ok()).unwrap_or(n);
-    let (registered, report) = register(&dir, 30.0, &capture, Grid::new(r).unwrap()).unwrap();
+    // Segments as the encoder makes them (a map every 2 s at 30 frames/s).
+    let (registered, report) =
+        register(&dir, 30.0, &capture, Grid::new(r).unwrap(), longest_segment(0.0, 30.0)).unwrap();
     let mapped = surface_rms(&truth, Grid::new(r).unwrap(), &registered.grid.frames);
     println!(
         "{name}, {frames} frames, N = {n}, registered on {r}: {report:?}; registration alone {:.4} % (worst frame {:.4} %)",
@@ -374,7 +390,7 @@ fn unregistered_against_registered() {
     // spacing against the pinned grid's, frame 0's map carried by the
     // truth): how far the map's sampling density moves on the body.
     let register_stencils = cgv::grid::stencil::Stencils::new(Grid::new(r).unwrap());
-    let carried = pinned_motion(&truth, &registered.grid);
+    let carried = pinned_motion(&truth, &registered.grid, &report.segments);
     let drifts: Vec<f64> = (0..frames)
         .map(|t| cgv::metrics::spacing_drift(&register_stencils, &carried.frames[t], &registered.grid.frames[t], &[]))
         .collect();
@@ -384,12 +400,12 @@ fn unregistered_against_registered() {
         100.0 * drifts.iter().cloned().fold(0.0, f64::max),
         drifts.iter().map(|x| (x * 1e3).round() / 10.0).collect::<Vec<_>>()
     );
-    let swim = swim(&truth, &registered.grid);
+    let swim = swim(&truth, &registered.grid, &report.segments);
     let rest = &truth.frames[0];
     let diag = Bounds::of(rest).diagonal();
     let nearest = |t: usize, p: Vec3| nearest_vertex(&truth.frames[t], p);
     if let Ok(which) = std::env::var("CGV_JITTER") {
-        let pinned = (which == "pinned").then(|| pinned_motion(&truth, &registered.grid));
+        let pinned = (which == "pinned").then(|| pinned_motion(&truth, &registered.grid, &report.segments));
         print_body_motion(&truth, &pinned.as_ref().unwrap_or(&registered.grid).frames);
     }
     println!(
@@ -423,7 +439,13 @@ fn unregistered_against_registered() {
     let bits = |bytes: usize| bytes as f64 * 8.0 / (truth.topology.vertex_count * frames) as f64;
     // --mesh frames at QP 28: what each frame's own mesh costs, and how far
     // its rebuilt vertices are from the capture's own.
-    let mut opts = EncodeOptions { grid: n, source_mesh: false, frame_meshes: true, ..Default::default() };
+    let mut opts = EncodeOptions {
+        grid: n,
+        source_mesh: false,
+        frame_meshes: true,
+        segments: report.segments.clone(),
+        ..Default::default()
+    };
     opts.video.qp = 28;
     let (bytes, coded) = encode(&registered, &opts, &mut |_, _, _| {}).unwrap();
     let mut dec = FileDecoder::new(cgv::format::read(&bytes).unwrap(), cgv::solve::SolverKind::Predictive).unwrap();
@@ -450,7 +472,7 @@ fn unregistered_against_registered() {
     );
     // CGV_PINNED=1: frame 0's grid carried by the truth's correspondence
     // (the capture's map without its swim), coded at each QP.
-    let pinned = std::env::var("CGV_PINNED").is_ok().then(|| pinned_motion(&truth, &registered.grid));
+    let pinned = std::env::var("CGV_PINNED").is_ok().then(|| pinned_motion(&truth, &registered.grid, &report.segments));
     // CGV_QPS=16,28 for some rows only (empty: none).
     let qps: Vec<u8> = std::env::var("CGV_QPS")
         .unwrap_or_else(|_| "16,22,28,34".into())
@@ -465,13 +487,13 @@ fn unregistered_against_registered() {
         let mut dec = FileDecoder::new(file, cgv::solve::SolverKind::Predictive).unwrap();
         let reg: Vec<Vec<Vec3>> = (0..frames).map(|_| dec.next_frame().unwrap().0).collect();
         let reg_err = surface_rms(&truth, grid, &reg);
-        let (ubytes, decoded) = round_trip(&registered.grid, n, qp);
+        let (ubytes, decoded) = round_trip_in(&registered.grid, n, qp, &report.segments);
         let un_err = surface_rms(&truth, grid, &decoded);
         // The coding's own error: the decoded grid against the grid coded.
         let coding = surface_rms(&registered.grid, grid, &decoded);
         let mean = |e: &[f64]| 100.0 * e.iter().sum::<f64>() / e.len() as f64;
         if let Some(p) = &pinned {
-            let (pbytes, pdec) = round_trip(p, n, qp);
+            let (pbytes, pdec) = round_trip_in(p, n, qp, &report.segments);
             println!(
                 "pinned QP {qp}: {:.3} b/v/f, {:.4} % against the truth, {:.4} % against its input",
                 bits(pbytes),
@@ -579,7 +601,7 @@ fn the_commands_make_report_and_code_a_capture() {
 /// kinds, and a glTF frame that is an animation, are refused by name.
 #[test]
 fn a_capture_of_glb_frames_reads_as_its_obj_frames() {
-    use cgv::features::register::read_capture;
+    use cgv::features::capture::read_capture;
     use cgv::mesh::{gltf_out::write_glb, Topology};
     let dir = common::temp_dir("unregistered-glb");
     let (objs, glbs) = (dir.join("obj"), dir.join("glb"));
@@ -666,11 +688,18 @@ fn nearest_on_triangle(p: Vec3, t: [Vec3; 3]) -> [f32; 3] {
 
 /// The registered grid's frame 0 pinned to the truth's surface (each sample
 /// at its nearest point on a face around its nearest vertex) and carried
-/// through the truth's frames by its correspondence: the capture's map
+/// through the truth's frames by its correspondence, and so again from
+/// each segment's first frame (`starts`, as [`swim`]'s): the capture's map
 /// with no swim (a diagnostic: which of the two the coding pays for).
-fn pinned_motion(truth: &InMemory, registered: &InMemory) -> InMemory {
-    let spots = spots_on(truth, 0, &registered.frames[0]);
-    let frames = truth.frames.iter().map(|f| spots.iter().map(|s| at_spot(truth, f, *s)).collect()).collect();
+fn pinned_motion(truth: &InMemory, registered: &InMemory, starts: &[u32]) -> InMemory {
+    let mut spots = Vec::new();
+    let mut frames = Vec::with_capacity(truth.frames.len());
+    for (t, f) in truth.frames.iter().enumerate() {
+        if t == 0 || starts.contains(&(t as u32)) {
+            spots = spots_on(truth, t, &registered.frames[t]);
+        }
+        frames.push(spots.iter().map(|s| at_spot(truth, f, *s)).collect());
+    }
     InMemory { frames, ..pinned_shell(registered) }
 }
 

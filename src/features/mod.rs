@@ -1,6 +1,7 @@
 //! Features of an unregistered capture (every frame its own mesh), as the
 //! seed paper builds its conformal geometry videos from one (section 4):
 //!
+//! - [`capture`]: the capture's frames, each its own mesh;
 //! - [`hks`]: the heat kernel signature, from the Laplacian's low
 //!   eigenpairs;
 //! - [`nearest`]: a frame's vertices nearest another's, to start the
@@ -12,13 +13,18 @@
 //! - [`register`]: every frame mapped onto the grid with four tracked
 //!   features as the map's cones: a registered motion;
 //! - [`follow`]: each frame's cut where the previous frame's ran;
+//! - [`segments`]: stretches of a capture registered each on its own
+//!   (where the topology changes, every random-access interval, and where
+//!   a stretch's tracks or maps fail);
 //! - [`smooth`]: the registered grid smoothed in time along the surface.
 
+pub mod capture;
 pub mod detect;
 pub mod follow;
 pub mod hks;
 pub mod jumps;
 pub mod nearest;
 pub mod register;
+pub mod segments;
 pub mod smooth;
 pub mod track;

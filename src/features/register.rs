@@ -9,14 +9,16 @@
 //! a registered animation of the capture, which the codec codes as any
 //! other motion.
 
+use super::capture::CaptureFrame;
 use super::detect::{features_near, Feature};
 use super::follow::{self, CutTrace};
+use super::segments::segment_ranges;
 use super::track::{place, track, Track};
-use super::{jumps, smooth};
+use super::{jumps, segments, smooth};
 use crate::error::{Error, Result};
 use crate::grid::Grid;
 use crate::mesh::carrier::Carrier;
-use crate::mesh::{analyze, Bounds, FrameMesh, FrameSelection, FrameSource, InMemory, Topology};
+use crate::mesh::{Bounds, FrameMesh, FrameSource, InMemory, Topology};
 use crate::param::cut::{corner_for, Graph};
 use crate::param::{parameterize, ParamOptions, Parameterization};
 use crate::resample::{carrier_places, quantized_place, SampleMap};
@@ -29,35 +31,6 @@ use std::sync::Arc;
 /// frame's map stops earlier than another's (pcow's best at N = 128 was
 /// after 20, `crate::param::SCORED_PASSES`).
 pub const AREA_PASSES: usize = 20;
-
-/// One frame of a capture: its own mesh.
-#[derive(Debug, Clone)]
-pub struct CaptureFrame {
-    pub positions: Vec<Vec3>,
-    pub faces: Vec<[u32; 3]>,
-}
-
-impl CaptureFrame {
-    /// The frame as a [`FrameMesh`], its places not known yet.
-    fn mesh(&self) -> FrameMesh {
-        FrameMesh { positions: self.positions.clone(), faces: self.faces.clone(), places: Vec::new() }
-    }
-}
-
-/// The frames of a folder of OBJ, or of glTF and GLB, files (`frames`, if
-/// given, a range of them), each its own mesh
-/// ([`crate::mesh::open::capture_files`]).
-pub fn read_capture(dir: &Path, frames: Option<FrameSelection>) -> Result<Vec<CaptureFrame>> {
-    let files = crate::mesh::open::capture_files(dir)?;
-    let (first, count) = match frames {
-        Some(s) => s.resolve(files.len()).map_err(|e| Error::Argument(format!("{}: {e}", dir.display())))?,
-        None => (0, files.len()),
-    };
-    files[first..first + count]
-        .par_iter()
-        .map(|f| crate::mesh::open::read_still(f).map(|(positions, faces)| CaptureFrame { positions, faces }))
-        .collect()
-}
 
 /// What the registration found, for `cgv info` and the encoder's report.
 #[derive(Debug, Clone, Default, serde::Serialize)]
@@ -85,7 +58,8 @@ pub struct RegisterReport {
     pub seconds_features: f64,
     pub seconds_maps: f64,
     /// Frames where a segment (after the first) starts: the topology
-    /// changed there ([`segment_starts`]).
+    /// changed there, or the last segment reached its longest
+    /// ([`segment_ranges`]).
     pub segments: Vec<u32>,
 }
 
@@ -176,43 +150,6 @@ pub fn track_features(label: &Path, features: Vec<Vec<Feature>>, diagonal: f32) 
     Ok(Tracked { features, tracks, cones, seconds: t0.elapsed().as_secs_f64() })
 }
 
-/// Where a capture's segments start: frame 0, and each frame whose
-/// topology (Euler characteristic, parts, holes) differs from the
-/// segment's and stays so for [`SEGMENT_FRAMES`] frames (an arm that
-/// touches the body, a part that appears). No map carries over such a
-/// change, so each segment is registered on its own. A frame that is not
-/// a manifold (a simplifier's pinched edge) has no say: its counts mean
-/// nothing.
-pub fn segment_starts(frames: &[CaptureFrame]) -> Vec<usize> {
-    let class = |f: &CaptureFrame| {
-        let r = analyze(&Topology { vertex_count: f.positions.len(), faces: f.faces.clone() }, &f.positions);
-        let manifold = r.non_manifold_edges == 0 && r.non_manifold_vertices == 0;
-        manifold.then_some((r.euler_characteristic, r.components, r.boundary_loops))
-    };
-    let classes: Vec<_> = frames.par_iter().map(class).collect();
-    let mut starts = vec![0];
-    let mut current = classes.iter().flatten().next().copied();
-    for t in 1..frames.len() {
-        let Some(c) = classes[t] else { continue };
-        let lasting = classes[t..frames.len().min(t + SEGMENT_FRAMES)].iter().all(|k| k.is_none_or(|k| k == c));
-        if current.is_some_and(|cur| cur != c) && lasting {
-            starts.push(t);
-            current = Some(c);
-        }
-    }
-    starts
-}
-
-/// The frames of each segment ([`segment_starts`]), in order.
-pub fn segment_ranges(frames: &[CaptureFrame]) -> Vec<std::ops::Range<usize>> {
-    let starts = segment_starts(frames);
-    let ends = starts.iter().skip(1).copied().chain([frames.len()]);
-    starts.iter().zip(ends).map(|(&a, b)| a..b).collect()
-}
-
-/// Frames a new topology must last to start a segment.
-pub const SEGMENT_FRAMES: usize = 3;
-
 /// A registered capture: its frames on the grid (a motion on the grid's
 /// own mesh, which this source gives), and each frame's own mesh with
 /// every vertex's place on that frame's map, turned as its grid was.
@@ -246,32 +183,59 @@ impl FrameSource for Registered {
 }
 
 /// The capture `frames` (named `label`) on `grid`: each frame's grid
-/// positions, as a motion on the grid's own mesh, and the report. A
-/// capture whose topology changes is registered segment by segment
-/// ([`segment_starts`]), each with its own tracks and map.
-pub fn register(label: &Path, fps: f32, frames: &[CaptureFrame], grid: Grid) -> Result<(Registered, RegisterReport)> {
-    let segments = segment_ranges(frames);
+/// positions, as a motion on the grid's own mesh, and the report. The
+/// capture is registered segment by segment ([`segment_ranges`]: where
+/// its topology changes, and every `longest` frames), each with its own
+/// tracks and map ([`registered_parts`]).
+pub fn register(
+    label: &Path,
+    fps: f32,
+    frames: &[CaptureFrame],
+    grid: Grid,
+    longest: usize,
+) -> Result<(Registered, RegisterReport)> {
+    let ranges = segment_ranges(frames, longest);
+    let several = ranges.len() > 1;
     let mut out: Option<(Registered, RegisterReport)> = None;
-    for (a, b) in segments.iter().map(|r| (r.start, r.end)) {
-        let part = &frames[a..b];
-        let in_segment = |e: Error| match segments.len() {
-            1 => e,
-            _ => Error::Argument(format!("the segment of frames {a}..{b}: {e}")),
+    for r in ranges {
+        let (a, b) = (r.start, r.end);
+        let in_segment = |e: Error| match several {
+            false => e,
+            true => Error::Argument(format!("the segment of frames {a}..{b}: {e}")),
         };
-        let tracked = track_capture(label, part).map_err(in_segment)?;
-        let (src, report) = register_tracked(label, fps, part, tracked, grid).map_err(in_segment)?;
-        out = Some(match out {
-            None => (src, report),
-            Some((mut all, mut so_far)) => {
-                all.grid.frames.extend(src.grid.frames);
-                all.meshes.extend(src.meshes);
-                so_far.join(a, &report);
-                (all, so_far)
-            }
-        });
+        for (start, src, report) in registered_parts(label, fps, &frames[r], grid).map_err(in_segment)? {
+            out = Some(match out {
+                None => (src, report),
+                Some((mut all, mut so_far)) => {
+                    all.grid.frames.extend(src.grid.frames);
+                    all.meshes.extend(src.meshes);
+                    so_far.join(a + start, &report);
+                    (all, so_far)
+                }
+            });
+        }
     }
     out.ok_or_else(|| Error::Argument(format!("{}: a capture without frames", label.display())))
 }
+
+/// One segment `part` registered, as one piece or, where that fails its
+/// checks ([`segments::split_at`]), as the pieces of its halves where both
+/// register: each piece's first frame (in `part`), grid and report.
+fn registered_parts(label: &Path, fps: f32, part: &[CaptureFrame], grid: Grid) -> Result<Vec<Piece>> {
+    let tracked = track_capture(label, part)?;
+    let (src, report) = register_tracked(label, fps, part, tracked, grid)?;
+    if let Some(mid) = segments::split_at(part, &src.grid.frames, report.cones_seen, grid)? {
+        let halves =
+            (registered_parts(label, fps, &part[..mid], grid), registered_parts(label, fps, &part[mid..], grid));
+        if let (Ok(left), Ok(right)) = halves {
+            return Ok(left.into_iter().chain(right.into_iter().map(|(s, g, r)| (s + mid, g, r))).collect());
+        }
+    }
+    Ok(vec![(0, src, report)])
+}
+
+/// A registered piece of a capture: its first frame, grid and report.
+type Piece = (usize, Registered, RegisterReport);
 
 /// [`register`] with the features already found and tracked.
 pub fn register_tracked(

@@ -206,8 +206,10 @@ pub struct Args {
     /// Frames where a new segment starts (format version 15), each a
     /// random-access point besides those of --random-access: where a
     /// capture's grid jumps (a new map), the closed loop restarts rather
-    /// than code the jump. `--unregistered` finds them itself where the
-    /// capture's topology changes; give more as `--segments 40,95`.
+    /// than code the jump. `--unregistered` starts one itself where the
+    /// capture's topology changes and at each random-access point (every
+    /// 2 s with --random-access 0), each tracked and mapped on its own;
+    /// give more as `--segments 40,95`.
     #[arg(long, value_name = "FRAMES", value_delimiter = ',')]
     segments: Vec<u32>,
     /// normal and predictive: bones as a predictor (format versions 13 and
@@ -408,10 +410,11 @@ fn register_grid(args: &Args) -> usize {
 /// found on stderr.
 fn registered(args: &Args) -> Result<(Box<dyn cgv::mesh::FrameSource>, Vec<u32>)> {
     let dir = std::path::Path::new(&args.input.input);
-    let frames = cgv::features::register::read_capture(dir, args.input.frames)?;
+    let frames = cgv::features::capture::read_capture(dir, args.input.frames)?;
     let n = register_grid(args);
     let grid = cgv::grid::Grid::new(n)?;
-    let (src, r) = cgv::features::register::register(dir, args.input.fps, &frames, grid)
+    let longest = cgv::features::segments::longest_segment(args.random_access, args.input.fps);
+    let (src, r) = cgv::features::register::register(dir, args.input.fps, &frames, grid, longest)
         .with_context(|| format!("registering {}", dir.display()))?;
     eprintln!(
         "registered {} frames on {n}²: {:.1} features a frame, {} tracks, the cones' tracks seen in {} of the frames, \
@@ -429,7 +432,10 @@ fn registered(args: &Args) -> Result<(Box<dyn cgv::mesh::FrameSource>, Vec<u32>)
         r.seconds_maps
     );
     if !r.segments.is_empty() {
-        eprintln!("the topology changes: segments start at frames 0, {}", join(&r.segments));
+        eprintln!(
+            "segments (each its own tracks and map) start at frames 0, {} (every {longest} frames and where the topology changes)",
+            join(&r.segments)
+        );
     }
     Ok((Box::new(src), r.segments))
 }

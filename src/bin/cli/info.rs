@@ -124,13 +124,17 @@ pub fn run(args: Args) -> Result<()> {
 
 /// `cgv info --unregistered`: the capture's frames, features and tracks.
 fn unregistered_info(args: &Args) -> Result<()> {
-    use cgv::features::register::{read_capture, segment_ranges, track_capture};
+    use cgv::features::capture::read_capture;
+    use cgv::features::register::track_capture;
+    use cgv::features::segments::{longest_segment, segment_ranges};
     let dir = std::path::Path::new(&args.input.input);
     let frames = read_capture(dir, args.input.frames)?;
     let sizes: Vec<usize> = frames.iter().map(|f| f.positions.len()).collect();
     let (lo, hi) = (sizes.iter().min().copied().unwrap_or(0), sizes.iter().max().copied().unwrap_or(0));
-    // Each segment (of one topology) is tracked on its own, as encode does.
-    let ranges = segment_ranges(&frames);
+    // Each segment (of one topology, at most the encoder's default
+    // random-access interval) is tracked on its own, as encode does.
+    let longest = longest_segment(0.0, args.input.fps);
+    let ranges = segment_ranges(&frames, longest);
     let starts: Vec<usize> = ranges.iter().map(|r| r.start).collect();
     let segments: Vec<_> = ranges
         .iter()
@@ -161,9 +165,9 @@ fn unregistered_info(args: &Args) -> Result<()> {
     println!("  frames        {} at {} fps", frames.len(), args.input.fps);
     println!("  vertices      {lo} to {hi} a frame");
     match starts.len() {
-        1 => println!("  segments      1 (the topology never changes)"),
+        1 => println!("  segments      1 (the topology never changes, at most {longest} frames)"),
         n => println!(
-            "  segments      {n}, from frames {} (where the topology changes; each its own map)",
+            "  segments      {n}, from frames {} (every {longest} frames and where the topology changes; each its own map)",
             starts.iter().map(usize::to_string).collect::<Vec<_>>().join(", ")
         ),
     }
