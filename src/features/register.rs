@@ -269,7 +269,13 @@ pub fn register_tracked(
     let mut mapped: Vec<Mapped> = Vec::with_capacity(frames.len());
     for (t, frame) in frames.iter().enumerate() {
         let trace = mapped.last().map(|m: &Mapped| &m.trace);
-        let m = map_frame(label, frame, &cones_at(t), trace, grid)?;
+        // A cut that cannot follow the last frame's (pcow's frames 30-60:
+        // "no path ... avoids the other cuts") is made afresh; a frame
+        // whose map then goes another way round is found below.
+        let m = match map_frame(label, frame, &cones_at(t), trace, grid) {
+            Err(_) if trace.is_some() => map_frame(label, frame, &cones_at(t), None, grid)?,
+            done => done?,
+        };
         mapped.push(m);
     }
     // The cut gives each cone its side by the order its path leaves the
@@ -324,7 +330,8 @@ fn remapped_to_agree(remap: &Remap, mapped: &mut [Mapped], reference: &[usize; 4
         let after = good.iter().find(|&&g| g > t);
         let tries = [1.0, RETRY_PULL].into_iter().flat_map(|pull| [before, after].map(|g| g.map(|&g| (g, pull))));
         for (g, pull) in tries.flatten() {
-            let again = remap(t, &mapped[g].trace.pulled(pull))?;
+            // A trace this frame's cut cannot follow is a try that failed.
+            let Ok(again) = remap(t, &mapped[g].trace.pulled(pull)) else { continue };
             if matches(&again) {
                 mapped[t] = again;
                 break;
@@ -390,7 +397,7 @@ fn steady_jumps(
         let tries = neighbours.into_iter().flatten().flat_map(|n| [(n, 1.0), (n, RETRY_PULL)]);
         let mut fixed = false;
         for (from, pull) in tries {
-            let again = remap(t, &mapped[from].trace.pulled(pull))?;
+            let Ok(again) = remap(t, &mapped[from].trace.pulled(pull)) else { continue };
             if symmetry_between(&again.sides, reference).is_none() {
                 continue;
             }
