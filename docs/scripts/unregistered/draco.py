@@ -20,32 +20,21 @@ from __future__ import annotations
 import argparse
 import json
 import pathlib
-import re
 import sys
 
 import numpy as np
 
 import cgv
+import obj_frames
+from obj_frames import frame_files
 
 DRACO_BITS = [6, 7, 8, 9, 10, 11, 12, 14]
 
 
 def read_obj(path: pathlib.Path) -> tuple[np.ndarray, np.ndarray]:
-    """Positions and triangles of a plain OBJ file (`v` and `f` lines)."""
-    v, f = [], []
-    for line in path.read_text().splitlines():
-        if line.startswith("v "):
-            v.append([float(x) for x in line.split()[1:4]])
-        elif line.startswith("f "):
-            idx = [int(w.split("/")[0]) for w in line.split()[1:]]
-            f.extend([idx[0] - 1, idx[k] - 1, idx[k + 1] - 1] for k in range(1, len(idx) - 1))
-    return np.asarray(v, dtype=np.float32), np.asarray(f, dtype=np.uint32).reshape(-1, 3)
-
-
-def frame_files(folder: pathlib.Path) -> list[pathlib.Path]:
-    """The OBJ files of a folder, ordered by the last number in the name."""
-    files = [p for p in folder.iterdir() if p.suffix.lower() == ".obj"]
-    return sorted(files, key=lambda p: int((re.findall(r"\d+", p.stem) or ["0"])[-1]))
+    """Positions (float32) and triangles (uint32) of a plain OBJ file, as DracoPy takes them."""
+    v, f = obj_frames.read_obj(path)
+    return v.astype(np.float32), f.astype(np.uint32)
 
 
 def main(argv=None) -> int:

@@ -16,21 +16,9 @@ from __future__ import annotations
 
 import argparse
 import pathlib
-import re
 
 import numpy as np
-
-
-def read_obj(path: pathlib.Path) -> tuple[np.ndarray, np.ndarray]:
-    """Positions and triangles of a plain OBJ file (`v` and `f` lines)."""
-    v, f = [], []
-    for line in path.read_text().splitlines():
-        if line.startswith("v "):
-            v.append([float(x) for x in line.split()[1:4]])
-        elif line.startswith("f "):
-            idx = [int(w.split("/")[0]) - 1 for w in line.split()[1:]]
-            f.extend([idx[0], idx[k], idx[k + 1]] for k in range(1, len(idx) - 1))
-    return np.asarray(v), np.asarray(f, dtype=np.int64).reshape(-1, 3)
+from obj_frames import frame_files, read_obj
 
 
 def weighted(a: np.ndarray, b: np.ndarray) -> float:
@@ -43,8 +31,7 @@ def main() -> int:
     ap.add_argument("folder", type=pathlib.Path, help="a registered motion: OBJ frames sharing one mesh")
     ap.add_argument("--frames", type=int, default=24, help="the first this many frames")
     args = ap.parse_args()
-    files = [p for p in args.folder.iterdir() if p.suffix.lower() == ".obj"]
-    files = sorted(files, key=lambda p: int((re.findall(r"\d+", p.stem) or ["0"])[-1]))[: args.frames]
+    files = frame_files(args.folder)[: args.frames]
     if len(files) < 2:
         raise SystemExit(f"{args.folder}: fewer than two OBJ frames")
     v0, faces = read_obj(files[0])
