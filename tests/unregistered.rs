@@ -37,6 +37,14 @@ fn remeshed_from(src: &dyn FrameSource, n: usize, first: usize) -> Vec<CaptureFr
         .collect()
 }
 
+/// Per-frame spacing drifts (fractions) as "mean M, worst frame W" in
+/// percent.
+fn drift_summary(drifts: &[f64]) -> String {
+    let mean = drifts.iter().sum::<f64>() / drifts.len().max(1) as f64;
+    let worst = drifts.iter().cloned().fold(0.0, f64::max);
+    format!("mean {:.1}, worst frame {:.1}", 100.0 * mean, 100.0 * worst)
+}
+
 /// Surface RMS of `frames` (on `grid`'s mesh) against `truth`'s frames,
 /// relative to each frame's diagonal.
 fn surface_rms(truth: &dyn FrameSource, grid: Grid, frames: &[Vec<Vec3>]) -> Vec<f64> {
@@ -395,9 +403,8 @@ fn unregistered_against_registered() {
         .map(|t| cgv::metrics::spacing_drift(&register_stencils, &carried.frames[t], &registered.grid.frames[t], &[]))
         .collect();
     println!(
-        "spacing drift against the pinned grid (%): mean {:.1}, worst frame {:.1}; per frame {:?}",
-        100.0 * drifts.iter().sum::<f64>() / frames as f64,
-        100.0 * drifts.iter().cloned().fold(0.0, f64::max),
+        "spacing drift against the pinned grid (%): {}; per frame {:?}",
+        drift_summary(&drifts),
         drifts.iter().map(|x| (x * 1e3).round() / 10.0).collect::<Vec<_>>()
     );
     let swim = swim(&truth, &registered.grid, &report.segments);
@@ -509,11 +516,7 @@ fn unregistered_against_registered() {
             let coded_drift: Vec<f64> = (0..frames)
                 .map(|t| cgv::metrics::spacing_drift(&stencils, &registered.grid.frames[t], &decoded[t], &[]))
                 .collect();
-            println!(
-                "QP {qp}: spacing drift, decoded against coded (%): mean {:.1}, worst frame {:.1}",
-                100.0 * coded_drift.iter().sum::<f64>() / frames as f64,
-                100.0 * coded_drift.iter().cloned().fold(0.0, f64::max)
-            );
+            println!("QP {qp}: spacing drift, decoded against coded (%): {}", drift_summary(&coded_drift));
         }
         println!(
             "| {name} ({frames}) | {n} | {qp} | {:.3} | {:.4} | {:.3} | {:.4} | {:.2} | {:.4} |",

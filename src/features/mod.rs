@@ -10,6 +10,8 @@
 //!   extremities;
 //! - [`track`]: features matched between adjacent frames into tracks;
 //! - [`jumps`]: frames whose grid jumps, found by its speed;
+//! - [`outliers`]: frames whose grid lies far from their own mesh,
+//!   rebuilt from their neighbours;
 //! - [`register`]: every frame mapped onto the grid with four tracked
 //!   features as the map's cones: a registered motion;
 //! - [`follow`]: each frame's cut where the previous frame's ran;
@@ -24,6 +26,7 @@ pub mod follow;
 pub mod hks;
 pub mod jumps;
 pub mod nearest;
+pub mod outliers;
 pub mod register;
 pub mod segments;
 pub mod smooth;

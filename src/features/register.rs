@@ -14,7 +14,7 @@ use super::detect::{features_near, Feature};
 use super::follow::{self, CutTrace};
 use super::segments::segment_ranges;
 use super::track::{place, track, Track};
-use super::{jumps, segments, smooth};
+use super::{jumps, outliers, segments, smooth};
 use crate::error::{Error, Result};
 use crate::grid::Grid;
 use crate::mesh::carrier::Carrier;
@@ -55,6 +55,9 @@ pub struct RegisterReport {
     pub bridged_frames: usize,
     /// Frames whose grid was smoothed in time ([`super::smooth`]).
     pub smoothed_frames: usize,
+    /// Frames whose grid lay far from their own mesh, rebuilt from their
+    /// neighbours ([`super::outliers`]).
+    pub rebuilt_frames: usize,
     pub seconds_features: f64,
     pub seconds_maps: f64,
     /// Frames where a segment (after the first) starts: the topology
@@ -196,7 +199,7 @@ pub fn register(
 ) -> Result<(Registered, RegisterReport)> {
     let ranges = segment_ranges(frames, longest);
     let several = ranges.len() > 1;
-    let mut out: Option<(Registered, RegisterReport)> = None;
+    let (mut out, mut starts): (Option<(Registered, RegisterReport)>, Vec<usize>) = (None, Vec::new());
     for r in ranges {
         let (a, b) = (r.start, r.end);
         let in_segment = |e: Error| match several {
@@ -204,6 +207,7 @@ pub fn register(
             true => Error::Argument(format!("the segment of frames {a}..{b}: {e}")),
         };
         for (start, src, report) in registered_parts(label, fps, &frames[r], grid).map_err(in_segment)? {
+            starts.push(a + start);
             out = Some(match out {
                 None => (src, report),
                 Some((mut all, mut so_far)) => {
@@ -215,7 +219,10 @@ pub fn register(
             });
         }
     }
-    out.ok_or_else(|| Error::Argument(format!("{}: a capture without frames", label.display())))
+    let (mut src, mut report) =
+        out.ok_or_else(|| Error::Argument(format!("{}: a capture without frames", label.display())))?;
+    report.rebuilt_frames = outliers::rebuilt(grid, frames, &starts, &mut src.grid.frames, &mut src.meshes)?;
+    Ok((src, report))
 }
 
 /// One segment `part` registered, as one piece or, where that fails its
@@ -303,6 +310,7 @@ pub fn register_tracked(
         unmatched_frames: unmatched,
         bridged_frames: jumping.len(),
         smoothed_frames: smoothed,
+        rebuilt_frames: 0,
         seconds_features: tracked.seconds,
         seconds_maps: t1.elapsed().as_secs_f64(),
         segments: Vec::new(),

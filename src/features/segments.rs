@@ -4,10 +4,10 @@
 //! random-access point of the file (format version 15).
 
 use super::capture::CaptureFrame;
+use super::outliers::resampling_errors;
 use crate::error::Result;
 use crate::grid::Grid;
 use crate::mesh::{analyze, Topology};
-use crate::metrics::surface::symmetric;
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -97,12 +97,7 @@ pub fn split_at(part: &[CaptureFrame], grids: &[Vec<Vec3>], cones_seen: [f64; 4]
     if cones_seen.iter().any(|&s| s < SEEN) {
         return Ok(middle);
     }
-    let faces = grid.topology().faces;
-    let errors: Vec<f64> = part
-        .par_iter()
-        .zip(grids)
-        .map(|(f, g)| symmetric(&f.positions, &f.faces, g, &faces).map(|d| d.rms))
-        .collect::<Result<_>>()?;
+    let errors = resampling_errors(part, grids, grid)?;
     let mean = errors.iter().sum::<f64>() / errors.len() as f64;
     let worst = errors.iter().copied().fold(0.0, f64::max);
     Ok(if worst > WORST * mean { middle } else { None })

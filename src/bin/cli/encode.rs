@@ -419,7 +419,7 @@ fn registered(args: &Args) -> Result<(Box<dyn cgv::mesh::FrameSource>, Vec<u32>)
     eprintln!(
         "registered {} frames on {n}²: {:.1} features a frame, {} tracks, the cones' tracks seen in {} of the frames, \
          {} frames turned back to the first's sides, {} that no symmetry matches, {} bridged from their neighbours (their grid jumped), \
-         {} smoothed in time; {:.1} s features, {:.1} s maps",
+         {} smoothed in time, {} rebuilt from their neighbours (their grid lay far from their mesh); {:.1} s features, {:.1} s maps",
         r.frames,
         r.features_per_frame,
         r.tracks,
@@ -428,6 +428,7 @@ fn registered(args: &Args) -> Result<(Box<dyn cgv::mesh::FrameSource>, Vec<u32>)
         r.unmatched_frames,
         r.bridged_frames,
         r.smoothed_frames,
+        r.rebuilt_frames,
         r.seconds_features,
         r.seconds_maps
     );
