@@ -51,6 +51,66 @@ pub fn jumped(g: &[Vec3], steady: &[Vec3], frames: usize, median: f32, diagonal:
     d > median * (JUMP + frames.saturating_sub(1) as f32) && d > LEAST_JUMP * diagonal
 }
 
+/// Frames whose grids (`grids`, compared as stored) jump, walked from the
+/// [`anchor`] forwards and then backwards, each against the last steady
+/// frame in its direction. A frame that jumps is offered to `fix` with the
+/// frames to retry from (that steady frame, and the next one on) and a
+/// test its new grid must pass (no jump, and closer to the steady frame
+/// than its own); a grid `fix` returns replaces the frame's and it is
+/// steady. Returns the frames that still jump, in order (`diagonal`: the
+/// capture's).
+pub fn found(grids: &mut [Vec<Vec3>], diagonal: f32, fix: &mut Fix) -> Result<Vec<usize>> {
+    let n = grids.len();
+    let median = median((1..n).map(|t| rms_distance(&grids[t], &grids[t - 1])).collect());
+    let a = anchor(grids, median, diagonal);
+    let mut left = Vec::new();
+    for (order, step) in [((a + 1..n).collect::<Vec<_>>(), 1), ((0..a).rev().collect(), -1)] {
+        let mut s = a;
+        for t in order {
+            let frames = t.abs_diff(s);
+            if !jumped(&grids[t], &grids[s], frames, median, diagonal) {
+                s = t;
+                continue;
+            }
+            let (steady, own) = (&grids[s], &grids[t]);
+            let passes = |g: &[Vec3]| {
+                !jumped(g, steady, frames, median, diagonal) && rms_distance(g, steady) < rms_distance(own, steady)
+            };
+            let next = t.checked_add_signed(step).filter(|&k| k < n);
+            match fix(t, [Some(s), next], &passes)? {
+                Some(g) => (grids[t], s) = (g, t),
+                None => left.push(t),
+            }
+        }
+    }
+    left.sort_unstable();
+    Ok(left)
+}
+
+/// [`found`]'s retry of a jumping frame: the frame, the frames to retry
+/// from, and the test a new grid must pass; the new grid, if any.
+pub type Fix<'a> = dyn FnMut(usize, [Option<usize>; 2], &dyn Fn(&[Vec3]) -> bool) -> Result<Option<Vec<Vec3>>> + 'a;
+
+/// Frames either side of a frame that [`anchor`] compares it with.
+pub const ANCHOR_WINDOW: usize = 4;
+
+/// The frame whose grid the most frames within [`ANCHOR_WINDOW`] of it
+/// are steady against (as a share of those there are; the first of equals).
+/// A walk must start from a steady frame: from one whose map went another
+/// way round, every frame after it looks like a jump (pcow's frames
+/// 180-191, walked from 180: 11 frames bridged from it, carried 2-22 % of
+/// the diagonal across the body).
+pub fn anchor(grids: &[Vec<Vec3>], median: f32, diagonal: f32) -> usize {
+    let share = |a: usize| {
+        let near = a.saturating_sub(ANCHOR_WINDOW)..(a + ANCHOR_WINDOW + 1).min(grids.len());
+        let others: Vec<usize> = near.filter(|&b| b != a).collect();
+        let steady = others.iter().filter(|&&b| !jumped(&grids[b], &grids[a], a.abs_diff(b), median, diagonal)).count();
+        steady as f64 / others.len().max(1) as f64
+    };
+    let shares: Vec<f64> = (0..grids.len()).into_par_iter().map(share).collect();
+    (0..grids.len()).fold(0, |best, a| if shares[a] > shares[best] { a } else { best })
+}
+
 /// A frame's grid rebuilt from the steady frames around it: each sample
 /// where a straight line in time between its places in `before` and
 /// `after` (each a frame index and its grid; either may be missing) puts
@@ -135,19 +195,9 @@ fn box_smoothed(n: usize, mut values: Vec<Vec3>, passes: usize) -> Vec<Vec3> {
 mod tests {
     use super::*;
 
-    /// The frames of `grids` that jump, each judged against the last
-    /// steady frame before it (as the registration walks them).
+    /// The frames of `grids` that jump, nothing retried.
     fn jumping_frames(grids: &[Vec<Vec3>]) -> Vec<usize> {
-        let m = median(grids.windows(2).map(|w| rms_distance(&w[1], &w[0])).collect());
-        let (mut steady, mut out) = (0, Vec::new());
-        for t in 1..grids.len() {
-            if jumped(&grids[t], &grids[steady], t - steady, m, 1.0) {
-                out.push(t);
-            } else {
-                steady = t;
-            }
-        }
-        out
+        found(&mut grids.to_vec(), 1.0, &mut |_, _, _| Ok(None)).unwrap()
     }
 
     /// A grid moving steadily, with frames 4 and 5 turned end to end on
@@ -170,6 +220,22 @@ mod tests {
             .map(|t| (0..16).map(|i| Vec3::new(i as f32 * 0.1 + if t == 6 { 0.5 } else { 0.0 }, 0.0, 0.0)).collect())
             .collect();
         assert!(jumping_frames(&travelling).is_empty(), "the whole body's move is no jump");
+        // The first frame turned: the walk starts from a steady one, and
+        // only the first frame jumps.
+        let first: Vec<Vec<Vec3>> =
+            grids.iter().enumerate().map(|(t, g)| if t == 0 { grids[4].clone() } else { g.clone() }).collect();
+        assert_eq!(jumping_frames(&first[..4]), vec![0]);
+        // A fix that passes the test replaces the grid, and the frame is
+        // steady; one that does not is refused.
+        let mut fixed = grids.clone();
+        let steady = grids[3].clone();
+        let left = found(&mut fixed, 1.0, &mut |t, from, passes| {
+            assert!(from[0].is_some_and(|s| s != t && s != 9), "{t}: retried from a steady frame, not {from:?}");
+            Ok(Some(steady.clone()).filter(|g| t != 9 && passes(g)))
+        })
+        .unwrap();
+        assert_eq!(left, vec![9]);
+        assert_eq!(fixed[4], grids[3]);
         // A still grid whose maps wobble 1 % of the diagonal in one frame:
         // its median speed is zero, and still no frame jumps.
         let still: Vec<Vec<Vec3>> = (0..12)

@@ -373,7 +373,7 @@ fn bridged_and_smoothed(
     smooth::smooth(positions, &surfaces, &grid.topology().faces, diagonal)
 }
 
-/// Frames whose grid jumps ([`super::jumps`]: its cut went another way
+/// Frames whose grid jumps ([`jumps::found`]: its cut went another way
 /// round the body with its cones on the same sides) mapped again with the
 /// cut traced from the last steady frame's, then from the next frame's,
 /// each as it is and pulled [`RETRY_PULL`] times as hard; the first try
@@ -386,42 +386,27 @@ fn steady_jumps(
     grid: Grid,
     diagonal: f32,
 ) -> Result<Vec<usize>> {
-    // Grids are compared as turned_back will store them; two at a time, so
-    // that a long capture's grids are not held twice.
+    // Grids are compared as turned_back will store them.
     let turned = |m: &Mapped| match symmetry_between(&m.sides, reference) {
         Some(s) if s != IDENTITY => apply_symmetry(grid, &m.grid, s),
         _ => m.grid.clone(),
     };
-    let speed = |t: usize| jumps::rms_distance(&turned(&mapped[t]), &turned(&mapped[t - 1]));
-    let median = jumps::median((1..mapped.len()).map(speed).collect());
-    let (mut steady, mut s, mut left) = (turned(&mapped[0]), 0, Vec::new());
-    for t in 1..mapped.len() {
-        let g = turned(&mapped[t]);
-        if !jumps::jumped(&g, &steady, t - s, median, diagonal) {
-            (steady, s) = (g, t);
-            continue;
-        }
-        let neighbours = [Some(s), (t + 1 < mapped.len()).then_some(t + 1)];
-        let tries = neighbours.into_iter().flatten().flat_map(|n| [(n, 1.0), (n, RETRY_PULL)]);
-        let mut fixed = false;
+    let mut grids: Vec<Vec<Vec3>> = mapped.iter().map(turned).collect();
+    jumps::found(&mut grids, diagonal, &mut |t, from, passes| {
+        let tries = from.into_iter().flatten().flat_map(|n| [(n, 1.0), (n, RETRY_PULL)]);
         for (from, pull) in tries {
             let Ok(again) = remap(t, &mapped[from].trace.pulled(pull)) else { continue };
             if symmetry_between(&again.sides, reference).is_none() {
                 continue;
             }
             let a = turned(&again);
-            if !jumps::jumped(&a, &steady, t - s, median, diagonal)
-                && jumps::rms_distance(&a, &steady) < jumps::rms_distance(&g, &steady)
-            {
-                (mapped[t], steady, s, fixed) = (again, a, t, true);
-                break;
+            if passes(&a) {
+                mapped[t] = again;
+                return Ok(Some(a));
             }
         }
-        if !fixed {
-            left.push(t);
-        }
-    }
-    Ok(left)
+        Ok(None)
+    })
 }
 
 /// Each frame's grid and its vertices' places turned so that its cones
