@@ -227,7 +227,8 @@ pub fn register(
 
 /// One segment `part` registered, as one piece or, where that fails its
 /// checks ([`segments::split_at`]), as the pieces of its halves where both
-/// register: each piece's first frame (in `part`), grid and report.
+/// register and their worst frame lies no further from its own mesh than
+/// the whole's: each piece's first frame (in `part`), grid and report.
 fn registered_parts(label: &Path, fps: f32, part: &[CaptureFrame], grid: Grid) -> Result<Vec<Piece>> {
     let tracked = track_capture(label, part)?;
     let (src, report) = register_tracked(label, fps, part, tracked, grid)?;
@@ -235,10 +236,31 @@ fn registered_parts(label: &Path, fps: f32, part: &[CaptureFrame], grid: Grid) -
         let halves =
             (registered_parts(label, fps, &part[..mid], grid), registered_parts(label, fps, &part[mid..], grid));
         if let (Ok(left), Ok(right)) = halves {
-            return Ok(left.into_iter().chain(right.into_iter().map(|(s, g, r)| (s + mid, g, r))).collect());
+            let pieces: Vec<Piece> =
+                left.into_iter().chain(right.into_iter().map(|(s, g, r)| (s + mid, g, r))).collect();
+            let whole = [(0, src, report)];
+            if worst_resampling(part, &pieces, grid)? <= worst_resampling(part, &whole, grid)? {
+                return Ok(pieces);
+            }
+            return Ok(whole.into());
         }
     }
     Ok(vec![(0, src, report)])
+}
+
+/// The furthest any frame of `part`, registered as `pieces`, lies from
+/// its own mesh ([`outliers::resampling_errors`]).
+fn worst_resampling(part: &[CaptureFrame], pieces: &[Piece], grid: Grid) -> Result<f64> {
+    let mut worst: f64 = 0.0;
+    for (start, src, _) in pieces {
+        let frames = &src.grid.frames;
+        let frames_of = part.get(*start..*start + frames.len());
+        let piece = frames_of
+            .ok_or_else(|| Error::Argument(format!("a piece of {} frames past the segment's end", frames.len())))?;
+        let errors = outliers::resampling_errors(piece, frames, grid)?;
+        worst = errors.into_iter().fold(worst, f64::max);
+    }
+    Ok(worst)
 }
 
 /// A registered piece of a capture: its first frame, grid and report.
@@ -680,6 +702,27 @@ fn nearest(positions: &[Vec3], p: Vec3) -> Option<u32> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The worst frame of a segment's pieces is measured on the frames each
+    /// piece covers: halves with one frame off their mesh are worse than a
+    /// whole with every frame on it, and a piece past the end is an error.
+    #[test]
+    fn pieces_are_judged_by_their_worst_frame() {
+        let grid = Grid::new(4).unwrap();
+        let faces = grid.topology().faces;
+        let p: Vec<Vec3> = (0..16).map(|i| Vec3::new((i % 4) as f32, (i / 4) as f32, ((i * 7) % 5) as f32)).collect();
+        let part = vec![CaptureFrame { positions: p.clone(), faces: faces.clone() }; 6];
+        let piece = |start: usize, frames: Vec<Vec<Vec3>>| {
+            let grid = InMemory { label: PathBuf::new(), fps: 30.0, topology: grid.topology(), frames };
+            (start, Registered { grid, meshes: Vec::new() }, RegisterReport::default())
+        };
+        let whole = [piece(0, vec![p.clone(); 6])];
+        let off: Vec<Vec3> = p.iter().map(|&x| x * 1.1).collect();
+        let halves = [piece(0, vec![p.clone(); 3]), piece(3, vec![p.clone(), off, p.clone()])];
+        let (w, h) = (worst_resampling(&part, &whole, grid).unwrap(), worst_resampling(&part, &halves, grid).unwrap());
+        assert!(w < 1e-6 && h > 0.1, "{w} {h}");
+        assert!(worst_resampling(&part, &[piece(4, vec![p.clone(); 3])], grid).is_err());
+    }
 
     /// The faces past the second on an edge go; a manifold mesh keeps all.
     #[test]
