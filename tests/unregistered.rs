@@ -90,7 +90,19 @@ fn round_trip(src: &InMemory, grid: usize, qp: u8) -> (usize, Vec<Vec<Vec3>>) {
 
 /// [`round_trip`] with segments (random-access points where a new map starts).
 fn round_trip_in(src: &InMemory, grid: usize, qp: u8, segments: &[u32]) -> (usize, Vec<Vec<Vec3>>) {
-    let mut opts = EncodeOptions { grid, source_mesh: false, segments: segments.to_vec(), ..Default::default() };
+    round_trip_slid(src, grid, qp, segments, false)
+}
+
+/// [`round_trip_in`], the closed loop's targets slid along each frame's
+/// own mesh (`src`'s) where `slide` (`EncodeOptions::slide`).
+fn round_trip_slid(
+    src: &dyn FrameSource,
+    grid: usize,
+    qp: u8,
+    segments: &[u32],
+    slide: bool,
+) -> (usize, Vec<Vec<Vec3>>) {
+    let mut opts = EncodeOptions { grid, source_mesh: false, segments: segments.to_vec(), slide, ..Default::default() };
     opts.video.qp = qp;
     let (bytes, _) = encode(src, &opts, &mut |_, _, _| {}).unwrap();
     let file = cgv::format::read(&bytes).unwrap();
@@ -141,16 +153,32 @@ fn a_remeshed_walk_is_tracked_registered_and_coded() {
     assert!(coded.iter().all(|&e| e < 0.01), "{coded:?}");
 }
 
+/// Frame `t`'s own vertices as `dec` rebuilds them on its decoded grid
+/// `x`, against the capture frame `c`'s: RMS, of `c`'s diagonal.
+fn own_vertices_error(dec: &mut FileDecoder, t: usize, x: &[Vec3], c: &CaptureFrame) -> f64 {
+    let (v, _) = dec.frame_mesh(t as u32, x).unwrap().unwrap();
+    let order = cgv::format::frame_mesh::first_use_order(&c.faces, c.positions.len());
+    let sq: f64 = (0..v.len()).map(|k| v[order[k] as usize].distance_squared(c.positions[k]) as f64).sum();
+    (sq / v.len() as f64).sqrt() / Bounds::of(&c.positions).diagonal() as f64
+}
+
+/// The walk's first 6 frames remeshed and registered on the 64 grid: the
+/// truth, the capture, the grid and the registered capture.
+fn six_frames_registered() -> (InMemory, Vec<CaptureFrame>, Grid, cgv::features::register::Registered) {
+    let walk = cgv::mesh::builtin::motion(6);
+    let frames = remeshed(&walk, 6);
+    let grid = Grid::new(64).unwrap();
+    let (registered, _) = register(Path::new("walk"), 30.0, &frames, grid, 0).unwrap();
+    (walk, frames, grid, registered)
+}
+
 /// `--mesh frames`: every frame's own triangulation comes back, rebuilt on
 /// its decoded grid: the capture's faces (its vertices renumbered in the
 /// order the coder walks them, the faces perhaps reordered), every vertex near where the capture has
 /// it; and a frame mesh unit that does not parse is refused by its frame.
 #[test]
 fn each_frames_own_mesh_comes_back() {
-    let walk = cgv::mesh::builtin::motion(6);
-    let frames = remeshed(&walk, 6);
-    let grid = Grid::new(64).unwrap();
-    let (registered, _) = register(Path::new("walk"), 30.0, &frames, grid, 0).unwrap();
+    let (_, frames, _, registered) = six_frames_registered();
     let mut opts = EncodeOptions { grid: 64, source_mesh: false, frame_meshes: true, ..Default::default() };
     opts.video.qp = 20;
     let (bytes, report) = encode(&registered, &opts, &mut |_, _, _| {}).unwrap();
@@ -198,6 +226,41 @@ fn each_frames_own_mesh_comes_back() {
     }
     let err = cgv::format::read(&out).unwrap_err().to_string();
     assert!(err.contains("frame 2's mesh"), "{err}");
+}
+
+/// Samples slid along each frame's own mesh (`EncodeOptions::slide`, the
+/// CLI's default for a capture): the decoded grid stays on the capture's
+/// surface as the unslid one does, each frame's own vertices come back on
+/// what the decoder has (to the offsets' step, where unslid they carry the
+/// grid's coding error), and a motion without frames of its own is
+/// refused, by frame, rather than slid onto nothing.
+#[test]
+fn slid_samples_code_the_same_surface() {
+    let (walk, frames, grid, registered) = six_frames_registered();
+    let run = |slide: bool| {
+        let mut opts = EncodeOptions { grid: 64, source_mesh: false, frame_meshes: true, slide, ..Default::default() };
+        opts.video.qp = 20;
+        let (bytes, _) = encode(&registered, &opts, &mut |_, _, _| {}).unwrap();
+        let mut dec = FileDecoder::new(cgv::format::read(&bytes).unwrap(), cgv::solve::SolverKind::Predictive).unwrap();
+        let (mut grids, mut own) = (Vec::new(), Vec::new());
+        for (t, c) in frames.iter().enumerate() {
+            let (x, _) = dec.next_frame().unwrap();
+            own.push(own_vertices_error(&mut dec, t, &x, c));
+            grids.push(x);
+        }
+        (bytes.len(), surface_rms(&walk, grid, &grids), own)
+    };
+    let (plain_bytes, plain, plain_own) = run(false);
+    let (slid_bytes, slid, slid_own) = run(true);
+    eprintln!("unslid {plain_bytes} B {plain:?} own {plain_own:?}; slid {slid_bytes} B {slid:?} own {slid_own:?}");
+    let mean = |e: &[f64]| e.iter().sum::<f64>() / e.len() as f64;
+    assert!(mean(&slid) <= 1.25 * mean(&plain), "{slid:?} against {plain:?}");
+    // The offsets' step is 1e-4 of the diagonal.
+    assert!(slid_own.iter().all(|&e| e < 2e-4) && mean(&slid_own) < mean(&plain_own), "{slid_own:?}");
+    let mut opts = EncodeOptions { grid: 64, source_mesh: false, slide: true, ..Default::default() };
+    opts.video.qp = 20;
+    let err = encode(&registered.grid, &opts, &mut |_, _, _| {}).unwrap_err().to_string();
+    assert!(err.contains("frame 0") && err.contains("own mesh"), "{err}");
 }
 
 /// Swim (RMS, of the diagonal) that a frame of the remeshed walk stays
@@ -292,6 +355,28 @@ fn a_clip_whose_topology_changes_halfway_gets_two_segments() {
     }
     let truth: Vec<f64> = surface_rms(&walk, grid, &all);
     assert!(truth.iter().all(|&e| e < 0.02), "{truth:?}");
+}
+
+/// The walk remeshed and registered in segments of 4 frames: each segment
+/// goes on where the last left off (the same cones, the cut traced on,
+/// the grid turned to match), so its grid moves on the body at a segment's
+/// start no more than within a segment, and the bones the encoder fits to
+/// the whole motion hold on both sides.
+#[test]
+fn segments_go_on_where_the_last_left_off() {
+    let walk = cgv::mesh::builtin::motion(12);
+    let frames = remeshed(&walk, 12);
+    let grid = Grid::new(32).unwrap();
+    let (registered, report) = register(Path::new("walk"), 30.0, &frames, grid, 4).unwrap();
+    assert_eq!(report.segments, [4, 8], "{report:?}");
+    // Where the samples lie on the body against frame 0: a step at each
+    // start, against the steps within the segments.
+    let on_body = swim(&walk, &registered.grid, &[]);
+    let step = |t: usize| (on_body[t] - on_body[t - 1]).abs();
+    let within = (1..12).filter(|t| t % 4 != 0).map(step).fold(0.0, f32::max);
+    let at_starts = [step(4), step(8)];
+    println!("swim against frame 0 {on_body:?}; steps within {within}, at the starts {at_starts:?}");
+    assert!(at_starts.iter().all(|&s| s <= 2.0 * within + 0.005), "{on_body:?}");
 }
 
 /// Measures a real sequence remeshed every frame against its registered
@@ -407,6 +492,13 @@ fn unregistered_against_registered() {
         drift_summary(&drifts),
         drifts.iter().map(|x| (x * 1e3).round() / 10.0).collect::<Vec<_>>()
     );
+    let across = swim(&truth, &registered.grid, &[]);
+    let at_starts: Vec<String> = report
+        .segments
+        .iter()
+        .map(|&s| format!("{s}: {:.2} -> {:.2}", 100.0 * across[s as usize - 1], 100.0 * across[s as usize]))
+        .collect();
+    println!("swim against frame 0 across segment starts (% of the diagonal): {at_starts:?}");
     let swim = swim(&truth, &registered.grid, &report.segments);
     let rest = &truth.frames[0];
     let diag = Bounds::of(rest).diagonal();
@@ -451,6 +543,7 @@ fn unregistered_against_registered() {
         source_mesh: false,
         frame_meshes: true,
         segments: report.segments.clone(),
+        slide: std::env::var("CGV_SLIDE").is_ok(),
         ..Default::default()
     };
     opts.video.qp = 28;
@@ -459,11 +552,8 @@ fn unregistered_against_registered() {
     let (mut own_err, mut capture_vertices) = (Vec::new(), 0);
     for (t, c) in capture.iter().enumerate() {
         let (x, _) = dec.next_frame().unwrap();
-        let (v, _) = dec.frame_mesh(t as u32, &x).unwrap().unwrap();
-        let order = cgv::format::frame_mesh::first_use_order(&c.faces, c.positions.len());
-        let sq: f64 = (0..v.len()).map(|k| v[order[k] as usize].distance_squared(c.positions[k]) as f64).sum();
-        own_err.push((sq / v.len() as f64).sqrt() / Bounds::of(&c.positions).diagonal() as f64);
-        capture_vertices += v.len();
+        own_err.push(own_vertices_error(&mut dec, t, &x, c));
+        capture_vertices += c.positions.len();
     }
     println!(
         "--mesh frames, QP 28: {} of {} bytes are the frame meshes ({:.0} a frame, {:.1} bits per capture vertex \
@@ -486,15 +576,25 @@ fn unregistered_against_registered() {
         .split(',')
         .filter_map(|q| q.trim().parse().ok())
         .collect();
-    for qp in qps {
-        let mut opts = EncodeOptions { grid: n, source_mesh: false, ..Default::default() };
-        opts.video.qp = qp;
-        let (bytes, _) = encode(&truth, &opts, &mut |_, _, _| {}).unwrap();
-        let file = cgv::format::read(&bytes).unwrap();
-        let mut dec = FileDecoder::new(file, cgv::solve::SolverKind::Predictive).unwrap();
-        let reg: Vec<Vec<Vec3>> = (0..frames).map(|_| dec.next_frame().unwrap().0).collect();
-        let reg_err = surface_rms(&truth, grid, &reg);
-        let (ubytes, decoded) = round_trip_in(&registered.grid, n, qp, &report.segments);
+    // CGV_SLIDE=1: the capture coded with its targets slid along the
+    // surface (`EncodeOptions::slide`); CGV_SLIDE=both: a row each way.
+    let slides: &[bool] = match std::env::var("CGV_SLIDE").as_deref() {
+        Ok("both") => &[false, true],
+        Ok(_) => &[true],
+        Err(_) => &[false],
+    };
+    let mut registered_rows = std::collections::HashMap::new();
+    for (qp, &slide) in qps.iter().flat_map(|&q| slides.iter().map(move |s| (q, s))) {
+        let (reg_bytes, reg_err) = registered_rows.entry(qp).or_insert_with(|| {
+            let mut opts = EncodeOptions { grid: n, source_mesh: false, ..Default::default() };
+            opts.video.qp = qp;
+            let (bytes, _) = encode(&truth, &opts, &mut |_, _, _| {}).unwrap();
+            let file = cgv::format::read(&bytes).unwrap();
+            let mut dec = FileDecoder::new(file, cgv::solve::SolverKind::Predictive).unwrap();
+            let reg: Vec<Vec<Vec3>> = (0..frames).map(|_| dec.next_frame().unwrap().0).collect();
+            (bytes.len(), surface_rms(&truth, grid, &reg))
+        });
+        let (ubytes, decoded) = round_trip_slid(&registered, n, qp, &report.segments, slide);
         let un_err = surface_rms(&truth, grid, &decoded);
         // The coding's own error: the decoded grid against the grid coded.
         let coding = surface_rms(&registered.grid, grid, &decoded);
@@ -519,9 +619,10 @@ fn unregistered_against_registered() {
             println!("QP {qp}: spacing drift, decoded against coded (%): {}", drift_summary(&coded_drift));
         }
         println!(
-            "| {name} ({frames}) | {n} | {qp} | {:.3} | {:.4} | {:.3} | {:.4} | {:.2} | {:.4} |",
-            bits(bytes.len()),
-            mean(&reg_err),
+            "| {name} ({frames}){} | {n} | {qp} | {:.3} | {:.4} | {:.3} | {:.4} | {:.2} | {:.4} |",
+            if slide { ", slid" } else { "" },
+            bits(*reg_bytes),
+            mean(reg_err),
             bits(ubytes),
             mean(&un_err),
             worst(&un_err),

@@ -15,14 +15,19 @@
 //! - [`register`]: every frame mapped onto the grid with four tracked
 //!   features as the map's cones: a registered motion;
 //! - [`follow`]: each frame's cut where the previous frame's ran;
+//! - [`handover`]: each piece of a capture going on where the last one
+//!   left off (its cones, its cut, its grid's turn);
 //! - [`segments`]: stretches of a capture registered each on its own
 //!   (where the topology changes, every random-access interval, and where
 //!   a stretch's tracks or maps fail);
-//! - [`smooth`]: the registered grid smoothed in time along the surface.
+//! - [`smooth`]: the registered grid smoothed in time along the surface;
+//! - [`symmetry`]: the square's turns, which take one frame's map to
+//!   another's.
 
 pub mod capture;
 pub mod detect;
 pub mod follow;
+pub mod handover;
 pub mod hks;
 pub mod jumps;
 pub mod nearest;
@@ -30,4 +35,5 @@ pub mod outliers;
 pub mod register;
 pub mod segments;
 pub mod smooth;
+pub mod symmetry;
 pub mod track;

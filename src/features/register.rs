@@ -12,7 +12,9 @@
 use super::capture::CaptureFrame;
 use super::detect::{features_near, Feature};
 use super::follow::{self, CutTrace};
+use super::handover::{self, Handover};
 use super::segments::segment_ranges;
+use super::symmetry::{apply_symmetry, symmetry_between, turn_place, IDENTITY};
 use super::track::{place, track, Track};
 use super::{jumps, outliers, segments, smooth};
 use crate::error::{Error, Result};
@@ -21,7 +23,7 @@ use crate::mesh::carrier::Carrier;
 use crate::mesh::{Bounds, FrameMesh, FrameSource, InMemory, Topology};
 use crate::param::cut::{corner_for, Graph};
 use crate::param::{parameterize, ParamOptions, Parameterization};
-use crate::resample::{carrier_places, quantized_place, SampleMap};
+use crate::resample::{carrier_places, SampleMap};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -200,13 +202,16 @@ pub fn register(
     let ranges = segment_ranges(frames, longest);
     let several = ranges.len() > 1;
     let (mut out, mut starts): (Option<(Registered, RegisterReport)>, Vec<usize>) = (None, Vec::new());
+    let mut last: Option<Handover> = None;
     for r in ranges {
         let (a, b) = (r.start, r.end);
         let in_segment = |e: Error| match several {
             false => e,
             true => Error::Argument(format!("the segment of frames {a}..{b}: {e}")),
         };
-        for (start, src, report) in registered_parts(label, fps, &frames[r], grid).map_err(in_segment)? {
+        let (pieces, next) = registered_parts(label, fps, &frames[r], grid, last.as_ref()).map_err(in_segment)?;
+        last = Some(next);
+        for (start, src, report) in pieces {
             starts.push(a + start);
             out = Some(match out {
                 None => (src, report),
@@ -228,24 +233,32 @@ pub fn register(
 /// One segment `part` registered, as one piece or, where that fails its
 /// checks ([`segments::split_at`]), as the pieces of its halves where both
 /// register and their worst frame lies no further from its own mesh than
-/// the whole's: each piece's first frame (in `part`), grid and report.
-fn registered_parts(label: &Path, fps: f32, part: &[CaptureFrame], grid: Grid) -> Result<Vec<Piece>> {
+/// the whole's: each piece's first frame (in `part`), grid and report,
+/// and what the next segment starts from. Each piece goes on from the
+/// last one's `handover`.
+fn registered_parts(
+    label: &Path,
+    fps: f32,
+    part: &[CaptureFrame],
+    grid: Grid,
+    handover: Option<&Handover>,
+) -> Result<(Vec<Piece>, Handover)> {
     let tracked = track_capture(label, part)?;
-    let (src, report) = register_tracked(label, fps, part, tracked, grid)?;
+    let (src, report, next) = register_piece(label, fps, part, tracked, grid, handover)?;
     if let Some(mid) = segments::split_at(part, &src.grid.frames, report.cones_seen, grid)? {
-        let halves =
-            (registered_parts(label, fps, &part[..mid], grid), registered_parts(label, fps, &part[mid..], grid));
-        if let (Ok(left), Ok(right)) = halves {
-            let pieces: Vec<Piece> =
-                left.into_iter().chain(right.into_iter().map(|(s, g, r)| (s + mid, g, r))).collect();
-            let whole = [(0, src, report)];
-            if worst_resampling(part, &pieces, grid)? <= worst_resampling(part, &whole, grid)? {
-                return Ok(pieces);
+        if let Ok((left, between)) = registered_parts(label, fps, &part[..mid], grid, handover) {
+            if let Ok((right, end)) = registered_parts(label, fps, &part[mid..], grid, Some(&between)) {
+                let pieces: Vec<Piece> =
+                    left.into_iter().chain(right.into_iter().map(|(s, g, r)| (s + mid, g, r))).collect();
+                let whole = [(0, src, report)];
+                if worst_resampling(part, &pieces, grid)? <= worst_resampling(part, &whole, grid)? {
+                    return Ok((pieces, end));
+                }
+                return Ok((whole.into(), next));
             }
-            return Ok(whole.into());
         }
     }
-    Ok(vec![(0, src, report)])
+    Ok((vec![(0, src, report)], next))
 }
 
 /// The furthest any frame of `part`, registered as `pieces`, lies from
@@ -271,9 +284,22 @@ pub fn register_tracked(
     label: &Path,
     fps: f32,
     frames: &[CaptureFrame],
-    mut tracked: Tracked,
+    tracked: Tracked,
     grid: Grid,
 ) -> Result<(Registered, RegisterReport)> {
+    register_piece(label, fps, frames, tracked, grid, None).map(|(src, report, _)| (src, report))
+}
+
+/// [`register_tracked`] going on from the last piece's `handover`
+/// ([`handover`]), and what the next piece starts from.
+fn register_piece(
+    label: &Path,
+    fps: f32,
+    frames: &[CaptureFrame],
+    mut tracked: Tracked,
+    grid: Grid,
+    handover: Option<&Handover>,
+) -> Result<(Registered, RegisterReport, Handover)> {
     if frames.is_empty() || tracked.features.len() != frames.len() {
         return Err(Error::Argument(format!(
             "{}: features of {} frames for a capture of {}",
@@ -283,30 +309,16 @@ pub fn register_tracked(
         )));
     }
     let t1 = std::time::Instant::now();
-    tracked.cones = best_cones(label, frames, &tracked, grid)?;
+    let diagonal = Bounds::of(&frames[0].positions).diagonal();
+    let first_trace;
+    (tracked.cones, first_trace) = chosen_cones(label, frames, &tracked, grid, handover)?;
     let cones_at = |t: usize| {
         tracked.cones.map(|k| {
             let track = &tracked.tracks[k];
             (place(track, &tracked.features, t).unwrap_or(Vec3::ZERO), track.seen[t].is_some())
         })
     };
-    // Each frame's cut follows the previous frame's (its corner nearest
-    // that corner, its paths pulled towards those paths), so that the
-    // paths keep going the same way round the body: shortest paths alone
-    // can take another way from one frame to the next, and the map (the
-    // grid on the body) changes with them.
-    let mut mapped: Vec<Mapped> = Vec::with_capacity(frames.len());
-    for (t, frame) in frames.iter().enumerate() {
-        let trace = mapped.last().map(|m: &Mapped| &m.trace);
-        // A cut that cannot follow the last frame's (pcow's frames 30-60:
-        // "no path ... avoids the other cuts") is made afresh; a frame
-        // whose map then goes another way round is found below.
-        let m = match map_frame(label, frame, &cones_at(t), trace, grid) {
-            Err(_) if trace.is_some() => map_frame(label, frame, &cones_at(t), None, grid)?,
-            done => done?,
-        };
-        mapped.push(m);
-    }
+    let mut mapped = mapped_in_turn(label, frames, &cones_at, first_trace, grid)?;
     // The cut gives each cone its side by the order its path leaves the
     // corner in, which the trace mostly keeps (the square's first side is
     // wherever the walk round the corner starts: any turn). The reference
@@ -319,9 +331,12 @@ pub fn register_tracked(
     // Frame t mapped again with its cut traced from `trace`.
     let remap = |t: usize, trace: &CutTrace| map_frame(label, &frames[t], &cones_at(t), Some(trace), grid);
     remapped_to_agree(&remap, &mut mapped, &reference)?;
-    let jumping = steady_jumps(&remap, &mut mapped, &reference, grid, Bounds::of(&frames[0].positions).diagonal())?;
+    let jumping = steady_jumps(&remap, &mut mapped, &reference, grid, diagonal)?;
+    // Frames (checked above), so a last frame.
+    let last_trace = mapped[mapped.len() - 1].trace.clone();
     let (mut positions, mut places, turned, unmatched) = turned_back(grid, mapped, &reference);
     let smoothed = bridged_and_smoothed(grid, frames, &jumping, &mut positions, &mut places)?;
+    turned_to(grid, handover, &mut positions, &mut places);
     let report = RegisterReport {
         frames: frames.len(),
         features_per_frame: tracked.features_per_frame(),
@@ -337,9 +352,77 @@ pub fn register_tracked(
         seconds_maps: t1.elapsed().as_secs_f64(),
         segments: Vec::new(),
     };
+    let last_grid = positions.last().cloned().unwrap_or_default();
+    let next = Handover::of(&tracked.tracks, &tracked.features, tracked.cones, last_trace, last_grid);
     let meshes = frames.iter().zip(places).map(|(f, places)| FrameMesh { places, ..f.mesh() }).collect();
     let grid = InMemory { label: PathBuf::from(label), fps, topology: grid.topology(), frames: positions };
-    Ok((Registered { grid, meshes }, report))
+    Ok((Registered { grid, meshes }, report, next))
+}
+
+/// Every frame of `frames` mapped with its cones `cones_at` (each place,
+/// and whether its track saw the cone there), its cut following the
+/// previous frame's (the first's following `first_trace`, if given): its
+/// corner nearest that corner, its paths pulled towards those paths, so
+/// that the paths keep going the same way round the body. Shortest paths
+/// alone can take another way from one frame to the next, and the map
+/// (the grid on the body) changes with them.
+fn mapped_in_turn(
+    label: &Path,
+    frames: &[CaptureFrame],
+    cones_at: &dyn Fn(usize) -> [(Vec3, bool); 4],
+    first_trace: Option<&CutTrace>,
+    grid: Grid,
+) -> Result<Vec<Mapped>> {
+    let mut mapped: Vec<Mapped> = Vec::with_capacity(frames.len());
+    for (t, frame) in frames.iter().enumerate() {
+        let trace = mapped.last().map(|m: &Mapped| &m.trace).or(first_trace);
+        // A cut that cannot follow the last frame's (pcow's frames 30-60:
+        // "no path ... avoids the other cuts") is made afresh; a frame
+        // whose map then goes another way round is found later.
+        let m = match map_frame(label, frame, &cones_at(t), trace, grid) {
+            Err(_) if trace.is_some() => map_frame(label, frame, &cones_at(t), None, grid)?,
+            done => done?,
+        };
+        mapped.push(m);
+    }
+    Ok(mapped)
+}
+
+/// A piece's cones: the last piece's where their tracks go on (with its
+/// last cut, to trace the first frame's from), else the best set
+/// ([`best_cones`]).
+fn chosen_cones<'h>(
+    label: &Path,
+    frames: &[CaptureFrame],
+    tracked: &Tracked,
+    grid: Grid,
+    handover: Option<&'h Handover>,
+) -> Result<([usize; 4], Option<&'h CutTrace>)> {
+    let diagonal = Bounds::of(&frames[0].positions).diagonal();
+    let long = may_be_cones(&tracked.tracks);
+    let going_on = handover.and_then(|h| {
+        let cones =
+            handover::continuing_cones(&tracked.tracks, &tracked.features, &h.cones, |k| long.contains(&k), diagonal);
+        cones.map(|c| (c, Some(&h.trace)))
+    });
+    match going_on {
+        Some(found) => Ok(found),
+        None => Ok((best_cones(label, frames, tracked, grid)?, None)),
+    }
+}
+
+/// Every frame's grid and places of a piece turned by the turn that puts
+/// its first grid nearest the last piece's last ([`handover::nearest_turn`]).
+fn turned_to(grid: Grid, handover: Option<&Handover>, positions: &mut [Vec<Vec3>], places: &mut [Vec<[u32; 2]>]) {
+    let Some(h) = handover else { return };
+    let m = handover::nearest_turn(grid, &h.grid, &positions[0]);
+    if m == IDENTITY {
+        return;
+    }
+    for (g, p) in positions.iter_mut().zip(places.iter_mut()) {
+        *g = apply_symmetry(grid, g, m);
+        p.iter_mut().for_each(|q| *q = turn_place(*q, m));
+    }
 }
 
 /// Frame `t` of a capture mapped again with its cut traced from a trace.
@@ -461,14 +544,6 @@ fn turned_back(grid: Grid, mapped: Vec<Mapped>, reference: &[usize; 4]) -> Turne
 /// [`turned_back`]'s grids, places, turned and unmatched frames.
 type Turned = (Vec<Vec<Vec3>>, Vec<Vec<[u32; 2]>>, usize, usize);
 
-/// A stored place moved by the square's symmetry `m` (as
-/// [`apply_symmetry`] moves the samples: linear in the centred coordinates).
-fn turn_place(q: [u32; 2], m: Symmetry) -> [u32; 2] {
-    let u = q.map(crate::format::source_mesh::place);
-    let t = |r: [i32; 2]| f64::from(r[0]) * u[0] + f64::from(r[1]) * u[1];
-    quantized_place(glam::DVec2::new(t(m[0]), t(m[1])))
-}
-
 /// The four tracks seen in the most frames (among equals, the earliest,
 /// then the strongest feature there).
 fn cone_tracks(tracks: &[Track]) -> Option<[usize; 4]> {
@@ -481,46 +556,6 @@ fn cone_tracks(tracks: &[Track]) -> Option<[usize; 4]> {
     order.sort_by_key(|&k| (std::cmp::Reverse(tracks[k].frames_seen()), first_index(k), strength(k)));
     let picked: Vec<usize> = order.into_iter().take(4).collect();
     picked.try_into().ok()
-}
-
-/// A symmetry of the square (and of the grid: the sides' middles, where
-/// the cones sit, go to sides' middles) as an integer 2 x 2 matrix.
-type Symmetry = [[i32; 2]; 2];
-const IDENTITY: Symmetry = [[1, 0], [0, 1]];
-/// The square's four turns (its mirrors are no use: see [`symmetry_between`]).
-const TURNS: [Symmetry; 4] = [[[1, 0], [0, 1]], [[0, -1], [1, 0]], [[-1, 0], [0, -1]], [[0, 1], [-1, 0]]];
-/// The sides' middles (top, right, bottom, left), as `crate::param::cut::CONE_UV`.
-const SIDES: [[i32; 2]; 4] = [[0, 1], [1, 0], [0, -1], [-1, 0]];
-
-fn apply(m: Symmetry, p: [i32; 2]) -> [i32; 2] {
-    [m[0][0] * p[0] + m[0][1] * p[1], m[1][0] * p[0] + m[1][1] * p[1]]
-}
-
-/// The turn of the square taking each cone's side in a frame whose sides
-/// hold cones `sides` to its side in the reference's `reference`. Only
-/// turns: the frames are oriented alike, so a mirrored assignment means
-/// two tracks traded places (a cow's two hind legs), which no symmetry
-/// mends.
-fn symmetry_between(sides: &[usize; 4], reference: &[usize; 4]) -> Option<Symmetry> {
-    TURNS.iter().copied().find(|&m| {
-        (0..4).all(|a| {
-            let b = SIDES.iter().position(|&q| q == apply(m, SIDES[a]));
-            b.is_some_and(|b| reference[b] == sides[a])
-        })
-    })
-}
-
-/// Grid frame `g` moved by the symmetry `m`: sample p goes to m p.
-fn apply_symmetry(grid: Grid, g: &[Vec3], m: Symmetry) -> Vec<Vec3> {
-    let n = grid.n as i32;
-    let mut out = g.to_vec();
-    for (s, &p) in g.iter().enumerate() {
-        // Centred odd coordinates: sample i at 2i + 1 - N.
-        let c = [2 * (s as i32 % n) + 1 - n, 2 * (s as i32 / n) + 1 - n];
-        let [x, y] = apply(m, c);
-        out[(((y + n - 1) / 2) * n + (x + n - 1) / 2) as usize] = p;
-    }
-    out
 }
 
 /// How much harder a frame mapped again pulls its cut to the trace.
@@ -536,6 +571,13 @@ const CONE_SETS: usize = 15;
 /// and two between.
 const SCORED_FRAMES: usize = 4;
 
+/// The tracks seen in at least [`CONE_SEEN`] of the frames the longest
+/// one is seen in: those that may be cones.
+fn may_be_cones(tracks: &[Track]) -> Vec<usize> {
+    let longest = tracks.iter().map(Track::frames_seen).max().unwrap_or(0) as f64;
+    (0..tracks.len()).filter(|&k| tracks[k].frames_seen() as f64 >= CONE_SEEN * longest).collect()
+}
+
 /// Of the sets of four long tracks, the one whose maps resample
 /// [`SCORED_FRAMES`] frames best (their grids' mean surface RMS against
 /// the frames), as the encoder races cone placements
@@ -543,9 +585,7 @@ const SCORED_FRAMES: usize = 4;
 /// each limb gets. The first frame alone chose sets that resampled the
 /// rest 1.5-2x worse (horse-gallop 0.156 % against 0.102 for another set).
 fn best_cones(label: &Path, frames: &[CaptureFrame], tracked: &Tracked, grid: Grid) -> Result<[usize; 4]> {
-    let longest = tracked.tracks.iter().map(Track::frames_seen).max().unwrap_or(0) as f64;
-    let long: Vec<usize> =
-        (0..tracked.tracks.len()).filter(|&k| tracked.tracks[k].frames_seen() as f64 >= CONE_SEEN * longest).collect();
+    let long = may_be_cones(&tracked.tracks);
     let mut sets: Vec<[usize; 4]> = Vec::new();
     for a in 0..long.len() {
         for b in a + 1..long.len() {
@@ -732,33 +772,5 @@ mod tests {
         let mut finned = tetra.clone();
         finned.push([1, 0, 4]);
         assert_eq!(without_fins(&finned), tetra);
-    }
-
-    /// Each symmetry of the square is found from where it moves the cones,
-    /// and four quarter turns of a grid frame give it back.
-    #[test]
-    fn the_squares_symmetries_are_found_and_applied() {
-        let reference = [2, 0, 3, 1];
-        for m in &TURNS {
-            let m = *m;
-            let mut sides = [0; 4];
-            for (a, s) in sides.iter_mut().enumerate() {
-                let b = SIDES.iter().position(|&q| q == apply(m, SIDES[a])).unwrap_or(0);
-                *s = reference[b];
-            }
-            assert_eq!(symmetry_between(&sides, &reference), Some(m));
-        }
-        assert_eq!(symmetry_between(&[0, 2, 1, 3], &[0, 1, 2, 3]), None);
-        // A mirrored assignment is two tracks swapped, not a turn.
-        assert_eq!(symmetry_between(&[0, 3, 2, 1], &[0, 1, 2, 3]), None);
-        let grid = Grid { n: 8 };
-        let g: Vec<Vec3> = (0..64).map(|s| Vec3::new(s as f32, 0.0, 0.0)).collect();
-        let mut h = g.clone();
-        for _ in 0..4 {
-            h = apply_symmetry(grid, &h, TURNS[1]);
-            assert_eq!(h.len(), 64);
-        }
-        assert_eq!(h, g);
-        assert_ne!(apply_symmetry(grid, &g, TURNS[1]), g);
     }
 }

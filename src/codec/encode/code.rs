@@ -5,6 +5,7 @@
 
 use super::analyse::{features, seed_origin, values};
 use super::plan::Plan;
+use super::slide::Surface;
 use super::{EncodeOptions, SEED_MIN_QP, SEED_QP_OFFSET};
 use crate::codec::corrections::Pictures;
 use crate::codec::h264::{Decoder as H264Decoder, Encoder as H264Encoder};
@@ -165,6 +166,24 @@ fn restart(streams: &mut [Stream], predictive: &mut Predictive, loose: &mut Loos
     Ok(())
 }
 
+/// The streams but the corrections, and the corrections (with their
+/// second layers): these are coded after the rest, which the prediction
+/// reads.
+fn corrections_last(streams: &[Stream]) -> (Vec<usize>, Vec<usize>) {
+    (0..streams.len()).partition(|&k| {
+        let base = streams[k].info.refines.map_or(k, usize::from);
+        !streams[base].info.name.is_correction()
+    })
+}
+
+/// A frame's anchors (the samples the header names, on grid frame `g`)
+/// and its info so far.
+fn frame_info(header: &Header, g: &[Vec3], seed_origin: Option<[f32; 3]>) -> (Vec<Vec3>, FrameInfo) {
+    let anchors: Vec<Vec3> = header.anchors.iter().map(|&a| g[a as usize]).collect();
+    let xyz = anchors.iter().map(|p| p.to_array()).collect();
+    (anchors, FrameInfo { anchors: xyz, seed_origin, ..Default::default() })
+}
+
 pub(super) fn code(
     src: &dyn FrameSource,
     opts: &EncodeOptions,
@@ -186,12 +205,7 @@ pub(super) fn code(
     let mut streams = open_streams(header, opts, plan)?;
     let mut coded = Coded { source_mesh_bytes, skin_bytes, ..Default::default() };
     let mut residual = chunks.residual;
-    // The corrections (and their second layers) are coded after the rest,
-    // which the prediction reads.
-    let (pre, post): (Vec<usize>, Vec<usize>) = (0..streams.len()).partition(|&k| {
-        let base = streams[k].info.refines.map_or(k, usize::from);
-        !streams[base].info.name.is_correction()
-    });
+    let (pre, post) = corrections_last(&streams);
     let mut index = Vec::new();
     let loose_ids = &image.carrier.loose;
     let mut loose = LooseVertices::for_header(header);
@@ -208,31 +222,35 @@ pub(super) fn code(
             restart(&mut streams, &mut predictive, &mut loose)?;
             residual.iter_mut().for_each(|r| r.coder.reset());
         }
-        let mut coder = FrameCoder {
-            header,
-            frame: fi as u32,
-            decoded: vec![None; streams.len()],
-            units: vec![None; streams.len()],
-        };
+        let mut coder = FrameCoder::new(header, fi, streams.len());
         let origin = seed_origin(plan, fi, &g);
         coder.code(&mut streams, &pre, &|name| values(name, (&feats, &g), origin, &mut Vec::new()).to_vec())?;
-        let anchors: Vec<Vec3> = header.anchors.iter().map(|&a| g[a as usize]).collect();
-        let anchor_xyz = anchors.iter().map(|p| p.to_array()).collect();
-        let mut info = FrameInfo { anchors: anchor_xyz, seed_origin: origin, ..Default::default() };
+        let (anchors, mut info) = frame_info(header, &g, origin);
         let decoded = if plan.closed_loop {
-            Some(close_loop(&mut coder, &mut streams, &post, &mut predictive, &mut info, (opts, plan), &anchors, &g)?)
+            let target = Target { truth: &g, surface: slide_surface(src, opts, fi)?, st };
+            Some(close_loop(
+                &mut coder,
+                &mut streams,
+                &post,
+                &mut predictive,
+                &mut info,
+                (opts, plan),
+                &anchors,
+                target,
+            )?)
         } else if residual.is_some() || header.loose_vertices().is_some() {
             decoded_gv(header, &coder)?
         } else {
             None
         };
         info.residual = residual.as_mut().map(|r| r.code(&input, decoded.as_deref())).transpose()?;
+        info.mesh =
+            header.frame_meshes.then(|| frame_mesh_unit(src, fi, opts, map.grid, (&g, &decoded))).transpose()?;
         if header.loose_vertices().is_some() {
             let truth: Vec<Vec3> = loose_ids.iter().map(|&v| input[v as usize]).collect();
             let finest = residual.as_ref().map(|r| r.step);
             info.loose = Some(code_loose(&mut loose, (header, st, map), (decoded, finest), &truth, &g)?);
         }
-        info.mesh = header.frame_meshes.then(|| frame_mesh_unit(src, fi, map.grid, &g)).transpose()?;
         info.bones = chunks.bone_units.and_then(|u| u.get(fi).cloned()).or(info.bones);
         coded.seconds_coding += t.elapsed().as_secs_f64();
         put_frame(&mut out, fi, &info, &coder.units, (&mut streams, &mut coded))?;
@@ -297,9 +315,19 @@ const FRAME_PLACE_ZERO_BITS: u32 = 22;
 const FRAME_OFFSET_STEP: f32 = 1e-4;
 
 /// Frame `f`'s own mesh unit (version 16): its faces, its vertices' places
-/// and their offsets from the uncompressed grid frame `g`, as the source
-/// mesh of a registered file has them from its reference frame.
-fn frame_mesh_unit(src: &dyn FrameSource, f: usize, grid: Grid, g: &[Vec3]) -> Result<Vec<u8>> {
+/// and their offsets from the uncompressed grid frame `coded` (from the
+/// `decoded` one where the samples slid), as the source mesh of a
+/// registered file has them from its reference frame.
+fn frame_mesh_unit(
+    src: &dyn FrameSource,
+    f: usize,
+    opts: &EncodeOptions,
+    grid: Grid,
+    (coded, decoded): (&[Vec3], &Option<Vec<Vec3>>),
+) -> Result<Vec<u8>> {
+    // Slid samples lie elsewhere on the surface than the grid coded: the
+    // frame's own vertices are then placed on what the decoder has.
+    let g = decoded.as_deref().filter(|_| opts.slide).unwrap_or(coded);
     let mesh = src.frame_mesh(f).ok_or_else(|| {
         Error::Argument(format!(
             "{}: frame meshes asked for, but frame {f} has no mesh of its own (only a registered capture, \
@@ -386,6 +414,27 @@ fn normal_error(st: &Stencils, decoded: &[Vec3], truth: &[Vec3], on_input: &[boo
     1.4826 * f64::from(*median)
 }
 
+/// What a frame's closed loop aims at: the true grid frame, and where
+/// the samples may slide ([`EncodeOptions::slide`]) the frame's own mesh.
+struct Target<'a> {
+    truth: &'a [Vec3],
+    surface: Option<Surface>,
+    st: &'a Stencils,
+}
+
+/// Frame `fi`'s own mesh, prepared, where the options slide the samples.
+pub(super) fn slide_surface(src: &dyn FrameSource, opts: &EncodeOptions, fi: usize) -> Result<Option<Surface>> {
+    if !opts.slide {
+        return Ok(None);
+    }
+    let mesh = src.frame_mesh(fi).ok_or_else(|| {
+        Error::Argument(format!(
+            "frame {fi}: sliding the samples needs each frame's own mesh (an unregistered capture)"
+        ))
+    })?;
+    Surface::new(mesh).map(Some)
+}
+
 /// The closed loop at one frame: predict from the decoded past and what
 /// the frame decoded so far, code the error as corrections (`post`), and run
 /// the decoder's step on the decoded corrections; `info` gets the frame's
@@ -399,8 +448,9 @@ fn close_loop(
     info: &mut FrameInfo,
     (opts, plan): (&EncodeOptions, &Plan),
     anchors: &[Vec3],
-    truth: &[Vec3],
+    target: Target,
 ) -> Result<Vec<Vec3>> {
+    let truth = target.truth;
     let header = coder.header;
     let vals = frame_values(header, &coder.decoded, 0.0)?;
     let values = Values::new(header, &vals).with_seed_origin(info.seed_origin);
@@ -408,6 +458,14 @@ fn close_loop(
     // predictor that lands closest to the true frame.
     info.bones = predictive.predictor.encode_bones(truth);
     let (code, pred) = predictive.choose(plan.allowed, opts.max_steps, &values, anchors, truth)?;
+    let slid;
+    let truth = match &target.surface {
+        Some(surface) => {
+            slid = super::slide::slid(target.st, truth, &pred, surface);
+            &slid
+        }
+        None => truth,
+    };
     let err: Vec<Vec3> = truth.iter().zip(&pred).map(|(p, q)| *p - *q).collect();
     let corrections = &predictive.corrections;
     let scale = if plan.motion { 0.0 } else { correction_scale(&corrections.world_pictures(&err, 1.0)) };
@@ -468,7 +526,12 @@ struct FrameCoder<'a> {
     units: Vec<Option<Vec<u8>>>,
 }
 
-impl FrameCoder<'_> {
+impl<'a> FrameCoder<'a> {
+    /// Frame `fi`'s coder, nothing coded yet, over `streams` streams.
+    fn new(header: &'a Header, fi: usize, streams: usize) -> Self {
+        FrameCoder { header, frame: fi as u32, decoded: vec![None; streams], units: vec![None; streams] }
+    }
+
     /// Codes streams `ks` (each layer 2 after its base) with the values
     /// `value_of(name)`, in the natural domain.
     fn code(&mut self, streams: &mut [Stream], ks: &[usize], value_of: &dyn Fn(StreamName) -> Vec<f32>) -> Result<()> {

@@ -24,6 +24,7 @@ mod plan;
 mod request;
 pub mod residual_step;
 mod simulate;
+mod slide;
 mod target;
 mod vertex_bones;
 mod vertices;
@@ -158,6 +159,12 @@ pub struct EncodeOptions {
     /// box's diagonal; the step is twice it), every frame
     /// (`crate::codec::vertex_residual`). None: not at all.
     pub vertex_residual: Option<f32>,
+    /// The grid's samples carry no correspondence (an unregistered
+    /// capture registered on the grid): the closed loop may code each
+    /// sample anywhere on the frame's surface near its place, the point
+    /// nearest its prediction (`slide`), so that it spends no corrections
+    /// on where a sample lies on the body. The decoder is the same.
+    pub slide: bool,
 }
 
 impl Default for EncodeOptions {
@@ -187,6 +194,7 @@ impl Default for EncodeOptions {
             segments: Vec::new(),
             coarse_weights: None,
             vertex_residual: None,
+            slide: false,
         }
     }
 }

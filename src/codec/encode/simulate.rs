@@ -46,7 +46,7 @@ pub(super) fn simulate(
     let variants: Vec<(u8, Option<&SkinnedPredictor>)> =
         lags.iter().flat_map(|&l| skins.iter().map(move |&s| (l, s))).collect();
     let frames = Frames { corrected: &|f| plan.corrected(f), rap: &|f| plan.is_rap(f) };
-    let runs = uncoded_loops(src, (map, st, plan.layout), plan.allowed, &variants, &frames)?;
+    let runs = uncoded_loops(src, (map, st, plan.layout), plan.allowed, &variants, &frames, opts)?;
     // The run of a longest lag, with bones or without.
     let run =
         |lag: u8, bones: bool| variants.iter().position(|v| v.0 == lag && v.1.is_some() == bones).map(|k| &runs[k]);
@@ -130,12 +130,15 @@ struct Frames<'a> {
 /// of the frames: the frames with corrections are decoded as the true
 /// ones, the others as their prediction; at each random-access point the
 /// loop starts afresh from the true frame, as the decoder does from its seed.
+/// Where `opts` slide the samples, the true frame is slid to the prediction as the
+/// coding loop slides it (`super::slide`).
 fn uncoded_loops(
     src: &dyn FrameSource,
     (map, st, layout): (&SampleMap, &Stencils, Layout),
     allowed: &[Extrapolation],
     variants: &[(u8, Option<&SkinnedPredictor>)],
     frames: &Frames,
+    opts: &EncodeOptions,
 ) -> Result<Vec<UncodedLoop>> {
     struct Run {
         sim: Predictor,
@@ -157,6 +160,7 @@ fn uncoded_loops(
         .collect();
     for fi in 0..src.frame_count() {
         let g = map.apply(&src.read_frame(fi)?);
+        let surface = super::code::slide_surface(src, opts, fi)?;
         let rap = (frames.rap)(fi);
         // The runs are independent: one per core.
         runs.par_iter_mut().try_for_each(|Run { sim, sum, out }| -> Result<()> {
@@ -172,6 +176,10 @@ fn uncoded_loops(
                 sim.commit(pred, &[]);
                 return Ok(());
             }
+            let g = match &surface {
+                Some(surface) => super::slide::slid(st, &g, &pred, surface),
+                None => g.clone(),
+            };
             out.energy += squared_distance(&g, &pred);
             let err: Vec<Vec3> = g.iter().zip(&pred).map(|(p, q)| *p - *q).collect();
             let mut pictures = sum.world_pictures(&err, 0.0);
@@ -183,7 +191,7 @@ fn uncoded_loops(
                 r.add(p);
             }
             sum.record(pictures);
-            sim.commit(g.clone(), &[]);
+            sim.commit(g, &[]);
             Ok(())
         })?;
     }
