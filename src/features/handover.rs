@@ -20,23 +20,24 @@ use crate::grid::Grid;
 use glam::Vec3;
 
 /// What the next piece starts from: where the last piece's cones would be
-/// one frame on (each moved on by its last step), its last frame's cut,
-/// and its last grid, as stored.
+/// one frame on (each moved on by its last step), its last steady frame's
+/// cut (none where no frame was steady), and its last grid, as stored.
 #[derive(Debug, Clone)]
 pub struct Handover {
     pub cones: [Vec3; 4],
-    pub trace: CutTrace,
+    pub trace: Option<CutTrace>,
     pub grid: Vec<Vec3>,
 }
 
 impl Handover {
     /// The handover of a piece whose cones follow `cones` (indices into
-    /// `tracks`), whose last frame's cut is `trace` and last grid `grid`.
+    /// `tracks`), whose last steady frame's cut is `trace` and last grid
+    /// `grid`.
     pub fn of(
         tracks: &[Track],
         features: &[Vec<Feature>],
         cones: [usize; 4],
-        trace: CutTrace,
+        trace: Option<CutTrace>,
         grid: Vec<Vec3>,
     ) -> Self {
         let last = features.len().saturating_sub(1);
@@ -53,11 +54,11 @@ impl Handover {
 
 /// How far from the last piece's cone (moved on by its last step) a
 /// track's first place may be to carry that cone on, in diagonals: the
-/// tracker's own step for a feature it lost ([`super::track::WEAK_STEP`]).
-pub const LINK: f32 = 0.06;
+/// tracker's own step for a feature it lost.
+pub const LINK: f32 = super::track::WEAK_STEP;
 
 /// The tracks that carry `cones` on into a piece: for each cone, in
-/// order, a track of `tracks` that `may_be_cone` allows, placed in the
+/// order, a track of `tracks` that `may_be_cone` allows, seen in the
 /// piece's first frame within [`LINK`] diagonals of it, the nearest pairs
 /// taken first; `None` unless all four are found.
 pub fn continuing_cones(
@@ -68,7 +69,8 @@ pub fn continuing_cones(
     diagonal: f32,
 ) -> Option<[usize; 4]> {
     let mut pairs: Vec<(f32, usize, usize)> = Vec::new();
-    for k in (0..tracks.len()).filter(|&k| may_be_cone(k)) {
+    let seen_first = |k: usize| tracks[k].seen.first().is_some_and(Option::is_some);
+    for k in (0..tracks.len()).filter(|&k| may_be_cone(k) && seen_first(k)) {
         let Some(p) = place(&tracks[k], features, 0) else { continue };
         for (c, cone) in cones.iter().enumerate() {
             let d = p.distance(*cone);
@@ -107,16 +109,22 @@ mod tests {
         Feature { vertex: 0, position, descriptor: [0.0; TIMES], weak: false }
     }
 
-    /// Each cone goes on with the track that starts nearest it; a cone
-    /// with no track within reach, or a track refused as a cone, leaves
-    /// none carried on.
+    /// Each cone goes on with the track seen nearest it in the piece's
+    /// first frame; a cone with no track within reach, or a track refused
+    /// as a cone, leaves none carried on.
     #[test]
     fn cones_go_on_with_the_tracks_that_start_where_they_were() {
         let places = [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y];
-        let features = vec![places.iter().map(|&p| feature(p)).collect::<Vec<_>>()];
-        let tracks: Vec<Track> = (0..5).map(|k| Track { seen: vec![Some(k)] }).collect();
-        let diagonal = 10.0;
         let cones = [-Vec3::Y + 0.1, Vec3::Z, Vec3::X * 1.05, -Vec3::X];
+        // A sixth track, first seen in frame 1 right where cone 0 was
+        // heading: not seen in the piece's first frame, so not taken.
+        let first: Vec<Feature> = places.iter().map(|&p| feature(p)).collect();
+        let mut second = first.clone();
+        second.push(feature(cones[0]));
+        let features = vec![first, second];
+        let mut tracks: Vec<Track> = (0..5).map(|k| Track { seen: vec![Some(k), Some(k)] }).collect();
+        tracks.push(Track { seen: vec![None, Some(5)] });
+        let diagonal = 10.0;
         let all = |_: usize| true;
         assert_eq!(continuing_cones(&tracks, &features, &cones, all, diagonal), Some([4, 2, 0, 3]));
         let far = [Vec3::X, Vec3::Y, Vec3::Z, Vec3::splat(5.0)];

@@ -17,9 +17,9 @@
 //! - [`follow`]: each frame's cut where the previous frame's ran;
 //! - [`handover`]: each piece of a capture going on where the last one
 //!   left off (its cones, its cut, its grid's turn);
-//! - [`segments`]: stretches of a capture registered each on its own
-//!   (where the topology changes, every random-access interval, and where
-//!   a stretch's tracks or maps fail);
+//! - [`segments`]: stretches of a capture registered each with its own
+//!   tracks (where the topology changes, every random-access interval, and
+//!   where a stretch's tracks or maps fail);
 //! - [`smooth`]: the registered grid smoothed in time along the surface;
 //! - [`symmetry`]: the square's turns, which take one frame's map to
 //!   another's.

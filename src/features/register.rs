@@ -191,7 +191,8 @@ impl FrameSource for Registered {
 /// positions, as a motion on the grid's own mesh, and the report. The
 /// capture is registered segment by segment ([`segment_ranges`]: where
 /// its topology changes, and every `longest` frames), each with its own
-/// tracks and map ([`registered_parts`]).
+/// tracks and maps ([`registered_parts`]), going on where the last left
+/// off ([`handover`]: its cones, its cut, its turn of the square).
 pub fn register(
     label: &Path,
     fps: f32,
@@ -300,7 +301,10 @@ fn register_piece(
     grid: Grid,
     handover: Option<&Handover>,
 ) -> Result<(Registered, RegisterReport, Handover)> {
-    if frames.is_empty() || tracked.features.len() != frames.len() {
+    if frames.is_empty() {
+        return Err(no_frames(label));
+    }
+    if tracked.features.len() != frames.len() {
         return Err(Error::Argument(format!(
             "{}: features of {} frames for a capture of {}",
             label.display(),
@@ -311,7 +315,7 @@ fn register_piece(
     let t1 = std::time::Instant::now();
     let diagonal = Bounds::of(&frames[0].positions).diagonal();
     let first_trace;
-    (tracked.cones, first_trace) = chosen_cones(label, frames, &tracked, grid, handover)?;
+    (tracked.cones, first_trace) = chosen_cones(label, frames, &tracked, (grid, diagonal), handover)?;
     let cones_at = |t: usize| {
         tracked.cones.map(|k| {
             let track = &tracked.tracks[k];
@@ -332,8 +336,10 @@ fn register_piece(
     let remap = |t: usize, trace: &CutTrace| map_frame(label, &frames[t], &cones_at(t), Some(trace), grid);
     remapped_to_agree(&remap, &mut mapped, &reference)?;
     let jumping = steady_jumps(&remap, &mut mapped, &reference, grid, diagonal)?;
-    // Frames (checked above), so a last frame.
-    let last_trace = mapped[mapped.len() - 1].trace.clone();
+    // The next piece's cut follows the last cut that went the reference's
+    // way round (not one still jumping, to be bridged, or unmatched).
+    let steady = |t: &usize| !jumping.contains(t) && symmetry_between(&mapped[*t].sides, &reference).is_some();
+    let last_trace = (0..mapped.len()).rev().find(steady).map(|t| mapped[t].trace.clone());
     let (mut positions, mut places, turned, unmatched) = turned_back(grid, mapped, &reference);
     let smoothed = bridged_and_smoothed(grid, frames, &jumping, &mut positions, &mut places)?;
     turned_to(grid, handover, &mut positions, &mut places);
@@ -357,6 +363,11 @@ fn register_piece(
     let meshes = frames.iter().zip(places).map(|(f, places)| FrameMesh { places, ..f.mesh() }).collect();
     let grid = InMemory { label: PathBuf::from(label), fps, topology: grid.topology(), frames: positions };
     Ok((Registered { grid, meshes }, report, next))
+}
+
+/// The error of a piece without frames.
+fn no_frames(label: &Path) -> Error {
+    Error::Argument(format!("{}: a piece of a capture without frames", label.display()))
 }
 
 /// Every frame of `frames` mapped with its cones `cones_at` (each place,
@@ -395,15 +406,14 @@ fn chosen_cones<'h>(
     label: &Path,
     frames: &[CaptureFrame],
     tracked: &Tracked,
-    grid: Grid,
+    (grid, diagonal): (Grid, f32),
     handover: Option<&'h Handover>,
 ) -> Result<([usize; 4], Option<&'h CutTrace>)> {
-    let diagonal = Bounds::of(&frames[0].positions).diagonal();
     let long = may_be_cones(&tracked.tracks);
     let going_on = handover.and_then(|h| {
         let cones =
             handover::continuing_cones(&tracked.tracks, &tracked.features, &h.cones, |k| long.contains(&k), diagonal);
-        cones.map(|c| (c, Some(&h.trace)))
+        cones.map(|c| (c, h.trace.as_ref()))
     });
     match going_on {
         Some(found) => Ok(found),
@@ -414,8 +424,8 @@ fn chosen_cones<'h>(
 /// Every frame's grid and places of a piece turned by the turn that puts
 /// its first grid nearest the last piece's last ([`handover::nearest_turn`]).
 fn turned_to(grid: Grid, handover: Option<&Handover>, positions: &mut [Vec<Vec3>], places: &mut [Vec<[u32; 2]>]) {
-    let Some(h) = handover else { return };
-    let m = handover::nearest_turn(grid, &h.grid, &positions[0]);
+    let (Some(h), Some(first)) = (handover, positions.first()) else { return };
+    let m = handover::nearest_turn(grid, &h.grid, first);
     if m == IDENTITY {
         return;
     }

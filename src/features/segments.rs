@@ -1,7 +1,9 @@
 //! A capture's segments: stretches of frames that are each tracked and
-//! mapped on their own, since no map carries over a change of topology,
-//! and a long capture's features come and go. Each segment starts at a
-//! random-access point of the file (format version 15).
+//! mapped with their own tracks, since no map carries over a change of
+//! topology, and a long capture's features come and go; each goes on
+//! from the last one's cones, cut and turn where it can
+//! ([`super::handover`]). Each segment starts at a random-access point of
+//! the file (format version 15).
 
 use super::capture::CaptureFrame;
 use super::outliers::resampling_errors;

@@ -149,13 +149,15 @@ pub struct Args {
     /// which costs about a source mesh's bytes a frame).
     #[arg(long, value_enum, default_value = "grid", requires = "unregistered")]
     mesh: CaptureMesh,
-    /// With --unregistered, code each grid sample where it lies on the
-    /// frame's surface as registered, rather than anywhere within a grid
-    /// step of it along the surface. By default the encoder takes the point
-    /// nearest what the decoder predicts (the surface is the same, the
-    /// samples' jitter on the body is not coded): 5-22 % fewer bits at
-    /// about the same surface error on the remeshed captures
-    /// (docs/RESULTS.md).
+    /// With --unregistered, code each grid sample where the registration
+    /// put it on the frame's surface. By default the encoder codes it at
+    /// the point of the frame's own mesh nearest what the decoder predicts,
+    /// within a grid step of that place (the surface is the same; the
+    /// samples' jitter on the body is not coded): on the remeshed test
+    /// captures 5-22 % fewer bits at a given --qp for up to 11 % more
+    /// surface error, about 2-8 % less error at equal bits
+    /// (docs/RESULTS.md), and with --mesh frames each frame's own vertices
+    /// come back placed on the decoded grid.
     #[arg(long, requires = "unregistered")]
     no_slide: bool,
     /// Store each input vertex's place where the grid follows it best over

@@ -227,7 +227,7 @@ pub(super) fn code(
         coder.code(&mut streams, &pre, &|name| values(name, (&feats, &g), origin, &mut Vec::new()).to_vec())?;
         let (anchors, mut info) = frame_info(header, &g, origin);
         let decoded = if plan.closed_loop {
-            let target = Target { truth: &g, surface: slide_surface(src, opts, fi)?, st };
+            let target = LoopTarget { truth: &g, surface: Surface::of_frame(src, opts, fi)?, st };
             Some(close_loop(
                 &mut coder,
                 &mut streams,
@@ -315,19 +315,19 @@ const FRAME_PLACE_ZERO_BITS: u32 = 22;
 const FRAME_OFFSET_STEP: f32 = 1e-4;
 
 /// Frame `f`'s own mesh unit (version 16): its faces, its vertices' places
-/// and their offsets from the uncompressed grid frame `coded` (from the
-/// `decoded` one where the samples slid), as the source mesh of a
+/// and their offsets from the uncompressed grid frame `registered` (from
+/// the `decoded` one where the samples slid), as the source mesh of a
 /// registered file has them from its reference frame.
 fn frame_mesh_unit(
     src: &dyn FrameSource,
     f: usize,
     opts: &EncodeOptions,
     grid: Grid,
-    (coded, decoded): (&[Vec3], &Option<Vec<Vec3>>),
+    (registered, decoded): (&[Vec3], &Option<Vec<Vec3>>),
 ) -> Result<Vec<u8>> {
     // Slid samples lie elsewhere on the surface than the grid coded: the
     // frame's own vertices are then placed on what the decoder has.
-    let g = decoded.as_deref().filter(|_| opts.slide).unwrap_or(coded);
+    let g = decoded.as_deref().filter(|_| opts.slide).unwrap_or(registered);
     let mesh = src.frame_mesh(f).ok_or_else(|| {
         Error::Argument(format!(
             "{}: frame meshes asked for, but frame {f} has no mesh of its own (only a registered capture, \
@@ -416,23 +416,10 @@ fn normal_error(st: &Stencils, decoded: &[Vec3], truth: &[Vec3], on_input: &[boo
 
 /// What a frame's closed loop aims at: the true grid frame, and where
 /// the samples may slide ([`EncodeOptions::slide`]) the frame's own mesh.
-struct Target<'a> {
+struct LoopTarget<'a> {
     truth: &'a [Vec3],
     surface: Option<Surface>,
     st: &'a Stencils,
-}
-
-/// Frame `fi`'s own mesh, prepared, where the options slide the samples.
-pub(super) fn slide_surface(src: &dyn FrameSource, opts: &EncodeOptions, fi: usize) -> Result<Option<Surface>> {
-    if !opts.slide {
-        return Ok(None);
-    }
-    let mesh = src.frame_mesh(fi).ok_or_else(|| {
-        Error::Argument(format!(
-            "frame {fi}: sliding the samples needs each frame's own mesh (an unregistered capture)"
-        ))
-    })?;
-    Surface::new(mesh).map(Some)
 }
 
 /// The closed loop at one frame: predict from the decoded past and what
@@ -448,7 +435,7 @@ fn close_loop(
     info: &mut FrameInfo,
     (opts, plan): (&EncodeOptions, &Plan),
     anchors: &[Vec3],
-    target: Target,
+    target: LoopTarget,
 ) -> Result<Vec<Vec3>> {
     let truth = target.truth;
     let header = coder.header;

@@ -161,9 +161,12 @@ pub struct EncodeOptions {
     pub vertex_residual: Option<f32>,
     /// The grid's samples carry no correspondence (an unregistered
     /// capture registered on the grid): the closed loop may code each
-    /// sample anywhere on the frame's surface near its place, the point
+    /// sample anywhere on the frame's own mesh near its place, the point
     /// nearest its prediction (`slide`), so that it spends no corrections
-    /// on where a sample lies on the body. The decoder is the same.
+    /// on where a sample lies on the body. The decoder is the same. Only
+    /// the closed-loop codecs slide (GV and the paper's solver code the
+    /// grid as it is), and only a source with every frame's own mesh
+    /// ([`FrameSource::frame_mesh`]): another is refused at its first frame.
     pub slide: bool,
 }
 

@@ -160,7 +160,7 @@ fn uncoded_loops(
         .collect();
     for fi in 0..src.frame_count() {
         let g = map.apply(&src.read_frame(fi)?);
-        let surface = super::code::slide_surface(src, opts, fi)?;
+        let surface = super::slide::Surface::of_frame(src, opts, fi)?;
         let rap = (frames.rap)(fi);
         // The runs are independent: one per core.
         runs.par_iter_mut().try_for_each(|Run { sim, sum, out }| -> Result<()> {

@@ -21,9 +21,10 @@
 //! the normal picture, `crate::codec::corrections`, drops what is left
 //! of it after.)
 
+use super::EncodeOptions;
 use crate::error::{Error, Result};
 use crate::grid::Stencils;
-use crate::mesh::FrameMesh;
+use crate::mesh::{FrameMesh, FrameSource};
 use glam::Vec3;
 use parry3d::query::PointQuery;
 use parry3d::shape::TriMesh;
@@ -45,12 +46,28 @@ pub const LEASH: f32 = 1.0;
 /// / 1.62, 0.243.
 pub const SMOOTHING: usize = 16;
 
-/// A frame's own mesh, prepared for nearest-point queries.
+/// A frame's own mesh, prepared for nearest-point queries (as
+/// `crate::metrics::surface::Target`, which the codec is below).
 pub struct Surface {
     mesh: TriMesh,
 }
 
 impl Surface {
+    /// Frame `fi`'s own mesh, prepared, where `opts` slide the samples;
+    /// an error where they do and `src` has no mesh of the frame's own.
+    pub fn of_frame(src: &dyn FrameSource, opts: &EncodeOptions, fi: usize) -> Result<Option<Surface>> {
+        if !opts.slide {
+            return Ok(None);
+        }
+        let mesh = src.frame_mesh(fi).ok_or_else(|| {
+            Error::Argument(format!(
+                "{}, frame {fi}: sliding the samples needs each frame's own mesh (an unregistered capture)",
+                src.label().display()
+            ))
+        })?;
+        Surface::new(mesh).map(Some)
+    }
+
     pub fn new(frame: &FrameMesh) -> Result<Surface> {
         let mesh = TriMesh::new(frame.positions.clone(), frame.faces.clone())
             .map_err(|e| Error::Numerical(format!("a frame's own mesh for the slide: {e:?}")))?;
@@ -65,8 +82,8 @@ impl Surface {
 
 /// Each sample of `truth` (a grid frame of `st`'s grid, on `surface`)
 /// slid towards `pred`'s: moved to the point of `surface` nearest its
-/// prediction where that lies within [`LEASH`] grid steps of it, the moves
-/// smoothed over the grid, and put back on the surface.
+/// prediction where that lies within [`LEASH`] grid steps of the sample,
+/// the moves smoothed over the grid, and put back on the surface.
 pub fn slid(st: &Stencils, truth: &[Vec3], pred: &[Vec3], surface: &Surface) -> Vec<Vec3> {
     let reach: Vec<f32> = (0..truth.len()).map(|s| LEASH * step(st, truth, s)).collect();
     let near = onto(surface, truth, pred, &reach);
@@ -82,12 +99,14 @@ fn step(st: &Stencils, x: &[Vec3], s: usize) -> f32 {
 }
 
 /// Each `wanted` point put on `surface`, where its nearest point there lies
-/// within `reach` of both it and the sample of `truth`; else the sample.
+/// within `reach` of the sample of `truth`; else the sample. The search
+/// goes no further from the point than the sample (on the surface) lies.
 fn onto(surface: &Surface, truth: &[Vec3], wanted: &[Vec3], reach: &[f32]) -> Vec<Vec3> {
     (0..truth.len())
         .into_par_iter()
         .map(|s| {
-            let q = surface.nearest_within(wanted[s], reach[s]);
+            let bound = wanted[s].distance(truth[s]) * (1.0 + 1e-4) + f32::EPSILON * truth[s].length();
+            let q = surface.nearest_within(wanted[s], bound);
             q.filter(|q| q.distance(truth[s]) <= reach[s]).unwrap_or(truth[s])
         })
         .collect()
