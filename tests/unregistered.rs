@@ -11,6 +11,7 @@ use cgv::codec::{encode, EncodeOptions, FileDecoder};
 use cgv::features::capture::CaptureFrame;
 use cgv::features::register::{register, register_tracked, track_capture, track_features};
 use cgv::features::segments::{longest_segment, segment_ranges, segment_starts};
+use cgv::features::symmetry::{apply_symmetry, TURNS};
 use cgv::grid::Grid;
 use cgv::mesh::unregister::{keep_for, remesh_frame};
 use cgv::mesh::{Bounds, FrameSource, InMemory};
@@ -170,6 +171,26 @@ fn six_frames_registered() -> (InMemory, Vec<CaptureFrame>, Grid, cgv::features:
     let grid = Grid::new(64).unwrap();
     let (registered, _) = register(Path::new("walk"), 30.0, &frames, grid, 0).unwrap();
     (walk, frames, grid, registered)
+}
+
+/// The grid's diagonals lie the better way across the body: every frame
+/// of the registered walk lies nearer its own mesh than the same grid
+/// turned a quarter (which lays every quad's split the other way).
+#[test]
+fn the_grids_diagonals_lie_the_better_way() {
+    let (_, frames, grid, registered) = six_frames_registered();
+    let faces = grid.topology().faces;
+    let far = |t: usize, g: &[Vec3]| {
+        let f = &frames[t];
+        cgv::metrics::surface::symmetric(&f.positions, &f.faces, g, &faces).unwrap().rms
+    };
+    let (mut kept, mut quarter) = (0.0, 0.0);
+    for (t, g) in registered.grid.frames.iter().enumerate() {
+        kept += far(t, g);
+        quarter += far(t, &apply_symmetry(grid, g, TURNS[1]));
+    }
+    eprintln!("surface RMS summed over the frames: kept {kept}, turned a quarter {quarter}");
+    assert!(kept < quarter, "kept {kept}, turned a quarter {quarter}");
 }
 
 /// `--mesh frames`: every frame's own triangulation comes back, rebuilt on
@@ -391,7 +412,8 @@ fn segments_go_on_where_the_last_left_off() {
 /// `CGV_PINNED=1` codes frame 0's registered grid carried by the truth's
 /// correspondence (the capture's map without its swim) at each QP;
 /// `CGV_TRUE_FRAMES=1` registers the sequence's own frames (one
-/// connectivity) in place of the remeshed capture.
+/// connectivity) in place of the remeshed capture; `CGV_TURNS=1` prints
+/// the registration alone with every grid turned a quarter.
 #[test]
 #[ignore]
 fn unregistered_against_registered() {
@@ -423,6 +445,14 @@ fn unregistered_against_registered() {
     let (registered, report) =
         register(&dir, 30.0, &capture, Grid::new(r).unwrap(), longest_segment(0.0, 30.0)).unwrap();
     let mapped = surface_rms(&truth, Grid::new(r).unwrap(), &registered.grid.frames);
+    // CGV_TURNS=1: the registration alone with every grid turned a
+    // quarter (each quad's split laid the other way across the body).
+    if std::env::var("CGV_TURNS").is_ok() {
+        let g = Grid::new(r).unwrap();
+        let turned: Vec<Vec<Vec3>> = registered.grid.frames.iter().map(|f| apply_symmetry(g, f, TURNS[1])).collect();
+        let e = surface_rms(&truth, g, &turned);
+        println!("registration alone turned a quarter {:.4} %", 100.0 * e.iter().sum::<f64>() / e.len() as f64);
+    }
     println!(
         "{name}, {frames} frames, N = {n}, registered on {r}: {report:?}; registration alone {:.4} % (worst frame {:.4} %)",
         100.0 * mapped.iter().sum::<f64>() / frames as f64,

@@ -90,14 +90,15 @@ pub fn continuing_cones(
     Some([a?, b?, c?, d?])
 }
 
-/// The turn of the square that takes grid frame `first` nearest `last`
-/// (the smallest sum of squared distances between like samples).
-pub fn nearest_turn(grid: Grid, last: &[Vec3], first: &[Vec3]) -> Symmetry {
+/// The turn of the square, of `turns`, that takes grid frame `first`
+/// nearest `last` (the smallest sum of squared distances between like
+/// samples).
+pub fn nearest_turn(grid: Grid, last: &[Vec3], first: &[Vec3], turns: &[Symmetry]) -> Symmetry {
     let far = |m: &Symmetry| -> f64 {
         let turned = apply_symmetry(grid, first, *m);
         turned.iter().zip(last).map(|(a, b)| f64::from(a.distance_squared(*b))).sum()
     };
-    TURNS.iter().copied().min_by(|a, b| far(a).total_cmp(&far(b))).unwrap_or(TURNS[0])
+    turns.iter().copied().min_by(|a, b| far(a).total_cmp(&far(b))).unwrap_or(TURNS[0])
 }
 
 #[cfg(test)]
@@ -139,7 +140,7 @@ mod tests {
         let last: Vec<Vec3> = (0..36).map(|s| Vec3::new((s % 6) as f32, (s / 6) as f32, (s * s % 7) as f32)).collect();
         for (k, m) in TURNS.iter().enumerate() {
             let first = apply_symmetry(grid, &last, *m);
-            let back = nearest_turn(grid, &last, &first);
+            let back = nearest_turn(grid, &last, &first, &TURNS);
             assert_eq!(apply_symmetry(grid, &first, back), last, "turn {k}");
         }
     }

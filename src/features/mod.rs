@@ -26,6 +26,7 @@
 
 pub mod capture;
 pub mod detect;
+pub mod diagonals;
 pub mod follow;
 pub mod handover;
 pub mod hks;

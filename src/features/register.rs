@@ -16,7 +16,7 @@ use super::handover::{self, Handover};
 use super::segments::segment_ranges;
 use super::symmetry::{apply_symmetry, symmetry_between, turn_place, IDENTITY};
 use super::track::{place, track, Track};
-use super::{jumps, outliers, segments, smooth};
+use super::{diagonals, jumps, outliers, segments, smooth};
 use crate::error::{Error, Result};
 use crate::grid::Grid;
 use crate::mesh::carrier::Carrier;
@@ -342,7 +342,7 @@ fn register_piece(
     let last_trace = (0..mapped.len()).rev().find(steady).map(|t| mapped[t].trace.clone());
     let (mut positions, mut places, turned, unmatched) = turned_back(grid, mapped, &reference);
     let smoothed = bridged_and_smoothed(grid, frames, &jumping, &mut positions, &mut places)?;
-    turned_to(grid, handover, &mut positions, &mut places);
+    turned_to(grid, frames, handover, &mut positions, &mut places)?;
     let report = RegisterReport {
         frames: frames.len(),
         features_per_frame: tracked.features_per_frame(),
@@ -421,18 +421,30 @@ fn chosen_cones<'h>(
     }
 }
 
-/// Every frame's grid and places of a piece turned by the turn that puts
-/// its first grid nearest the last piece's last ([`handover::nearest_turn`]).
-fn turned_to(grid: Grid, handover: Option<&Handover>, positions: &mut [Vec<Vec3>], places: &mut [Vec<[u32; 2]>]) {
-    let (Some(h), Some(first)) = (handover, positions.first()) else { return };
-    let m = handover::nearest_turn(grid, &h.grid, first);
+/// Every frame's grid and places of a piece turned so that the grid's
+/// diagonals lie the better way ([`diagonals::better_turns`]), by the one
+/// of those two turns that puts its first grid nearest the last piece's
+/// last ([`handover::nearest_turn`]).
+fn turned_to(
+    grid: Grid,
+    frames: &[CaptureFrame],
+    handover: Option<&Handover>,
+    positions: &mut [Vec<Vec3>],
+    places: &mut [Vec<[u32; 2]>],
+) -> Result<()> {
+    let turns = diagonals::better_turns(grid, frames, positions)?;
+    let m = match (handover, positions.first()) {
+        (Some(h), Some(first)) => handover::nearest_turn(grid, &h.grid, first, &turns),
+        _ => turns[0],
+    };
     if m == IDENTITY {
-        return;
+        return Ok(());
     }
     for (g, p) in positions.iter_mut().zip(places.iter_mut()) {
         *g = apply_symmetry(grid, g, m);
         p.iter_mut().for_each(|q| *q = turn_place(*q, m));
     }
+    Ok(())
 }
 
 /// Frame `t` of a capture mapped again with its cut traced from a trace.
