@@ -79,6 +79,30 @@ fn sphere_maps_bijectively_and_its_grid_mesh_is_a_closed_manifold() {
     }
 }
 
+/// A map turned a quarter puts every grid sample where the grid turned a
+/// quarter has it (the same points, each quad split the other way across
+/// the surface), its cones on the sides they turn to; four turns give the
+/// map back.
+#[test]
+fn a_map_turned_a_quarter_turns_its_grid() {
+    let (p, f) = icosphere(3);
+    let topo = Topology { vertex_count: p.len(), faces: f.clone() };
+    let param = parameterize(&topo, &p, &ParamOptions::default()).unwrap();
+    let turned = param.turned_quarter();
+    for (k, &c) in turned.cones.iter().enumerate() {
+        assert_eq!(turned.uv[c as usize], CONE_UV[k]);
+    }
+    let grid = Grid::new(32).unwrap();
+    let g = SampleMap::build(grid, &f, &param).unwrap().apply(&p);
+    let h = SampleMap::build(grid, &f, &turned).unwrap().apply(&p);
+    let quarter = cgv::features::symmetry::apply_symmetry(grid, &g, cgv::features::symmetry::TURNS[1]);
+    let off = h.iter().zip(&quarter).map(|(a, b)| a.distance(*b)).fold(0.0, f32::max);
+    assert!(off < 1e-5, "a sample {off} from the turned grid's");
+    let back = turned.turned_quarter().turned_quarter().turned_quarter();
+    let same = back.uv.iter().zip(&param.uv).all(|(a, b)| a.distance(*b) < 1e-12);
+    assert!(same && back.cones == param.cones && back.cut_paths == param.cut_paths);
+}
+
 #[test]
 fn default_motion_resamples_closely_and_deterministically() {
     let m = cgv::mesh::builtin::motion(8);

@@ -5,8 +5,8 @@
 //! (Aigerman and Lipman 2015) is not alike both ways: at N = 128 the
 //! uncompressed grid of samba's first frame lies 0.040 % of the diagonal
 //! from its surface one way and 0.134 % the other, horse-gallop's 0.039
-//! and 0.057, pcow's 0.093 and 0.139 (the registered motion's own map;
-//! its race of maps, scored on the grid, kept the better way each time).
+//! and 0.057, pcow's 0.093 and 0.139 (the registered motion's own map,
+//! which `crate::geometry_image` keeps the better way round).
 //! A capture's turn is otherwise set by the order its cones' cut paths
 //! leave the corner (any of the four), so half its pieces got the worse
 //! way: samba's first 60 frames resampled at 0.056 % where its first 24,
@@ -45,6 +45,15 @@ pub fn better_turns(grid: Grid, frames: &[CaptureFrame], grids: &[Vec<Vec3>]) ->
         Ok(each.iter().sum())
     };
     Ok(if far(quarter[0])? < far(straight[0])? { quarter } else { straight })
+}
+
+/// How far grid frame `g` lies from `frame`'s own mesh (symmetric surface
+/// RMS) the better of its two ways round: what a set of cones is worth,
+/// since its piece is turned that way in the end.
+pub fn either_way(grid: Grid, frame: &CaptureFrame, g: &[Vec3]) -> Result<f64> {
+    let faces = grid.topology().faces;
+    let far = |g: &[Vec3]| Ok::<_, crate::Error>(symmetric(&frame.positions, &frame.faces, g, &faces)?.rms);
+    Ok(far(g)?.min(far(&apply_symmetry(grid, g, TURNS[1]))?))
 }
 
 #[cfg(test)]

@@ -108,6 +108,25 @@ pub struct Parameterization {
 }
 
 impl Parameterization {
+    /// The same map turned a quarter (counter-clockwise) about the
+    /// square's centre: each place, each corner's copy and each cone's
+    /// side turn with it. The grid mesh splits every quad along the same
+    /// diagonal, so the turned map lays it the other way across the
+    /// surface (`crate::geometry_image` keeps the way that resamples
+    /// better).
+    pub fn turned_quarter(&self) -> Parameterization {
+        let turn = |u: DVec2| DVec2::new(-u.y, u.x);
+        // The top side's cone goes to the left side, the right's to the top.
+        let from = |k: usize| (k + 1) % 4;
+        Parameterization {
+            cones: std::array::from_fn(|k| self.cones[from(k)]),
+            cut_paths: std::array::from_fn(|k| self.cut_paths[from(k)].clone()),
+            uv: self.uv.iter().map(|&u| turn(u)).collect(),
+            corner_iso: self.corner_iso.iter().map(|c| c.map(|i| Iso { s: i.s, t: turn(i.t) })).collect(),
+            ..self.clone()
+        }
+    }
+
     /// The image of face `f` in the plane: a proper triangle, possibly
     /// reaching outside the square (it wraps across the seam there).
     pub fn face_uv(&self, faces: &[[u32; 3]], f: usize) -> [DVec2; 3] {
