@@ -47,15 +47,6 @@ pub fn better_turns(grid: Grid, frames: &[CaptureFrame], grids: &[Vec<Vec3>]) ->
     Ok(if far(quarter[0])? < far(straight[0])? { quarter } else { straight })
 }
 
-/// How far grid frame `g` lies from `frame`'s own mesh (symmetric surface
-/// RMS) the better of its two ways round: what a set of cones is worth,
-/// since its piece is turned that way in the end.
-pub fn either_way(grid: Grid, frame: &CaptureFrame, g: &[Vec3]) -> Result<f64> {
-    let faces = grid.topology().faces;
-    let far = |g: &[Vec3]| Ok::<_, crate::Error>(symmetric(&frame.positions, &frame.faces, g, &faces)?.rms);
-    Ok(far(g)?.min(far(&apply_symmetry(grid, g, TURNS[1]))?))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

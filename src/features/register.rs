@@ -602,11 +602,12 @@ fn may_be_cones(tracks: &[Track]) -> Vec<usize> {
 
 /// Of the sets of four long tracks, the one whose maps resample
 /// [`SCORED_FRAMES`] frames best (their grids' mean surface RMS against
-/// the frames, each grid the better way round, [`diagonals::either_way`]),
-/// as the encoder races cone placements
+/// the frames), as the encoder races cone placements
 /// (`crate::geometry_image`): where they sit decides how much of the grid
 /// each limb gets. The first frame alone chose sets that resampled the
 /// rest 1.5-2x worse (horse-gallop 0.156 % against 0.102 for another set).
+/// Scored the better way round ([`diagonals`]), whole pcow's frames
+/// 118-119 took cones 0.5-0.7 % off (0.07-0.09 % as it is): not done.
 fn best_cones(label: &Path, frames: &[CaptureFrame], tracked: &Tracked, grid: Grid) -> Result<[usize; 4]> {
     let long = may_be_cones(&tracked.tracks);
     let mut sets: Vec<[usize; 4]> = Vec::new();
@@ -629,7 +630,9 @@ fn best_cones(label: &Path, frames: &[CaptureFrame], tracked: &Tracked, grid: Gr
     let score = |set: &[usize; 4], t: usize| -> Option<f64> {
         let at = set.map(|k| (place(&tracked.tracks[k], &tracked.features, t).unwrap_or(Vec3::ZERO), true));
         let g = map_frame(label, &frames[t], &at, None, grid).ok()?.grid;
-        diagonals::either_way(grid, &frames[t], &g).ok()
+        let f = &frames[t];
+        let d = crate::metrics::surface::symmetric(&f.positions, &f.faces, &g, &grid.topology().faces).ok()?;
+        Some(d.rms)
     };
     let runs: Vec<(usize, usize)> = (0..sets.len()).flat_map(|s| scored_frames.iter().map(move |&t| (s, t))).collect();
     let errors: Vec<Option<f64>> = runs.par_iter().map(|&(s, t)| score(&sets[s], t)).collect();
