@@ -21,17 +21,6 @@
 //! four of the first five race through the passes, and the losers drop out
 //! early ([`RACE_MARGIN`], [`RACE_DECIDE`]): about twice the time of one
 //! placement's passes instead of five times.
-//!
-//! Each map is scored both ways round: the grid mesh splits every quad
-//! along the same diagonal, and the map turned a quarter
-//! ([`Parameterization::turned_quarter`]) lays it the other way across the
-//! surface, which resamples some surfaces far better (the first frames'
-//! floors one way and the other at N = 128: samba 0.040 / 0.134 %,
-//! horse-gallop 0.039 / 0.057, pcow 0.093 / 0.139 of the diagonal). The
-//! better way is kept. The race used to see one way only; its winners
-//! mostly lay the better way already, but not samba's at N = 64 (0.163 ->
-//! 0.150 %) nor pcow's at N = 256, where another placement wins turned
-//! (0.0388 -> 0.0324 %).
 
 use crate::error::{Error, Result};
 use crate::format::{Offsets, SourceMesh};
@@ -322,15 +311,7 @@ pub fn parameterize_carrier(
     // The kept map's own figure, measured whole: it is what the encoder
     // reports as the grid's floor and what `--grid auto` decides by.
     if p.score.is_some() {
-        // And the way round the race's score found better is kept.
-        let whole = |p: &Parameterization| grid_score(p, (grid, carrier), input, &target, (f64::INFINITY, 1));
-        let turned = p.turned_quarter();
-        let (kept, other) = (whole(&p)?, whole(&turned)?);
-        p = if other < kept {
-            Parameterization { score: Some(other), ..turned }
-        } else {
-            Parameterization { score: Some(kept), ..p }
-        };
+        p.score = Some(grid_score(&p, (grid, carrier), input, &target, (f64::INFINITY, 1))?);
     }
     Ok(p)
 }
@@ -346,12 +327,7 @@ fn choose_map(
 ) -> Result<Parameterization> {
     let reference = input.1;
     // A copy for each caller (it only reads): `&mut { score }` below.
-    // Each map scores the better of its two ways round.
-    let score = |p: &Parameterization, above: f64| {
-        let a = grid_score(p, (grid, carrier), input, target, (above, SCORE_EVERY))?;
-        let b = grid_score(&p.turned_quarter(), (grid, carrier), input, target, (above.min(a), SCORE_EVERY))?;
-        Ok(a.min(b))
-    };
+    let score = |p: &Parameterization, above: f64| grid_score(p, (grid, carrier), input, target, (above, SCORE_EVERY));
     let positions = carrier.positions(reference);
     let (topology, reference) = (&carrier.topology, &positions[..]);
     let nv = topology.vertex_count;

@@ -6,7 +6,7 @@
 //! uncompressed grid of samba's first frame lies 0.040 % of the diagonal
 //! from its surface one way and 0.134 % the other, horse-gallop's 0.039
 //! and 0.057, pcow's 0.093 and 0.139 (the registered motion's own map,
-//! which `crate::geometry_image` keeps the better way round).
+//! whose race, scored on the grid, kept the better way each time).
 //! A capture's turn is otherwise set by the order its cones' cut paths
 //! leave the corner (any of the four), so half its pieces got the worse
 //! way: samba's first 60 frames resampled at 0.056 % where its first 24,

@@ -112,8 +112,9 @@ impl Parameterization {
     /// square's centre: each place, each corner's copy and each cone's
     /// side turn with it. The grid mesh splits every quad along the same
     /// diagonal, so the turned map lays it the other way across the
-    /// surface (`crate::geometry_image` keeps the way that resamples
-    /// better).
+    /// surface, which resamples some surfaces better (docs/RESULTS.md,
+    /// "Both ways round"; a capture's pieces are turned so,
+    /// `crate::features::diagonals`).
     pub fn turned_quarter(&self) -> Parameterization {
         let turn = |u: DVec2| DVec2::new(-u.y, u.x);
         // The top side's cone goes to the left side, the right's to the top.
