@@ -13,10 +13,10 @@
 //! turned the other way, took 0.035.
 
 use super::capture::CaptureFrame;
+use super::outliers::resampling_error;
 use super::symmetry::{apply_symmetry, Symmetry, TURNS};
 use crate::error::Result;
 use crate::grid::Grid;
-use crate::metrics::surface::symmetric;
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -37,10 +37,7 @@ pub fn better_turns(grid: Grid, frames: &[CaptureFrame], grids: &[Vec<Vec3>]) ->
     let far = |m: Symmetry| -> Result<f64> {
         let each: Vec<f64> = scored
             .par_iter()
-            .map(|&t| {
-                let g = apply_symmetry(grid, &grids[t], m);
-                Ok(symmetric(&frames[t].positions, &frames[t].faces, &g, &faces)?.rms)
-            })
+            .map(|&t| resampling_error(&frames[t], &apply_symmetry(grid, &grids[t], m), &faces))
             .collect::<Result<_>>()?;
         Ok(each.iter().sum())
     };

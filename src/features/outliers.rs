@@ -25,7 +25,7 @@ pub fn resampling_errors(frames: &[CaptureFrame], grids: &[Vec<Vec3>], grid: Gri
 
 /// How far one frame's grid (`g`, on the grid's `faces`) lies from the
 /// frame's own mesh.
-fn resampling_error(f: &CaptureFrame, g: &[Vec3], faces: &[[u32; 3]]) -> Result<f64> {
+pub(super) fn resampling_error(f: &CaptureFrame, g: &[Vec3], faces: &[[u32; 3]]) -> Result<f64> {
     Ok(symmetric(&f.positions, &f.faces, g, faces)?.rms)
 }
 
