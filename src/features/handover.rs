@@ -12,16 +12,17 @@
 //! by piece: its grid moved 31-41 % of the diagonal at each segment's
 //! start) leaves those weights wrong on one side of the start or the other.
 
-use super::detect::Feature;
 use super::follow::CutTrace;
 use super::symmetry::{apply_symmetry, Symmetry, TURNS};
-use super::track::{place, Track};
+use super::track::{place, Tracked};
 use crate::grid::Grid;
 use glam::Vec3;
 
 /// What the next piece starts from: where the last piece's cones would be
-/// one frame on (each moved on by its last step), its last steady frame's
-/// cut (none where no frame was steady), and its last grid, as stored.
+/// one frame on on the body (each moved on by its last step, less the
+/// frame's center: a body that travels, as pcow does by several % of the
+/// diagonal a frame, moves them all alike), its last steady frame's cut
+/// (none where no frame was steady), and its last grid, as stored.
 #[derive(Debug, Clone)]
 pub struct Handover {
     pub cones: [Vec3; 4],
@@ -30,26 +31,26 @@ pub struct Handover {
 }
 
 impl Handover {
-    /// The handover of a piece whose cones follow `cones` (indices into
-    /// `tracks`), whose last steady frame's cut is `trace` and last grid
-    /// `grid`.
-    pub fn of(
-        tracks: &[Track],
-        features: &[Vec<Feature>],
-        cones: [usize; 4],
-        trace: Option<CutTrace>,
-        grid: Vec<Vec3>,
-    ) -> Self {
-        let last = features.len().saturating_sub(1);
+    /// The handover of a piece `tracked` (its cones, its frames' features
+    /// and centers) whose last steady frame's cut is `trace` and last
+    /// grid `grid`.
+    pub fn of(tracked: &Tracked, trace: Option<CutTrace>, grid: Vec<Vec3>) -> Self {
+        let last = tracked.features.len().saturating_sub(1);
         let ahead = |k: usize| {
-            let at = |t: usize| place(&tracks[k], features, t);
+            let at = |t: usize| on_body(tracked, k, t);
             match (at(last), last.checked_sub(1).and_then(at)) {
                 (Some(p), Some(q)) => 2.0 * p - q,
                 (p, _) => p.unwrap_or(Vec3::ZERO),
             }
         };
-        Handover { cones: cones.map(ahead), trace, grid }
+        Handover { cones: tracked.cones.map(ahead), trace, grid }
     }
+}
+
+/// Where track `k` of `tracked` is in frame `t`, less the frame's center.
+fn on_body(tracked: &Tracked, k: usize, t: usize) -> Option<Vec3> {
+    let center = tracked.centers.get(t).copied().unwrap_or_default();
+    place(&tracked.tracks[k], &tracked.features, t).map(|p| p - center)
 }
 
 /// How far from the last piece's cone (moved on by its last step) a
@@ -57,21 +58,22 @@ impl Handover {
 /// tracker's own step for a feature it lost.
 pub const LINK: f32 = super::track::WEAK_STEP;
 
-/// The tracks that carry `cones` on into a piece: for each cone, in
-/// order, a track of `tracks` that `may_be_cone` allows, seen in the
-/// piece's first frame within [`LINK`] diagonals of it, the nearest pairs
-/// taken first; `None` unless all four are found.
+/// The tracks of a piece (`tracked`) that carry `cones` (on the body, as
+/// [`Handover`] has them) on into it: for each cone, in order, a track
+/// that `may_be_cone` allows, seen in the piece's first frame within
+/// [`LINK`] diagonals of it, the nearest pairs taken first; `None` unless
+/// all four are found.
 pub fn continuing_cones(
-    tracks: &[Track],
-    features: &[Vec<Feature>],
+    tracked: &Tracked,
     cones: &[Vec3; 4],
     may_be_cone: impl Fn(usize) -> bool,
     diagonal: f32,
 ) -> Option<[usize; 4]> {
+    let tracks = &tracked.tracks;
     let mut pairs: Vec<(f32, usize, usize)> = Vec::new();
     let seen_first = |k: usize| tracks[k].seen.first().is_some_and(Option::is_some);
     for k in (0..tracks.len()).filter(|&k| may_be_cone(k) && seen_first(k)) {
-        let Some(p) = place(&tracks[k], features, 0) else { continue };
+        let Some(p) = on_body(tracked, k, 0) else { continue };
         for (c, cone) in cones.iter().enumerate() {
             let d = p.distance(*cone);
             if d <= LINK * diagonal {
@@ -104,33 +106,45 @@ pub fn nearest_turn(grid: Grid, last: &[Vec3], first: &[Vec3], turns: &[Symmetry
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::features::detect::TIMES;
+    use crate::features::detect::{Feature, TIMES};
+    use crate::features::track::Track;
 
     fn feature(position: Vec3) -> Feature {
         Feature { vertex: 0, position, descriptor: [0.0; TIMES], weak: false }
     }
 
     /// Each cone goes on with the track seen nearest it in the piece's
-    /// first frame; a cone with no track within reach, or a track refused
-    /// as a cone, leaves none carried on.
+    /// first frame, on the body (the piece's frames moved 3 units, their
+    /// centers with them); a cone with no track within reach, or a track
+    /// refused as a cone, leaves none carried on.
     #[test]
     fn cones_go_on_with_the_tracks_that_start_where_they_were() {
+        let travel = Vec3::new(3.0, 0.0, 0.0);
         let places = [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::X, -Vec3::Y];
         let cones = [-Vec3::Y + 0.1, Vec3::Z, Vec3::X * 1.05, -Vec3::X];
         // A sixth track, first seen in frame 1 right where cone 0 was
         // heading: not seen in the piece's first frame, so not taken.
-        let first: Vec<Feature> = places.iter().map(|&p| feature(p)).collect();
+        let first: Vec<Feature> = places.iter().map(|&p| feature(p + travel)).collect();
         let mut second = first.clone();
-        second.push(feature(cones[0]));
-        let features = vec![first, second];
+        second.push(feature(cones[0] + travel));
         let mut tracks: Vec<Track> = (0..5).map(|k| Track { seen: vec![Some(k), Some(k)] }).collect();
         tracks.push(Track { seen: vec![None, Some(5)] });
+        let features = vec![first, second];
+        let piece = |centers: Vec<Vec3>| Tracked {
+            features: features.clone(),
+            centers,
+            tracks: tracks.clone(),
+            cones: [0, 1, 2, 3],
+            seconds: 0.0,
+        };
+        let (moved, still) = (piece(vec![travel; 2]), piece(vec![Vec3::ZERO; 2]));
         let diagonal = 10.0;
         let all = |_: usize| true;
-        assert_eq!(continuing_cones(&tracks, &features, &cones, all, diagonal), Some([4, 2, 0, 3]));
+        assert_eq!(continuing_cones(&moved, &cones, all, diagonal), Some([4, 2, 0, 3]));
+        assert_eq!(continuing_cones(&still, &cones, all, diagonal), None, "the travel is past reach");
         let far = [Vec3::X, Vec3::Y, Vec3::Z, Vec3::splat(5.0)];
-        assert_eq!(continuing_cones(&tracks, &features, &far, all, diagonal), None);
-        assert_eq!(continuing_cones(&tracks, &features, &cones, |k| k != 4, diagonal), None);
+        assert_eq!(continuing_cones(&moved, &far, all, diagonal), None);
+        assert_eq!(continuing_cones(&moved, &cones, |k| k != 4, diagonal), None);
     }
 
     /// A piece whose first grid is the last grid turned is turned back.

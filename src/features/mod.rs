@@ -14,6 +14,7 @@
 //!   rebuilt from their neighbours;
 //! - [`register`]: every frame mapped onto the grid with four tracked
 //!   features as the map's cones: a registered motion;
+//! - [`report`]: what the registration found;
 //! - [`follow`]: each frame's cut where the previous frame's ran;
 //! - [`handover`]: each piece of a capture going on where the last one
 //!   left off (its cones, its cut, its grid's turn);
@@ -34,6 +35,7 @@ pub mod jumps;
 pub mod nearest;
 pub mod outliers;
 pub mod register;
+pub mod report;
 pub mod segments;
 pub mod smooth;
 pub mod symmetry;

@@ -13,8 +13,10 @@ use super::capture::CaptureFrame;
 use super::detect::{features_near, Feature};
 use super::follow::{self, CutTrace};
 use super::handover::{self, Handover};
+pub use super::report::RegisterReport;
 use super::segments::segment_ranges;
 use super::symmetry::{apply_symmetry, symmetry_between, turn_place, IDENTITY};
+pub use super::track::Tracked;
 use super::track::{place, track, Track};
 use super::{diagonals, jumps, outliers, segments, smooth};
 use crate::error::{Error, Result};
@@ -34,83 +36,6 @@ use std::sync::Arc;
 /// after 20, `crate::param::SCORED_PASSES`).
 pub const AREA_PASSES: usize = 20;
 
-/// What the registration found, for `cgv info` and the encoder's report.
-#[derive(Debug, Clone, Default, serde::Serialize)]
-pub struct RegisterReport {
-    pub frames: usize,
-    /// Features found per frame, on average.
-    pub features_per_frame: f64,
-    pub tracks: usize,
-    /// The tracks the cones follow (indices into [`track_capture`]'s).
-    pub cone_tracks: [usize; 4],
-    /// The share of frames each cone's track was seen in (the rest placed
-    /// between its sightings).
-    pub cones_seen: [f64; 4],
-    /// Frames whose cones the cut put on other sides of the square than
-    /// most frames', turned back by a turn of the grid.
-    pub turned_frames: usize,
-    /// Frames whose cones no turn puts back (their cyclic order around the
-    /// square differs): the grid flips there.
-    pub unmatched_frames: usize,
-    /// Frames whose grid still jumped ([`super::jumps`]) when mapped again
-    /// with their neighbours' cuts, and was bridged from their neighbours.
-    pub bridged_frames: usize,
-    /// Frames whose grid was smoothed in time ([`super::smooth`]).
-    pub smoothed_frames: usize,
-    /// Frames whose grid lay far from their own mesh, rebuilt from their
-    /// neighbours ([`super::outliers`]).
-    pub rebuilt_frames: usize,
-    pub seconds_features: f64,
-    pub seconds_maps: f64,
-    /// Frames where a segment (after the first) starts: the topology
-    /// changed there, or the last segment reached its longest
-    /// ([`segment_ranges`]).
-    pub segments: Vec<u32>,
-}
-
-impl RegisterReport {
-    /// Adds the report of the segment starting at frame `start`: counts
-    /// add up, shares are weighted by frames, cones' shares are the worst
-    /// segment's (the cones are each segment's own).
-    fn join(&mut self, start: usize, next: &RegisterReport) {
-        let (a, b) = (self.frames as f64, next.frames as f64);
-        self.features_per_frame = (self.features_per_frame * a + next.features_per_frame * b) / (a + b).max(1.0);
-        self.frames += next.frames;
-        self.tracks += next.tracks;
-        self.cones_seen = std::array::from_fn(|k| self.cones_seen[k].min(next.cones_seen[k]));
-        self.turned_frames += next.turned_frames;
-        self.unmatched_frames += next.unmatched_frames;
-        self.bridged_frames += next.bridged_frames;
-        self.smoothed_frames += next.smoothed_frames;
-        self.seconds_features += next.seconds_features;
-        self.seconds_maps += next.seconds_maps;
-        self.segments.push(start as u32);
-    }
-}
-
-/// A capture's features and tracks, and the four tracks chosen as cones.
-#[derive(Debug, Clone)]
-pub struct Tracked {
-    pub features: Vec<Vec<Feature>>,
-    pub tracks: Vec<Track>,
-    pub cones: [usize; 4],
-    pub seconds: f64,
-}
-
-impl Tracked {
-    /// Features found per frame, on average (the weak candidates not
-    /// counted).
-    pub fn features_per_frame(&self) -> f64 {
-        let strong = self.features.iter().flatten().filter(|f| !f.weak).count();
-        strong as f64 / self.features.len().max(1) as f64
-    }
-
-    /// The share of frames each cone's track was seen in.
-    pub fn cones_seen(&self) -> [f64; 4] {
-        self.cones.map(|k| self.tracks[k].frames_seen() as f64 / self.features.len().max(1) as f64)
-    }
-}
-
 /// The features of every frame of `frames` (named `label`), tracked.
 pub fn track_capture(label: &Path, frames: &[CaptureFrame]) -> Result<Tracked> {
     if frames.is_empty() {
@@ -118,7 +43,8 @@ pub fn track_capture(label: &Path, frames: &[CaptureFrame]) -> Result<Tracked> {
     }
     let t0 = std::time::Instant::now();
     let features = features_in_runs(frames)?;
-    let mut tracked = track_features(label, features, Bounds::of(&frames[0].positions).diagonal())?;
+    let centers: Vec<Vec3> = frames.par_iter().map(CaptureFrame::center).collect();
+    let mut tracked = track_features(label, features, &centers, Bounds::of(&frames[0].positions).diagonal())?;
     tracked.seconds = t0.elapsed().as_secs_f64();
     Ok(tracked)
 }
@@ -145,14 +71,24 @@ fn features_in_runs(frames: &[CaptureFrame]) -> Result<Vec<Vec<Feature>>> {
 }
 
 /// Features found on every frame (`features`, of a capture named `label`
-/// whose first frame's diagonal is `diagonal`), tracked.
-pub fn track_features(label: &Path, features: Vec<Vec<Feature>>, diagonal: f32) -> Result<Tracked> {
+/// whose frames' centers are `centers`, [`CaptureFrame::center`], and
+/// first frame's diagonal is `diagonal`), tracked.
+pub fn track_features(label: &Path, features: Vec<Vec<Feature>>, centers: &[Vec3], diagonal: f32) -> Result<Tracked> {
+    if centers.len() != features.len() {
+        return Err(Error::Argument(format!(
+            "{}: the centers of {} frames for features of {}",
+            label.display(),
+            centers.len(),
+            features.len()
+        )));
+    }
     let t0 = std::time::Instant::now();
-    let tracks = track(&features, diagonal);
+    let tracks = track(&features, centers, diagonal);
     let cones = cone_tracks(&tracks).ok_or_else(|| {
         Error::Argument(format!("{}: fewer than four features could be tracked through the frames", label.display()))
     })?;
-    Ok(Tracked { features, tracks, cones, seconds: t0.elapsed().as_secs_f64() })
+    let centers = centers.to_vec();
+    Ok(Tracked { features, centers, tracks, cones, seconds: t0.elapsed().as_secs_f64() })
 }
 
 /// A registered capture: its frames on the grid (a motion on the grid's
@@ -349,6 +285,7 @@ fn register_piece(
         tracks: tracked.tracks.len(),
         cone_tracks: tracked.cones,
         cones_seen: tracked.cones_seen(),
+        cones_seen_overall: tracked.cones_seen_overall(),
         turned_frames: turned,
         unmatched_frames: unmatched,
         bridged_frames: jumping.len(),
@@ -359,7 +296,7 @@ fn register_piece(
         segments: Vec::new(),
     };
     let last_grid = positions.last().cloned().unwrap_or_default();
-    let next = Handover::of(&tracked.tracks, &tracked.features, tracked.cones, last_trace, last_grid);
+    let next = Handover::of(&tracked, last_trace, last_grid);
     let meshes = frames.iter().zip(places).map(|(f, places)| FrameMesh { places, ..f.mesh() }).collect();
     let grid = InMemory { label: PathBuf::from(label), fps, topology: grid.topology(), frames: positions };
     Ok((Registered { grid, meshes }, report, next))
@@ -411,8 +348,7 @@ fn chosen_cones<'h>(
 ) -> Result<([usize; 4], Option<&'h CutTrace>)> {
     let long = may_be_cones(&tracked.tracks);
     let going_on = handover.and_then(|h| {
-        let cones =
-            handover::continuing_cones(&tracked.tracks, &tracked.features, &h.cones, |k| long.contains(&k), diagonal);
+        let cones = handover::continuing_cones(tracked, &h.cones, |k| long.contains(&k), diagonal);
         cones.map(|c| (c, h.trace.as_ref()))
     });
     match going_on {
@@ -667,7 +603,7 @@ fn map_with_cones(
         let pos: Vec<DVec3> = positions.iter().map(|p| p.as_dvec3()).collect();
         let graph = Graph::new(nv, &carrier.topology.faces, &pos);
         let diagonal = Bounds::of(&positions).diagonal().max(f32::MIN_POSITIVE) as f64;
-        let cones = trace.map_or(cones, |t| t.cones_in(&graph, cones, seen, diagonal));
+        let cones = apart(&graph, trace.map_or(cones, |t| t.cones_in(&graph, cones, seen, diagonal)));
         let sig = follow::signatures(&graph, cones, diagonal);
         let corner = match trace.and_then(|t| t.corner_in(&sig, &cones)) {
             Some(c) => c,
@@ -717,12 +653,45 @@ fn map_frame(
     let mut carrier = Carrier::build(label, &topology, &frame.positions)?;
     let positions = carrier.positions(&frame.positions);
     let cones = at.map(|(p, _)| nearest(&positions, p).unwrap_or(0));
-    let seen = at.map(|(_, seen)| seen);
+    let seen = one_cone_a_vertex(cones, at.map(|(_, seen)| seen));
     let (param, trace, cones) = map_with_cones(&mut carrier, &frame.positions, cones, seen, trace)?;
     let map = SampleMap::on_carrier(grid, &carrier, &param)?;
     let sides = param.cones.map(|v| cones.iter().position(|&c| c == v).unwrap_or(0));
     let places = carrier_places(&carrier, &param);
     Ok(Mapped { grid: map.apply(&frame.positions), places, sides, trace })
+}
+
+/// `seen` with a cone that shares its vertex with another counted as
+/// missed (the one not seen there, else the later), so that a trace puts
+/// it where the last frame had it: no map has two cones at one vertex,
+/// and two tracks may reach one (whole pcow's frames 120-180: a track's
+/// place between its sightings on another's feature).
+fn one_cone_a_vertex(cones: [u32; 4], mut seen: [bool; 4]) -> [bool; 4] {
+    for k in 1..4 {
+        for j in 0..k {
+            if cones[k] == cones[j] && seen[k] && seen[j] {
+                seen[k] = false;
+            } else if cones[k] == cones[j] {
+                seen[if seen[k] { j } else { k }] = false;
+            }
+        }
+    }
+    seen
+}
+
+/// `cones` with each that shares an earlier one's vertex moved to the
+/// nearest vertex no cone holds: the last resort where no trace could put
+/// it ([`one_cone_a_vertex`]), since a map needs four cones apart.
+fn apart(graph: &Graph, mut cones: [u32; 4]) -> [u32; 4] {
+    for k in 1..4 {
+        if cones[..k].contains(&cones[k]) {
+            let free = graph.neighbours(cones[k]).iter().filter(|(v, _)| !cones.contains(v));
+            if let Some((v, _)) = free.min_by(|a, b| a.1.total_cmp(&b.1)) {
+                cones[k] = *v;
+            }
+        }
+    }
+    cones
 }
 
 /// `faces` without the faces past the first two on any edge: a fin (a
@@ -766,6 +735,34 @@ fn nearest(positions: &[Vec3], p: Vec3) -> Option<u32> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Of two cones on one vertex, the one not seen there is missed, else
+    /// the later; cones apart keep what their tracks saw.
+    #[test]
+    fn two_cones_on_one_vertex_leave_one_to_the_trace() {
+        let all = [true; 4];
+        assert_eq!(one_cone_a_vertex([1, 2, 3, 4], all), all);
+        assert_eq!(one_cone_a_vertex([1, 2, 1, 4], all), [true, true, false, true]);
+        assert_eq!(one_cone_a_vertex([1, 2, 1, 4], [false, true, true, true]), [false, true, true, true]);
+        assert_eq!(one_cone_a_vertex([5, 5, 5, 4], all), [true, false, false, true]);
+    }
+
+    /// Cones on one vertex are moved apart, each to the nearest free
+    /// neighbour; cones apart stay.
+    #[test]
+    fn cones_on_one_vertex_are_moved_apart() {
+        // A row of five vertices, 1 apart, but 2 and 3 only 0.5.
+        let pos: Vec<DVec3> = [0.0, 1.0, 2.0, 2.5, 3.5].iter().map(|&x| DVec3::new(x, 0.0, 0.0)).collect();
+        let mut pos = pos;
+        pos.extend(pos.clone().iter().map(|p| *p + DVec3::Y));
+        let faces: Vec<[u32; 3]> = (0..4u32).flat_map(|i| [[i, i + 1, i + 6], [i, i + 6, i + 5]]).collect();
+        let graph = Graph::new(10, &faces, &pos);
+        assert_eq!(apart(&graph, [0, 1, 5, 9]), [0, 1, 5, 9]);
+        let moved = apart(&graph, [2, 0, 2, 2]);
+        assert_eq!(moved[..2], [2, 0]);
+        assert_eq!(moved[2], 3, "the nearest neighbour of 2");
+        assert!(!moved[..3].contains(&moved[3]) && graph.neighbours(2).iter().any(|n| n.0 == moved[3]), "{moved:?}");
+    }
 
     /// The worst frame of a segment's pieces is measured on the frames each
     /// piece covers: halves with one frame off their mesh are worse than a

@@ -429,12 +429,14 @@ fn registered(args: &Args) -> Result<(Box<dyn cgv::mesh::FrameSource>, Vec<u32>)
     let (src, r) = cgv::features::register::register(dir, args.input.fps, &frames, grid, longest)
         .with_context(|| format!("registering {}", dir.display()))?;
     eprintln!(
-        "registered {} frames on {n}²: {:.1} features a frame, {} tracks, the cones' tracks seen in {} of the frames, \
+        "registered {} frames on {n}²: {:.1} features a frame, {} tracks, the cones' tracks seen in {:.0} % of their frames \
+         (each in {} of the frames, the worst segment's), \
          {} frames turned back to the first's sides, {} that no symmetry matches, {} bridged from their neighbours (their grid jumped), \
          {} smoothed in time, {} rebuilt from their neighbours (their grid lay far from their mesh); {:.1} s features, {:.1} s maps",
         r.frames,
         r.features_per_frame,
         r.tracks,
+        100.0 * r.cones_seen_overall,
         r.cones_seen.map(|x| format!("{:.0} %", 100.0 * x)).join(" / "),
         r.turned_frames,
         r.unmatched_frames,

@@ -144,6 +144,8 @@ fn unregistered_info(args: &Args) -> Result<()> {
     let features_per_frame = features / frames.len().max(1) as f64;
     let tracks: usize = segments.iter().map(|t| t.tracks.len()).sum();
     let seen: [f64; 4] = std::array::from_fn(|k| segments.iter().map(|t| t.cones_seen()[k]).fold(1.0, f64::min));
+    let seen_frames = segments.iter().map(|t| t.cones_seen_overall() * t.features.len() as f64).sum::<f64>();
+    let overall = seen_frames / frames.len().max(1) as f64;
     let rate = frames.len() as f64 / segments.iter().map(|t| t.seconds).sum::<f64>().max(1e-9);
     if args.json {
         let report = serde_json::json!({
@@ -155,6 +157,7 @@ fn unregistered_info(args: &Args) -> Result<()> {
             "features_per_frame": features_per_frame,
             "tracks": tracks,
             "cones_seen": seen,
+            "cones_seen_overall": overall,
             "segments": starts,
             "frames_per_second": rate,
         });
@@ -172,9 +175,11 @@ fn unregistered_info(args: &Args) -> Result<()> {
         ),
     }
     println!("  features      {features_per_frame:.1} a frame (heat kernel signature maxima), {tracks} tracks");
+    let worst = if starts.len() > 1 { " (the worst segment's)" } else { "" };
     println!(
-        "  cones         the 4 longest tracks{}, seen in {} of the frames",
+        "  cones         the 4 longest tracks{}, seen in {:.0} % of their frames; each in {} of the frames{worst}",
         if starts.len() > 1 { " of each segment" } else { "" },
+        100.0 * overall,
         seen.map(|x| format!("{:.0} %", 100.0 * x)).join(" / ")
     );
     println!("  speed         {rate:.1} frames/s (features and tracking)");

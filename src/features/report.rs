@@ -1,0 +1,84 @@
+//! What registering a capture found ([`super::register`]): its features,
+//! tracks and cones, the frames its maps mended, its segments, for
+//! `cgv info` and the encoder's report.
+
+/// What the registration found, for `cgv info` and the encoder's report.
+#[derive(Debug, Clone, Default, serde::Serialize)]
+pub struct RegisterReport {
+    pub frames: usize,
+    /// Features found per frame, on average.
+    pub features_per_frame: f64,
+    pub tracks: usize,
+    /// The tracks the cones follow (indices into [`super::register::track_capture`]'s).
+    pub cone_tracks: [usize; 4],
+    /// The share of frames each cone's track was seen in (the rest placed
+    /// between its sightings); over several segments, the worst segment's.
+    pub cones_seen: [f64; 4],
+    /// The share of all the cones' frames (four a frame, each segment's
+    /// own) in which the cone's feature was seen: the whole capture's
+    /// tracking, where [`RegisterReport::cones_seen`] is its worst stretch.
+    pub cones_seen_overall: f64,
+    /// Frames whose cones the cut put on other sides of the square than
+    /// most frames', turned back by a turn of the grid.
+    pub turned_frames: usize,
+    /// Frames whose cones no turn puts back (their cyclic order around the
+    /// square differs): the grid flips there.
+    pub unmatched_frames: usize,
+    /// Frames whose grid still jumped ([`super::jumps`]) when mapped again
+    /// with their neighbours' cuts, and was bridged from their neighbours.
+    pub bridged_frames: usize,
+    /// Frames whose grid was smoothed in time ([`super::smooth`]).
+    pub smoothed_frames: usize,
+    /// Frames whose grid lay far from their own mesh, rebuilt from their
+    /// neighbours ([`super::outliers`]).
+    pub rebuilt_frames: usize,
+    pub seconds_features: f64,
+    pub seconds_maps: f64,
+    /// Frames where a segment (after the first) starts: the topology
+    /// changed there, or the last segment reached its longest
+    /// ([`super::segments::segment_ranges`]).
+    pub segments: Vec<u32>,
+}
+
+impl RegisterReport {
+    /// Adds the report of the segment starting at frame `start`: counts
+    /// add up, shares are weighted by frames, cones' shares are the worst
+    /// segment's (the cones are each segment's own).
+    pub(super) fn join(&mut self, start: usize, next: &RegisterReport) {
+        let (a, b) = (self.frames as f64, next.frames as f64);
+        let weighted = |x: f64, y: f64| (x * a + y * b) / (a + b).max(1.0);
+        self.features_per_frame = weighted(self.features_per_frame, next.features_per_frame);
+        self.cones_seen_overall = weighted(self.cones_seen_overall, next.cones_seen_overall);
+        self.frames += next.frames;
+        self.tracks += next.tracks;
+        self.cones_seen = std::array::from_fn(|k| self.cones_seen[k].min(next.cones_seen[k]));
+        self.turned_frames += next.turned_frames;
+        self.unmatched_frames += next.unmatched_frames;
+        self.bridged_frames += next.bridged_frames;
+        self.smoothed_frames += next.smoothed_frames;
+        self.seconds_features += next.seconds_features;
+        self.seconds_maps += next.seconds_maps;
+        self.segments.push(start as u32);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Joined reports weigh shares by frames, and keep each cone's worst.
+    #[test]
+    fn a_whole_capture_reads_its_segments_by_their_frames() {
+        let part = |frames, seen: [f64; 4]| RegisterReport {
+            frames,
+            cones_seen: seen,
+            cones_seen_overall: seen.iter().sum::<f64>() / 4.0,
+            ..Default::default()
+        };
+        let mut all = part(30, [1.0; 4]);
+        all.join(30, &part(10, [1.0, 1.0, 0.5, 0.5]));
+        assert_eq!((all.frames, all.segments.clone()), (40, vec![30]));
+        assert_eq!(all.cones_seen, [1.0, 1.0, 0.5, 0.5]);
+        assert!((all.cones_seen_overall - 37.5 / 40.0).abs() < 1e-12, "{all:?}");
+    }
+}
