@@ -85,8 +85,13 @@ fn swim(truth: &dyn FrameSource, registered: &InMemory, starts: &[u32]) -> Vec<f
 }
 
 /// `opts` with the codec the probe names (`CGV_CODEC=normal`, any
-/// `cgv encode --codec` name), else as they are (the predictive codec).
-fn probe_codec(opts: EncodeOptions) -> EncodeOptions {
+/// `cgv encode --codec` name), else as they are (the predictive codec),
+/// and the bones it names (`CGV_BONES`).
+fn probe_codec(mut opts: EncodeOptions) -> EncodeOptions {
+    // CGV_BONES=N: the closed loop's bones (0: none), for every row.
+    if let Some(n) = std::env::var("CGV_BONES").ok().and_then(|b| b.parse().ok()) {
+        opts.bones = Some(n);
+    }
     match std::env::var("CGV_CODEC") {
         Ok(name) => cgv::codec::CodecChoice::parse(&name).unwrap().apply(opts, None).unwrap(),
         Err(_) => opts,
