@@ -668,12 +668,9 @@ fn map_frame(
 /// place between its sightings on another's feature).
 fn one_cone_a_vertex(cones: [u32; 4], mut seen: [bool; 4]) -> [bool; 4] {
     for k in 1..4 {
-        for j in 0..k {
-            if cones[k] == cones[j] && seen[k] && seen[j] {
-                seen[k] = false;
-            } else if cones[k] == cones[j] {
-                seen[if seen[k] { j } else { k }] = false;
-            }
+        // Where only one of the two was seen, the other is missed already.
+        if (0..k).any(|j| cones[j] == cones[k] && seen[j]) {
+            seen[k] = false;
         }
     }
     seen
