@@ -161,6 +161,7 @@ fn bone_predictor(grid: Grid) -> SkinnedPredictor {
         translation_step: 1e-3,
         packed: true,
         rest_step: None,
+        point_weights: false,
     };
     let influences = (0..side * side)
         .map(|k| {

@@ -1094,7 +1094,7 @@ fn the_skinned_codec_round_trips_and_refuses_what_it_cannot() {
     assert!(text.contains("skinned codec") && text.contains("rest pose ("), "{text}");
     let info = cgv(&["info", f]);
     let text = String::from_utf8_lossy(&info.stdout);
-    assert!(text.contains("version 20") && text.contains("bones         4 on the source mesh's vertices"), "{text}");
+    assert!(text.contains("version 21") && text.contains("bones         4 on the source mesh's vertices"), "{text}");
     let objs = dir.join("objs");
     let out = cgv(&["decode", f, "-o", objs.to_str().unwrap()]);
     assert!(out.status.success(), "{}", stderr(&out));

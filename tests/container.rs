@@ -156,9 +156,9 @@ fn bad_magic_and_versions() {
     assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::BadMagic);
     assert_eq!(format::read(b"GIF89a").unwrap_err(), ContainerError::BadMagic);
     let mut bytes = file(&header());
-    bytes[8] = 21;
-    assert_eq!(format::VERSION, 20);
-    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 21 });
+    bytes[8] = 22;
+    assert_eq!(format::VERSION, 21);
+    assert_eq!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 22 });
     bytes[8] = 0;
     assert!(matches!(format::read(&bytes).unwrap_err(), ContainerError::UnsupportedVersion { found: 0 }));
 }
@@ -1244,6 +1244,61 @@ fn broken_bones_of(fixture: &str) {
     assert!(e.contains("frame 1") && e.contains("bone"), "{e}");
     // The version before cannot hold it.
     assert!(format::read(&bones_file(&version_before(&prefix), &chunks)).is_err());
+}
+
+/// Version 21's weights at a random-access point (frame 3), broken: a
+/// unit that is no weights, one naming a bone past the count, one past
+/// the most a point's unit may hold, each a typed error naming it; weights
+/// at frame 3 of a file whose header does not allow them; and the file
+/// declared as version 20. The intact file reads, frame 3's unit holding
+/// weights and frame 0's none.
+#[test]
+fn broken_weights_at_a_point_are_errors() {
+    let (prefix, chunks) = bones_chunks("v21/walk-capture-bones.cgv");
+    let file = format::read(&bones_file(&prefix, &chunks)).unwrap();
+    let (h, info) = (&file.header, file.header.skin.unwrap());
+    assert!(info.point_weights && h.min_version() == 21 && h.is_random_access_point(3), "{h:?}");
+    assert_eq!(file.frames[0].bones.as_deref(), Some(&[][..]));
+    let own = file.frames[3].bones.clone().unwrap();
+    let mut weights = format::SkinWeights::parse(&own, &info, h.skin_samples(), 0).unwrap();
+    weights.influences[0][0] = (info.bones as u8, 9);
+    let most = info.point_unit_bytes(h.skin_samples());
+    // Frame 3's chunk with its bones unit (the last unit) replaced.
+    let frame3 = chunks.iter().position(|c| &c.0 == b"FRAM" && c.1 == 3).unwrap();
+    let with_unit = |c: &mut Vec<RawChunk>, unit: &[u8]| {
+        let p = &mut c[frame3].2;
+        p.truncate(p.len() - own.len() - leb_len(own.len()));
+        let mut n = unit.len();
+        while n >= 128 {
+            p.push((n & 0x7f) as u8 | 0x80);
+            n >>= 7;
+        }
+        p.push(n as u8);
+        p.extend_from_slice(unit);
+    };
+    let cases: Vec<(&str, Vec<u8>, &str)> = vec![
+        ("no weights", vec![1, 2, 3], "skin weights"),
+        ("a bone past the count", weights.to_bytes(&info), "names a bone past"),
+        ("too long", vec![0; most + 1], "bones: a unit of"),
+    ];
+    for (what, unit, says) in cases {
+        let mut c = chunks.clone();
+        with_unit(&mut c, &unit);
+        let Err(e) = format::read(&bones_file(&prefix, &c)) else { panic!("{what}: read") };
+        assert!(matches!(e, ContainerError::Chunk { .. }) && e.to_string().contains(says), "{what}: {e}");
+    }
+    let e = format::read(&bones_file(&version_before(&prefix), &chunks)).unwrap_err().to_string();
+    assert!(e.contains("21"), "{e}");
+}
+
+/// Bytes of `n`'s LEB128.
+fn leb_len(mut n: usize) -> usize {
+    let mut k = 1;
+    while n >= 128 {
+        n >>= 7;
+        k += 1;
+    }
+    k
 }
 
 /// A file's prefix (magic, version, header, CRC) declaring the version

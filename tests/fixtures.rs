@@ -428,19 +428,37 @@ fn v15_segments_fixture_decodes_as_frozen_from_every_point() {
     let f = open("v15/walk-cgv-segments.cgv");
     assert_eq!((f.version, f.header.random_access, &f.header.segments[..]), (15, Some(6), &[9][..]));
     assert_eq!((f.index.len(), f.header.point_index(11), f.header.point_frame(2)), (4, 2, Some(9)));
-    check("v15/walk-cgv-segments.cgv", SolverKind::Predictive, 1e-5);
-    let expected = std::fs::read(fixture("v15/walk-cgv-segments.cgv.cgv.positions")).unwrap();
+    check_from_points("v15/walk-cgv-segments.cgv", f, &[12, 9, 6]);
+}
+
+/// The fixture `name` (read as `f`) decodes as frozen from the start and
+/// from each of the points `starts`, one seek after the other.
+fn check_from_points(name: &str, f: CgvFile, starts: &[usize]) {
+    check(name, SolverKind::Predictive, 1e-5);
+    let expected = std::fs::read(fixture(&format!("{name}.cgv.positions"))).unwrap();
     let n = (f.header.grid * f.header.grid) as usize * 3;
     let (frames, diag) = (f.header.frames as usize, f.header.source.diagonal as f64);
     let mut dec = FileDecoder::new(f, SolverKind::Predictive).unwrap();
-    for start in [12, 9, 6] {
+    for &start in starts {
         assert_eq!(dec.seek(start as u32).unwrap(), 0, "frame {start} is a point");
         let got: Vec<f32> =
             (start..frames).flat_map(|_| dec.next_frame().unwrap().0).flat_map(|p| p.to_array()).collect();
         let want = expected[4 * start * n..].chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]));
         let worst = got.iter().zip(want).map(|(a, b)| (a - b).abs() as f64).fold(0.0, f64::max);
-        assert!(worst <= 1e-5 * diag, "from frame {start}: differs by {worst}");
+        assert!(worst <= 1e-5 * diag, "{name} from frame {start}: differs by {worst}");
     }
+}
+
+#[test]
+fn v21_weights_at_a_point_fixture_decodes_as_frozen_from_every_point() {
+    // A capture's two segments, the second's weights at its point, frame 3.
+    let name = "v21/walk-capture-bones.cgv";
+    let f = open(name);
+    assert_eq!((f.version, &f.header.segments[..]), (21, &[3][..]));
+    assert!(f.header.skin.is_some_and(|s| s.point_weights));
+    assert!(f.frames[3].bones.as_ref().is_some_and(|u| !u.is_empty()), "frame 3 has its weights");
+    // From the second point, then back to the first: its weights are the chunk's again.
+    check_from_points(name, f, &[3, 0]);
 }
 
 #[test]

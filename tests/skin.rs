@@ -432,7 +432,7 @@ fn the_vertex_residual_takes_the_vertices_below_the_grids_floor() {
         let (bytes, report) = encode(&src, &opts, &mut |_, _, _| {}).unwrap();
         let file = cgv::format::read(&bytes).unwrap();
         let r = file.header.vertex_residual.expect("a residual");
-        assert_eq!((file.version, r.spatial, r.sparse, r.contexts), (20, true, true, true));
+        assert_eq!((file.header.min_version(), r.spatial, r.sparse, r.contexts), (20, true, true, true));
         let after = decoded_error(file, &src);
         eprintln!(
             "{representation:?}: {:.4} % -> {:.4} % for {} residual bytes",

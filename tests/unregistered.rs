@@ -117,6 +117,20 @@ fn round_trip_slid(
     segments: &[u32],
     slide: bool,
 ) -> (usize, Vec<Vec<Vec3>>) {
+    // CGV_SEPARATE=1: each segment coded as its own file (its own bones).
+    if std::env::var("CGV_SEPARATE").is_ok() && segments.len() > 1 {
+        let mut starts: Vec<usize> = segments.iter().map(|&s| s as usize).filter(|&s| s > 0).collect();
+        starts.insert(0, 0);
+        let ends: Vec<usize> = starts.iter().skip(1).copied().chain([src.frame_count()]).collect();
+        let (mut total, mut all) = (0, Vec::new());
+        for (&s, &e) in starts.iter().zip(&ends) {
+            let piece = Slice { src, start: s, len: e - s };
+            let (b, f) = round_trip_slid(&piece, grid, qp, &[], slide);
+            total += b;
+            all.extend(f);
+        }
+        return (total, all);
+    }
     let mut opts = EncodeOptions { grid, source_mesh: false, segments: segments.to_vec(), slide, ..Default::default() };
     opts.video.qp = qp;
     let opts = probe_codec(opts);
@@ -126,6 +140,37 @@ fn round_trip_slid(
     let mut dec = FileDecoder::new(file, cgv::solve::SolverKind::Predictive).unwrap();
     let frames = (0..src.frame_count()).map(|_| dec.next_frame().unwrap().0).collect();
     (bytes.len(), frames)
+}
+
+/// Frames `start..start + len` of `src`.
+struct Slice<'a> {
+    src: &'a dyn FrameSource,
+    start: usize,
+    len: usize,
+}
+
+impl FrameSource for Slice<'_> {
+    fn label(&self) -> &std::path::Path {
+        self.src.label()
+    }
+    fn frame_count(&self) -> usize {
+        self.len
+    }
+    fn fps(&self) -> f32 {
+        self.src.fps()
+    }
+    fn topology(&self) -> &cgv::mesh::Topology {
+        self.src.topology()
+    }
+    fn read_frame(&self, i: usize) -> cgv::Result<cgv::mesh::Frame> {
+        self.src.read_frame(self.start + i)
+    }
+    fn kind(&self) -> &'static str {
+        self.src.kind()
+    }
+    fn frame_mesh(&self, i: usize) -> Option<&cgv::mesh::FrameMesh> {
+        self.src.frame_mesh(self.start + i)
+    }
 }
 
 /// CGV_RANGES=1: each scaled stream's quantizer width and the frames'
@@ -402,10 +447,26 @@ fn a_clip_whose_topology_changes_halfway_gets_two_segments() {
     let (registered, report) = register(Path::new("walk"), 30.0, &frames, grid, 60).unwrap();
     assert_eq!((report.frames, &report.segments[..], report.unmatched_frames), (8, &[4][..], 0), "{report:?}");
     let opts = EncodeOptions { grid: 32, source_mesh: false, segments: report.segments.clone(), ..Default::default() };
-    let (bytes, _) = encode(&registered, &opts, &mut |_, _, _| {}).unwrap();
+    let all = decoded_from_both_points(&registered, &opts, 15);
+    let truth: Vec<f64> = surface_rms(&walk, grid, &all);
+    assert!(truth.iter().all(|&e| e < 0.02), "{truth:?}");
+    // With bones, the second segment has weights of its own (version 21).
+    let all = decoded_from_both_points(&registered, &EncodeOptions { bones: Some(4), ..opts }, 21);
+    let truth: Vec<f64> = surface_rms(&walk, grid, &all);
+    assert!(truth.iter().all(|&e| e < 0.02), "{truth:?}");
+}
+
+/// `src` coded with `opts` (a point at frame 4) as format version
+/// `version`, decoded from frame 0; frames 4 on decode alike from frame 4.
+fn decoded_from_both_points(src: &dyn FrameSource, opts: &EncodeOptions, version: u16) -> Vec<Vec<Vec3>> {
+    let (bytes, _) = encode(src, opts, &mut |_, _, _| {}).unwrap();
     let file = cgv::format::read(&bytes).unwrap();
-    assert_eq!((file.header.min_version(), &file.header.segments[..]), (15, &[4][..]));
+    assert_eq!((file.header.min_version(), &file.header.segments[..]), (version, &[4][..]));
     assert!(file.header.is_random_access_point(4) && file.index.len() == 2, "{:?}", file.index);
+    if version == 21 {
+        let weights = |f: usize| file.frames[f].bones.as_ref().map_or(0, Vec::len);
+        assert!(weights(0) == 0 && weights(4) > 0, "frame 4 carries its segment's weights");
+    }
     let mut dec = FileDecoder::new(file.clone(), cgv::solve::SolverKind::Predictive).unwrap();
     let all: Vec<Vec<Vec3>> = (0..8).map(|_| dec.next_frame().unwrap().0).collect();
     let mut from4 = FileDecoder::new(file, cgv::solve::SolverKind::Predictive).unwrap();
@@ -413,8 +474,7 @@ fn a_clip_whose_topology_changes_halfway_gets_two_segments() {
     for (t, frame) in all.iter().enumerate().skip(4) {
         assert_eq!(&from4.next_frame().unwrap().0, frame, "frame {t}");
     }
-    let truth: Vec<f64> = surface_rms(&walk, grid, &all);
-    assert!(truth.iter().all(|&e| e < 0.02), "{truth:?}");
+    all
 }
 
 /// The walk remeshed and registered in segments of 4 frames: each segment

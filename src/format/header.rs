@@ -399,7 +399,9 @@ impl Header {
     /// else 1.
     pub fn min_version(&self) -> u16 {
         let around = self.source_mesh.is_some_and(|m| m.around);
-        if around || self.vertex_residual.is_some_and(|r| r.sparse || r.contexts || r.origin.is_some()) {
+        if self.skin.is_some_and(|s| s.point_weights) {
+            21
+        } else if around || self.vertex_residual.is_some_and(|r| r.sparse || r.contexts || r.origin.is_some()) {
             20
         } else if self.vertex_residual.is_some_and(|r| r.spatial) {
             19

@@ -1,6 +1,6 @@
-//! The `.cgv` file format, versions 1 to 19 (documented in
+//! The `.cgv` file format, versions 1 to 21 (documented in
 //! `docs/FORMAT.md`, with the compatibility promise): this writer writes
-//! version 19, the reader reads all nineteen. Split as the png crate splits
+//! version 21, the reader reads all twenty-one. Split as the png crate splits
 //! its decoder:
 //!
 //! - [`header`]: what a file holds, the frame chunk's side data, and which
@@ -79,7 +79,7 @@ pub use writer::{
 
 pub const MAGIC: [u8; 8] = [0x89, b'C', b'G', b'V', b'\r', b'\n', 0x1A, b'\n'];
 /// The newest version this reader reads and this writer writes.
-pub const VERSION: u16 = 20;
+pub const VERSION: u16 = 21;
 /// Largest header accepted.
 pub const MAX_HEADER: usize = 1 << 20;
 /// Largest chunk payload accepted (an access unit of a 2160² frame at QP 0

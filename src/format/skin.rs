@@ -29,6 +29,11 @@
 //! a decoded frame), coding its transforms from that rest pose; and the
 //! grid codes what the bones miss (see `crate::codec::vertex_bones`).
 //!
+//! Version 21 (`SkinInfo::point_weights`): a random-access point's bones
+//! unit, empty before, may hold weights for the frames up to the next
+//! point, packed and deflated as the `SKIN` chunk's; an empty one means
+//! the `SKIN` chunk's.
+//!
 //! Version 14 (`SkinInfo::packed`) codes both smaller: a sample's weights
 //! without its empty pairs and its bones by reference to its neighbours'
 //! ([`SkinWeights::to_bytes`]), and a unit's differences as Exp-Golomb
@@ -73,6 +78,13 @@ pub struct SkinInfo {
     /// (absent: the bones act on the grid). Needs `packed`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rest_step: Option<f32>,
+    /// Version 21: a random-access point's bones unit may carry weights of
+    /// its own, packed as the `SKIN` chunk's, for the frames up to the
+    /// next point (empty: the `SKIN` chunk's). A capture's segments each
+    /// have their own map, so a grid sample is another point of the body
+    /// in each. Needs `packed`, bones on the grid.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub point_weights: bool,
 }
 
 impl SkinInfo {
@@ -90,7 +102,22 @@ impl SkinInfo {
         if self.on_vertices() && (self.shrink != 0 || !self.packed) {
             return Err("bones on the vertices are packed and on no coarse grid (shrink 0)".into());
         }
+        if self.point_weights && (self.on_vertices() || !self.packed) {
+            return Err("weights at random-access points need packed bones on the grid".into());
+        }
         Ok(side)
+    }
+
+    /// Most bytes a random-access point's bones unit may take for
+    /// `samples` weights' samples: none, or (version 21) packed weights
+    /// deflated, a little past their raw size at worst (stored blocks).
+    pub fn point_unit_bytes(&self, samples: usize) -> usize {
+        if self.point_weights {
+            let raw = self.weights_bytes(samples);
+            raw + raw / 64 + 16
+        } else {
+            0
+        }
     }
 
     /// Version 17: whether the bones act on the source mesh's vertices.
@@ -480,6 +507,7 @@ mod tests {
             translation_step: 1e-3,
             packed: true,
             rest_step: Some(1e-4),
+            point_weights: false,
         };
         assert!(info.check(32).is_ok() && info.on_vertices());
         assert!(SkinInfo { packed: false, ..info }.check(32).is_err(), "vertex bones are packed");
@@ -574,8 +602,15 @@ mod tests {
     #[test]
     fn weights_round_trip_in_both_codings_and_bad_ones_are_refused() {
         for packed in [false, true] {
-            let info =
-                SkinInfo { bones: 3, shrink: 2, rotation_step: 1e-3, translation_step: 1e-3, packed, rest_step: None };
+            let info = SkinInfo {
+                bones: 3,
+                shrink: 2,
+                rotation_step: 1e-3,
+                translation_step: 1e-3,
+                packed,
+                rest_step: None,
+                point_weights: false,
+            };
             assert_eq!(info.check(16), Ok(4));
             assert!(info.check(8).is_err());
             let mut w = SkinWeights { influences: vec![[(0, 200), (2, 55), (0, 0), (0, 0)]; 16], ..Default::default() };
@@ -606,6 +641,7 @@ mod tests {
             translation_step: 1e-3,
             packed: true,
             rest_step: None,
+            point_weights: false,
         };
         let deflate = |raw: &[u8]| miniz_oxide::deflate::compress_to_vec(raw, 9);
         // A count of 0, of 5; a neighbour bone the first sample has none of.

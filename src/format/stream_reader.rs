@@ -437,12 +437,20 @@ fn side_units(
     if let Some(skin) = &header.skin {
         let unit = next_unit(p, at, "bones", offset)?;
         // Every frame but a random-access point has one (with bones on the
-        // vertices, every frame).
+        // vertices, every frame); a point's is empty or (version 21) holds
+        // weights.
         let rap = header.is_random_access_point(frame) && !skin.on_vertices();
-        let most = if rap { 0 } else { crate::format::BoneMotions::max_bytes(skin.bones, skin.packed) };
+        let most = match rap {
+            true => skin.point_unit_bytes(header.skin_samples()),
+            false => crate::format::BoneMotions::max_bytes(skin.bones, skin.packed),
+        };
         if unit.len() > most || (!rap && unit.is_empty()) {
-            let msg = format!("bones: a unit of {} bytes (frame {frame}'s has {} to {most})", unit.len(), most.min(1));
+            let least = usize::from(!rap).min(most);
+            let msg = format!("bones: a unit of {} bytes (frame {frame}'s has {least} to {most})", unit.len());
             return Err(ContainerError::Chunk { offset, msg });
+        }
+        if rap && !unit.is_empty() {
+            SkinWeights::parse(unit, skin, header.skin_samples(), offset)?;
         }
         info.bones = Some(unit.to_vec());
     }

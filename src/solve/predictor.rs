@@ -144,6 +144,11 @@ impl Predictor {
         self.skin = skin;
     }
 
+    /// The bones, where skinned predictions have them.
+    pub fn skin_mut(&mut self) -> Option<&mut SkinnedPredictor> {
+        self.skin.as_mut()
+    }
+
     /// Whether skinned predictions have their bones.
     pub fn has_skin(&self) -> bool {
         self.skin.is_some()

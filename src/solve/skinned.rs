@@ -66,6 +66,15 @@ pub struct SkinnedPredictor {
     /// Version 17: the rest pose is the file's (bones on the vertices),
     /// kept across random-access points.
     fixed_rest: bool,
+    /// Version 21: the grid the weights are on, and the `SKIN` chunk's
+    /// influences, which a random-access point without weights of its own
+    /// goes back to (none unless the header's `point_weights`).
+    coarse: Grid,
+    chunk_influences: Option<Vec<[(u16, f32); INFLUENCES]>>,
+    /// The encoder's version 21 units, one per random-access point in
+    /// order (empty: the `SKIN` chunk's weights), and the next one's index.
+    point_units: Vec<Vec<u8>>,
+    next_point: usize,
 }
 
 impl SkinnedPredictor {
@@ -82,7 +91,39 @@ impl SkinnedPredictor {
         let fitted: Vec<u32> = (0..grid.len() as u32)
             .filter(|&v| (v as usize % grid.n) % stride == 0 && (v as usize / grid.n) % stride == 0)
             .collect();
-        SkinnedPredictor::with(info, influences, fitted, false)
+        let mut p = SkinnedPredictor::with(info, influences, fitted, false)?;
+        p.coarse = Grid { n: side };
+        p.chunk_influences = info.point_weights.then(|| p.influences.clone());
+        Ok(p)
+    }
+
+    /// Version 21, the encoder: the unit each random-access point will
+    /// carry, in order (empty: the `SKIN` chunk's weights; else packed
+    /// weights, [`SkinWeights::to_bytes`]). Each is read back as a decoder
+    /// reads it.
+    pub fn set_point_units(&mut self, units: Vec<Vec<u8>>) -> Result<()> {
+        for unit in units.iter().filter(|u| !u.is_empty()) {
+            self.point_influences(unit)?;
+        }
+        (self.point_units, self.next_point) = (units, 0);
+        Ok(())
+    }
+
+    /// A random-access point's weights unit as the grid's influences.
+    fn point_influences(&self, unit: &[u8]) -> Result<Vec<[(u16, f32); INFLUENCES]>> {
+        if !self.info.point_weights {
+            return Err(Error::Argument("a bones unit at a random-access point of a file without its weights".into()));
+        }
+        let weights = SkinWeights::parse(unit, &self.info, self.coarse.len(), 0)
+            .map_err(|e| Error::Argument(format!("a random-access point's {e}")))?;
+        Ok(expand(self.coarse, &self.info, &weights))
+    }
+
+    /// Takes `influences` as every sample's bones and weights.
+    fn use_influences(&mut self, influences: Vec<[(u16, f32); INFLUENCES]>) -> Result<()> {
+        self.members = members(&self.info, &influences, &self.fitted)?;
+        self.influences = influences;
+        Ok(())
     }
 
     /// Version 17: bones on the source mesh's vertices, `weights` holding
@@ -110,15 +151,7 @@ impl SkinnedPredictor {
         fitted: Vec<u32>,
         fixed_rest: bool,
     ) -> Result<SkinnedPredictor> {
-        let mut members = vec![Vec::new(); info.bones as usize];
-        for &v in &fitted {
-            for &(b, w) in influences[v as usize].iter().filter(|i| i.1 > 0.0) {
-                let group = members.get_mut(b as usize);
-                group
-                    .ok_or_else(|| Error::Argument(format!("sample {v} names bone {b} of {}", info.bones)))?
-                    .push((v, w));
-            }
-        }
+        let members = members(info, &influences, &fitted)?;
         let identity = vec![[0; MOTION_PARAMS]; info.bones as usize];
         Ok(SkinnedPredictor {
             info: *info,
@@ -130,6 +163,10 @@ impl SkinnedPredictor {
             last_skinned: Default::default(),
             skinned: None,
             fixed_rest,
+            coarse: Grid { n: 0 },
+            chunk_influences: None,
+            point_units: Vec::new(),
+            next_point: 0,
         })
     }
 
@@ -137,10 +174,15 @@ impl SkinnedPredictor {
         self.info.bones as usize
     }
 
-    /// Forgets the segment (a random-access point).
+    /// Forgets the segment (a random-access point), and its own weights
+    /// (version 21) for the `SKIN` chunk's.
     pub fn reset(&mut self) {
         if !self.fixed_rest {
             self.rest = None;
+        }
+        if let Some(chunk) = self.chunk_influences.as_ref().filter(|c| **c != self.influences) {
+            self.members = members(&self.info, chunk, &self.fitted).unwrap_or_default();
+            self.influences = chunk.clone();
         }
         self.last_skinned.clear();
         self.history.iter_mut().flatten().for_each(|m| *m = [0; MOTION_PARAMS]);
@@ -250,14 +292,28 @@ impl SkinnedPredictor {
                 self.set(m);
                 unit
             }
-            None => Vec::new(),
+            None => {
+                // A random-access point: its weights, if it has its own
+                // (checked by `set_point_units`).
+                let unit = self.point_units.get(self.next_point).cloned().unwrap_or_default();
+                self.next_point += 1;
+                match self.decode(&unit) {
+                    Ok(()) => unit,
+                    Err(_) => Vec::new(),
+                }
+            }
         }
     }
 
-    /// The decoder, at every frame: this frame's transforms from its unit.
+    /// The decoder, at every frame: this frame's transforms from its unit,
+    /// or at a random-access point its weights (version 21) if any.
     pub fn decode(&mut self, unit: &[u8]) -> Result<()> {
         match (self.rest.is_some(), unit.is_empty()) {
             (false, true) => Ok(()),
+            (false, false) if self.info.point_weights => {
+                let influences = self.point_influences(unit)?;
+                self.use_influences(influences)
+            }
             (true, false) => {
                 let m = BoneMotions::parse(unit, &self.expected(), 0, self.info.packed)
                     .map_err(|e| Error::Argument(e.to_string()))?;
@@ -384,6 +440,18 @@ impl SkinnedPredictor {
     }
 }
 
+/// Each bone's `fitted` samples with their weights.
+fn members(info: &SkinInfo, influences: &[[(u16, f32); INFLUENCES]], fitted: &[u32]) -> Result<Vec<Vec<(u32, f32)>>> {
+    let mut members = vec![Vec::new(); info.bones as usize];
+    for &v in fitted {
+        for &(b, w) in influences[v as usize].iter().filter(|i| i.1 > 0.0) {
+            let group = members.get_mut(b as usize);
+            group.ok_or_else(|| Error::Argument(format!("sample {v} names bone {b} of {}", info.bones)))?.push((v, w));
+        }
+    }
+    Ok(members)
+}
+
 /// A sample's byte weights out of their sum.
 fn normalized(inf: &[(u8, u8); INFLUENCES]) -> [(u16, f32); INFLUENCES] {
     let total: f32 = inf.iter().map(|p| f32::from(p.1)).sum();
@@ -423,20 +491,26 @@ mod tests {
     #![allow(clippy::unwrap_used)]
     use super::*;
 
-    /// Two bones, left and right halves of a grid of points: a frame where
-    /// the right half turns is predicted within the quantizer's reach, and
-    /// the decoder gets the same transforms from the unit.
-    #[test]
-    fn a_two_bone_motion_is_fitted_and_replayed() {
-        let grid = Grid::new(16).unwrap();
-        let info = SkinInfo {
+    /// Two bones with weights on the grid halved twice, packed.
+    fn two_bones(point_weights: bool) -> SkinInfo {
+        SkinInfo {
             bones: 2,
             shrink: 2,
             rotation_step: 1e-4,
             translation_step: 1e-4,
             packed: true,
             rest_step: None,
-        };
+            point_weights,
+        }
+    }
+
+    /// Two bones, left and right halves of a grid of points: a frame where
+    /// the right half turns is predicted within the quantizer's reach, and
+    /// the decoder gets the same transforms from the unit.
+    #[test]
+    fn a_two_bone_motion_is_fitted_and_replayed() {
+        let grid = Grid::new(16).unwrap();
+        let info = two_bones(false);
         let side = 4;
         let influences = (0..side * side).map(|k| [((k % side >= 2) as u8, 255), (0, 0), (0, 0), (0, 0)]).collect();
         let weights = SkinWeights { influences, ..Default::default() };
@@ -470,6 +544,42 @@ mod tests {
         assert!(dec.decode(&[]).is_err(), "a frame after the rest needs its bones");
     }
 
+    /// Version 21: a random-access point's own weights replace the `SKIN`
+    /// chunk's for its segment, in the encoder as in the decoder that
+    /// reads its unit; the next point without weights of its own goes back
+    /// to the chunk's; a file without `point_weights` refuses such a unit.
+    #[test]
+    fn a_points_own_weights_hold_for_its_segment() {
+        let grid = Grid::new(16).unwrap();
+        let info = two_bones(true);
+        let halves = |right: u8| SkinWeights {
+            influences: (0..16).map(|k| [(u8::from(k % 4 >= 2) ^ right, 255), (0, 0), (0, 0), (0, 0)]).collect(),
+            ..Default::default()
+        };
+        let (chunk, own) = (halves(0), halves(1).to_bytes(&info));
+        let mut enc = SkinnedPredictor::new(grid, &info, &chunk).unwrap();
+        let mut dec = enc.clone();
+        enc.set_point_units(vec![Vec::new(), own.clone(), Vec::new()]).unwrap();
+        let first = enc.influences().to_vec();
+        let rest: Vec<Vec3> = (0..256).map(|k| Vec3::new((k % 16) as f32, (k / 16) as f32, 0.0)).collect();
+        for point in 0..3 {
+            for s in [&mut enc, &mut dec] {
+                s.reset();
+            }
+            let unit = enc.encode(&rest);
+            assert_eq!(unit.is_empty(), point != 1, "point {point}");
+            dec.decode(&unit).unwrap();
+            assert_eq!(enc.influences(), dec.influences(), "point {point}");
+            assert_eq!(enc.influences() == first, point != 1, "point {point}");
+            // Sample 0 is on the left half: bone 0 of the chunk's, 1 of the point's.
+            assert_eq!(enc.influences()[0][0].0, u16::from(point == 1));
+        }
+        let plain = SkinInfo { point_weights: false, ..info };
+        let mut old = SkinnedPredictor::new(grid, &plain, &chunk).unwrap();
+        assert!(old.decode(&own).is_err() && old.set_point_units(vec![own]).is_err());
+        assert!(dec.decode(&[1, 2, 3]).is_err(), "a unit that is no weights");
+    }
+
     /// Version 17: bones on vertices keep the file's rest pose through a
     /// random-access point; every frame, that one too, has its unit, and
     /// the decoder's skinning is the encoder's.
@@ -482,6 +592,7 @@ mod tests {
             translation_step: 1e-4,
             packed: true,
             rest_step: Some(1e-3),
+            point_weights: false,
         };
         let rest: Vec<[i32; 3]> = (0..64).map(|k| [(k % 8) * 100, (k / 8) * 100, 0]).collect();
         let influences = (0..64).map(|k| [((k % 8 >= 4) as u8, 255), (0, 0), (0, 0), (0, 0)]).collect();

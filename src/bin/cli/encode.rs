@@ -472,7 +472,10 @@ fn print_sizes(report: &cgv::codec::EncodeReport) {
         report.side_bytes
     );
     if report.skin_bytes > 0 {
-        println!("  bone weights    {:>10} bytes (--bones: the skin's weights, once)", report.skin_bytes);
+        println!(
+            "  bone weights    {:>10} bytes (--bones: the skin's weights, once, and a capture's at each segment)",
+            report.skin_bytes
+        );
     }
     let gridless = report.codec == cgv::format::Representation::Vertices;
     if gridless {

@@ -327,8 +327,20 @@ fn print_bones_and_residual(file: &cgv::format::CgvFile) {
     } else if let Some(skin) = &h.skin {
         let skinned = file.frames.iter().filter(|f| f.predictor.extrapolation.is_skinned()).count();
         let side = h.grid >> skin.shrink;
+        // Version 21: the random-access points that carry their own weights.
+        let own: Vec<usize> = (0..file.frames.len())
+            .filter(|&f| h.is_random_access_point(f as u32))
+            .filter(|&f| file.frames[f].bones.as_ref().is_some_and(|u| !u.is_empty()))
+            .collect();
+        let own = match own.is_empty() {
+            true => String::new(),
+            false => format!(
+                "; weights of their own from frames {}",
+                own.iter().map(usize::to_string).collect::<Vec<_>>().join(", ")
+            ),
+        };
         println!(
-            "  bones         {} (weights on a {side} x {side} grid; {skinned} of {} frames predicted by them)",
+            "  bones         {} (weights on a {side} x {side} grid{own}; {skinned} of {} frames predicted by them)",
             skin.bones, h.frames
         );
     }

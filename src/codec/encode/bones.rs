@@ -51,11 +51,14 @@ pub const ROTATION_STEP: f32 = 1.0 / 512.0;
 /// A translation unit, in diagonals.
 pub const TRANSLATION_STEP: f32 = 1.0 / 1024.0;
 
-/// The file's bones: the header's description, its `SKIN` chunk, and the
-/// predictor the encoder's loops use (made from the chunk, as a decoder's).
+/// The file's bones: the header's description, its `SKIN` chunk, the
+/// units its random-access points carry (version 21: their segment's own
+/// weights; empty: the chunk's), and the predictor the encoder's loops use
+/// (made from those, as a decoder's).
 pub(super) struct Bones {
     pub info: SkinInfo,
     pub weights: SkinWeights,
+    pub point_units: Vec<Vec<u8>>,
     pub predictor: SkinnedPredictor,
 }
 
@@ -66,6 +69,8 @@ fn skin_shrink(grid: usize) -> u8 {
 }
 
 /// The bones for `opts.bones` (none with 0, or without the closed loop).
+/// A capture's segments (`src` with frame meshes) each have their own map,
+/// so each gets its own weights (version 21); else one set fits all.
 pub(super) fn fit_bones(
     src: &dyn FrameSource,
     plan: &Plan,
@@ -84,8 +89,6 @@ pub(super) fn fit_bones(
     }
     let shrink = skin_shrink(plan.grid.n);
     let bones = usize::from(asked).min((plan.grid.n >> shrink).pow(2));
-    let influences = fit_weights(src, plan.grid, map, shrink, bones, REFIT_SWEEPS, progress)?;
-    let weights = SkinWeights { influences: influences.iter().map(quantize).collect(), ..Default::default() };
     let info = SkinInfo {
         bones: bones as u16,
         shrink,
@@ -93,24 +96,58 @@ pub(super) fn fit_bones(
         translation_step: (diagonal * TRANSLATION_STEP).max(f32::MIN_POSITIVE),
         packed: true,
         rest_step: None,
+        point_weights: !plan.segments.is_empty() && src.frame_mesh(0).is_some(),
     };
-    let predictor = SkinnedPredictor::new(plan.grid, &info, &weights)?;
-    Ok(Some(Bones { info, weights, predictor }))
+    let starts: Vec<usize> = match info.point_weights {
+        true => [0].into_iter().chain(plan.segments.iter().map(|&s| s as usize)).collect(),
+        false => vec![0],
+    };
+    let mut units = Vec::with_capacity(starts.len());
+    for (k, &start) in starts.iter().enumerate() {
+        let end = starts.get(k + 1).copied().unwrap_or(plan.frames);
+        let influences = fit_weights(src, start..end, (plan.grid, map), shrink, bones, progress)?;
+        units.push(SkinWeights { influences: influences.iter().map(quantize).collect(), ..Default::default() });
+    }
+    let weights = units.remove(0);
+    // Each random-access point carries its segment's weights, but the
+    // first segment's, which are the chunk's.
+    let point_units: Vec<Vec<u8>> = (0..plan.frames)
+        .filter(|&f| plan.is_rap(f))
+        .map(|f| match starts.iter().rposition(|&s| s <= f) {
+            Some(k) if k > 0 => units[k - 1].to_bytes(&info),
+            _ => Vec::new(),
+        })
+        .collect();
+    let mut predictor = SkinnedPredictor::new(plan.grid, &info, &weights)?;
+    predictor.set_point_units(point_units.clone())?;
+    Ok(Some(Bones { info, weights, point_units, predictor }))
 }
 
-/// The weights on the grid halved `shrink` times: SSDR on that grid, then
-/// refitted `sweeps` times for their expansion (`weights_refit`).
+/// The weights of frames `range` on the grid halved `shrink` times: SSDR
+/// on that grid, its rest pose the range's first frame, then refitted
+/// [`REFIT_SWEEPS`] times for their expansion (`weights_refit`).
 fn fit_weights(
     src: &dyn FrameSource,
-    grid: Grid,
-    map: &SampleMap,
+    range: std::ops::Range<usize>,
+    (grid, map): (Grid, &SampleMap),
     shrink: u8,
     bones: usize,
+    progress: &mut dyn FnMut(&str, usize, usize),
+) -> Result<Vec<[(u16, f32); INFLUENCES]>> {
+    fit_weights_swept(src, range, (grid, map), (shrink, bones), REFIT_SWEEPS, progress)
+}
+
+/// [`fit_weights`] with `sweeps` of the refit (0: SSDR's weights).
+fn fit_weights_swept(
+    src: &dyn FrameSource,
+    range: std::ops::Range<usize>,
+    (grid, map): (Grid, &SampleMap),
+    (shrink, bones): (u8, usize),
     sweeps: usize,
     progress: &mut dyn FnMut(&str, usize, usize),
 ) -> Result<Vec<[(u16, f32); INFLUENCES]>> {
     let coarse_grid = Grid::new(grid.n >> shrink)?;
-    let frames = src.frame_count();
+    let frames = range.len();
     let count = frames.min(SKIN_FRAMES);
     let every = count.div_ceil(REFIT_FRAMES);
     let stride = if grid.n >= 64 { FIT_STRIDE } else { 1 };
@@ -119,7 +156,7 @@ fn fit_weights(
         .collect();
     let (mut coarse_frames, mut fine) = (Vec::with_capacity(count), Vec::new());
     for k in 0..count {
-        let x = map.apply(&src.read_frame(k * frames / count)?);
+        let x = map.apply(&src.read_frame(range.start + k * frames / count)?);
         coarse_frames.push(shrink_positions(grid, &x, shrink));
         if k % every == 0 {
             fine.push(samples.iter().map(|&v| x[v as usize]).collect::<Vec<Vec3>>());
@@ -186,6 +223,7 @@ mod probe {
             translation_step: diag * TRANSLATION_STEP,
             packed: true,
             rest_step: None,
+            point_weights: false,
         };
         let p = SkinnedPredictor::new(Grid::new(128).unwrap(), &info, &weights).unwrap();
         (info, weights, p)
@@ -201,7 +239,10 @@ mod probe {
         let shrink = skin_shrink(128);
         for sweeps in [0, REFIT_SWEEPS] {
             let t0 = std::time::Instant::now();
-            let inf = fit_weights(src.as_ref(), grid, &image.map, shrink, 32, sweeps, &mut |_, _, _| {}).unwrap();
+            let range = 0..src.frame_count();
+            let inf =
+                fit_weights_swept(src.as_ref(), range, (grid, &image.map), (shrink, 32), sweeps, &mut |_, _, _| {})
+                    .unwrap();
             let secs = t0.elapsed().as_secs_f64();
             let (info, weights, mut p) = probe_bones(&inf, shrink, diag);
             let (mut l, mut sum, mut bytes) = (Vec::new(), 0.0, 0);
@@ -239,7 +280,8 @@ mod probe {
         let (dir, src, image, diag) = probe_input();
         let grid = Grid::new(128).unwrap();
         let shrink = skin_shrink(128);
-        let inf = fit_weights(src.as_ref(), grid, &image.map, shrink, 32, REFIT_SWEEPS, &mut |_, _, _| {}).unwrap();
+        let range = 0..src.frame_count();
+        let inf = fit_weights(src.as_ref(), range, (grid, &image.map), shrink, 32, &mut |_, _, _| {}).unwrap();
         let (_, _, mut p) = probe_bones(&inf, shrink, diag);
         let points = image.source_points();
         let faces = grid.topology().faces;

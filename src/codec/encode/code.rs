@@ -34,7 +34,8 @@ pub(super) struct Coded {
     pub side_bytes: usize,
     /// The source mesh chunk's bytes.
     pub source_mesh_bytes: usize,
-    /// The skin weights chunk's bytes.
+    /// The skin weights' bytes: the chunk's, and version 21's at the
+    /// random-access points.
     pub skin_bytes: usize,
     /// The frames' own meshes' bytes (version 16).
     pub frame_mesh_bytes: usize,
@@ -50,6 +51,8 @@ pub(super) struct Chunks<'a> {
     pub source: Option<&'a [u8]>,
     pub skin: Option<&'a SkinWeights>,
     pub bone_units: Option<&'a [Vec<u8>]>,
+    /// Version 21: each random-access point's weights unit, in order.
+    pub point_units: Option<&'a [Vec<u8>]>,
     /// Version 18: the vertex residual's coder.
     pub residual: Option<ResidualCoding>,
 }
@@ -154,6 +157,19 @@ fn open_streams(header: &Header, opts: &EncodeOptions, plan: &Plan) -> Result<Ve
     Ok(streams)
 }
 
+/// The closed loop's decoder, with the bones as the decoder will have
+/// them (and the encoder's version 21 units for its points).
+fn predictive_of(header: &Header, st: &Stencils, chunks: &Chunks) -> Result<Predictive> {
+    let mut predictive = Predictive::new(header, st.clone());
+    if let Some(weights) = chunks.skin.filter(|_| chunks.bone_units.is_none()) {
+        predictive.set_skin(header, weights)?;
+        if let (Some(units), Some(skin)) = (chunks.point_units, predictive.predictor.skin_mut()) {
+            skin.set_point_units(units.to_vec())?;
+        }
+    }
+    Ok(predictive)
+}
+
 /// A random-access point: every stream restarts with an IDR picture, and
 /// the closed loop and the loose vertices from the seed, as the decoder
 /// will.
@@ -197,11 +213,7 @@ pub(super) fn code(
     // Each chunk goes out as it is made.
     let mut out = Written { sink, len: 0 };
     let (source_mesh_bytes, skin_bytes) = write_prefix(&mut out, src, header, &chunks)?;
-    let mut predictive = Predictive::new(header, st.clone());
-    if let Some(weights) = chunks.skin.filter(|_| chunks.bone_units.is_none()) {
-        // The bones as the decoder will have them.
-        predictive.set_skin(header, weights)?;
-    }
+    let mut predictive = predictive_of(header, st, &chunks)?;
     let mut streams = open_streams(header, opts, plan)?;
     let mut coded = Coded { source_mesh_bytes, skin_bytes, ..Default::default() };
     let mut residual = chunks.residual;
@@ -254,6 +266,11 @@ pub(super) fn code(
         info.bones = chunks.bone_units.and_then(|u| u.get(fi).cloned()).or(info.bones);
         coded.seconds_coding += t.elapsed().as_secs_f64();
         put_frame(&mut out, fi, &info, &coder.units, (&mut streams, &mut coded))?;
+        // Version 21: a random-access point's own weights count as the skin's.
+        if plan.is_rap(fi) && header.skin.is_some_and(|s| s.point_weights) {
+            let weights = info.bones.as_ref().map_or(0, Vec::len);
+            (coded.skin_bytes, coded.side_bytes) = (coded.skin_bytes + weights, coded.side_bytes - weights);
+        }
         progress("encoding", fi + 1, plan.frames);
     }
     put_end(&mut out, header, &index)?;

@@ -474,6 +474,7 @@ pub fn encode_prepared_into(
         source: source_chunk.as_deref(),
         skin: bones.as_ref().map(|b| &b.weights).or(vertex_bones.as_ref().map(|b| &b.weights)),
         bone_units: vertex_bones.as_ref().map(|b| &b.units[..]),
+        point_units: bones.as_ref().map(|b| &b.point_units[..]),
         residual,
     };
     let coded = code::code(src, opts, (&plan, &header), (image, chunks), &st, sink, progress)?;

@@ -176,6 +176,7 @@ pub(super) fn fit(
         translation_step: diagonal * TRANSLATION_STEP,
         packed: true,
         rest_step: Some(step),
+        point_weights: false,
     };
     let mut predictor = SkinnedPredictor::on_vertices(&info, &weights)?;
     let (mut units, mut motions) = (Vec::with_capacity(n), Vec::with_capacity(n));
