@@ -281,19 +281,12 @@ fn register_piece(
     turned_to(grid, frames, handover, &mut positions, &mut places)?;
     let report = RegisterReport {
         frames: frames.len(),
-        features_per_frame: tracked.features_per_frame(),
-        tracks: tracked.tracks.len(),
-        cone_tracks: tracked.cones,
-        cones_seen: tracked.cones_seen(),
-        cones_seen_overall: tracked.cones_seen_overall(),
         turned_frames: turned,
         unmatched_frames: unmatched,
         bridged_frames: jumping.len(),
         smoothed_frames: smoothed,
-        rebuilt_frames: 0,
-        seconds_features: tracked.seconds,
         seconds_maps: t1.elapsed().as_secs_f64(),
-        segments: Vec::new(),
+        ..RegisterReport::of_tracking(&tracked)
     };
     let last_grid = positions.last().cloned().unwrap_or_default();
     let next = Handover::of(&tracked, last_trace, last_grid);

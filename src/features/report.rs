@@ -41,6 +41,34 @@ pub struct RegisterReport {
 }
 
 impl RegisterReport {
+    /// The tracking's part of a segment's report (its features, tracks and
+    /// cones; nothing mapped yet).
+    pub fn of_tracking(tracked: &super::track::Tracked) -> RegisterReport {
+        RegisterReport {
+            frames: tracked.features.len(),
+            features_per_frame: tracked.features_per_frame(),
+            tracks: tracked.tracks.len(),
+            cone_tracks: tracked.cones,
+            cones_seen: tracked.cones_seen(),
+            cones_seen_overall: tracked.cones_seen_overall(),
+            seconds_features: tracked.seconds,
+            ..Default::default()
+        }
+    }
+
+    /// The reports of consecutive segments starting at frames `starts`
+    /// (the first at 0), joined.
+    pub fn joined(starts: &[usize], parts: impl IntoIterator<Item = RegisterReport>) -> RegisterReport {
+        let mut all: Option<RegisterReport> = None;
+        for (&start, part) in starts.iter().zip(parts) {
+            match &mut all {
+                Some(all) => all.join(start, &part),
+                None => all = Some(part),
+            }
+        }
+        all.unwrap_or_default()
+    }
+
     /// Adds the report of the segment starting at frame `start`: counts
     /// add up, shares are weighted by frames, cones' shares are the worst
     /// segment's (the cones are each segment's own).
@@ -75,8 +103,7 @@ mod tests {
             cones_seen_overall: seen.iter().sum::<f64>() / 4.0,
             ..Default::default()
         };
-        let mut all = part(30, [1.0; 4]);
-        all.join(30, &part(10, [1.0, 1.0, 0.5, 0.5]));
+        let all = RegisterReport::joined(&[0, 30], [part(30, [1.0; 4]), part(10, [1.0, 1.0, 0.5, 0.5])]);
         assert_eq!((all.frames, all.segments.clone()), (40, vec![30]));
         assert_eq!(all.cones_seen, [1.0, 1.0, 0.5, 0.5]);
         assert!((all.cones_seen_overall - 37.5 / 40.0).abs() < 1e-12, "{all:?}");

@@ -126,6 +126,7 @@ pub fn run(args: Args) -> Result<()> {
 fn unregistered_info(args: &Args) -> Result<()> {
     use cgv::features::capture::read_capture;
     use cgv::features::register::track_capture;
+    use cgv::features::report::RegisterReport;
     use cgv::features::segments::{longest_segment, segment_ranges};
     let dir = std::path::Path::new(&args.input.input);
     let frames = read_capture(dir, args.input.frames)?;
@@ -140,12 +141,10 @@ fn unregistered_info(args: &Args) -> Result<()> {
         .iter()
         .map(|r| track_capture(dir, &frames[r.clone()]).with_context(|| format!("the segment of frames {r:?}")))
         .collect::<Result<_>>()?;
-    let features = segments.iter().map(|t| t.features_per_frame() * t.features.len() as f64).sum::<f64>();
-    let features_per_frame = features / frames.len().max(1) as f64;
-    let tracks: usize = segments.iter().map(|t| t.tracks.len()).sum();
-    let seen: [f64; 4] = std::array::from_fn(|k| segments.iter().map(|t| t.cones_seen()[k]).fold(1.0, f64::min));
-    let seen_frames = segments.iter().map(|t| t.cones_seen_overall() * t.features.len() as f64).sum::<f64>();
-    let overall = seen_frames / frames.len().max(1) as f64;
+    // The segments' tracking joined as the registration's report joins it.
+    let all = RegisterReport::joined(&starts, segments.iter().map(RegisterReport::of_tracking));
+    let (features_per_frame, tracks) = (all.features_per_frame, all.tracks);
+    let (seen, overall) = (all.cones_seen, all.cones_seen_overall);
     let rate = frames.len() as f64 / segments.iter().map(|t| t.seconds).sum::<f64>().max(1e-9);
     if args.json {
         let report = serde_json::json!({
