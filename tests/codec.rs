@@ -461,18 +461,26 @@ fn auto_corrections_follow_the_measured_crossover() {
 fn the_memory_estimate_counts_what_a_decoder_of_the_header_holds() {
     use cgv::codec::{reconstruct::decoder_memory, SequenceDecoder, DEFAULT_MEMORY_LIMIT};
     let src = cgv::mesh::builtin::motion(3);
-    let header = |corrections| {
-        let opts = EncodeOptions { grid: 16, corrections, source_mesh: false, ..Default::default() };
+    let header = |corrections, bones| {
+        let opts = EncodeOptions { grid: 16, corrections, source_mesh: false, bones, ..Default::default() };
         let (bytes, _) = encode(&src, &opts, &mut |_, _, _| {}).unwrap();
         format::Header { grid: 1600, max_lag: 0, ..format::read(&bytes).unwrap().header }
     };
     // A scaled file carries H, so its decoder may factor an H step's
     // matrix: at N = 1600 that is past the default limit, refused before
     // anything is allocated. A motion file has no H and no factorization.
-    let (scaled, motion) = (header(CorrectionMode::Scaled), header(CorrectionMode::Motion));
+    let (scaled, motion) = (header(CorrectionMode::Scaled, None), header(CorrectionMode::Motion, None));
     assert!(scaled.stream(StreamName::H).is_some() && motion.stream(StreamName::H).is_none());
     let (a, b) = (decoder_memory(&scaled, SolverKind::Predictive), decoder_memory(&motion, SolverKind::Predictive));
     assert!(a > DEFAULT_MEMORY_LIMIT && b < DEFAULT_MEMORY_LIMIT / 2, "{a} {b}");
+    // Bones count, and version 21's weights at points twice over (the
+    // chunk's kept beside a point's).
+    let skin = header(CorrectionMode::Motion, Some(8)).skin.expect("bones");
+    let boned =
+        |point_weights| format::Header { skin: Some(format::SkinInfo { point_weights, ..skin }), ..motion.clone() };
+    let (plain, per_point) = (boned(false), boned(true));
+    let (c, d) = (decoder_memory(&plain, SolverKind::Predictive), decoder_memory(&per_point, SolverKind::Predictive));
+    assert!(b < c && c + 2 * 1600 * 1600 * 32 < d, "{b} {c} {d}");
     let e = SequenceDecoder::new(scaled, SolverKind::Predictive, DEFAULT_MEMORY_LIMIT).err().expect("refused");
     assert!(matches!(e, cgv::Error::Memory { .. }), "{e}");
 }

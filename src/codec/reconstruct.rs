@@ -635,6 +635,9 @@ pub fn decoder_memory(h: &Header, solver: SolverKind) -> u64 {
     let skin = match h.skin {
         // The weights, rest pose and skinning of each vertex.
         Some(s) if s.on_vertices() => h.skin_samples() as u64 * 64,
+        // Version 21: the chunk's influences kept beside a point's, and
+        // while a point's are read, its expanded ones and their members.
+        Some(s) if s.point_weights => 3 * n * 32 + n * 8 + n * 4 + 4 * frame,
         Some(_) => n * 32 + n * 4 + 4 * frame,
         None => 0,
     };

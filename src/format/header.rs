@@ -156,7 +156,8 @@ pub struct FrameInfo {
     /// keeps it small).
     pub loose: Option<Vec<u8>>,
     /// Version 13, in every frame of a file with a skin: the bones unit
-    /// (empty unless the predictor is skinned; see [`super::skin`]), as the
+    /// (empty at a random-access point, or version 21's weights there; see
+    /// [`super::skin`]), as the
     /// file has it; its motions are differences that only a decoder in
     /// order can resolve (`crate::solve::skinned`).
     pub bones: Option<Vec<u8>>,

@@ -275,7 +275,8 @@ impl SkinnedPredictor {
     }
 
     /// The encoder, at every frame: fits this frame's transforms to `truth`
-    /// and returns its bones unit (empty at a random-access point).
+    /// and returns its bones unit (at a random-access point: empty, or
+    /// version 21's weights of its own).
     pub fn encode(&mut self, truth: &[Vec3]) -> Vec<u8> {
         self.encode_from(truth, None)
     }

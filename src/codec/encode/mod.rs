@@ -327,8 +327,9 @@ pub struct EncodeReport {
     /// (`rest_pose_bytes`): the mesh, which a skinned mesh's size leaves
     /// out too.
     pub source_mesh_bytes: usize,
-    /// Bytes of the bones' weights (the `SKIN` chunk, less the rest pose;
-    /// 0 without bones); each frame's bone motions are in `side_bytes`.
+    /// Bytes of the bones' weights (the `SKIN` chunk, less the rest pose,
+    /// and version 21's at random-access points; 0 without bones); each
+    /// frame's bone motions are in `side_bytes`.
     pub skin_bytes: usize,
     /// Version 17: bytes of the rest pose (in `source_mesh_bytes`).
     pub rest_pose_bytes: usize,
