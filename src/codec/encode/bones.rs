@@ -105,7 +105,7 @@ pub(super) fn fit_bones(
     let mut units = Vec::with_capacity(starts.len());
     for (k, &start) in starts.iter().enumerate() {
         let end = starts.get(k + 1).copied().unwrap_or(plan.frames);
-        let influences = fit_weights(src, start..end, (plan.grid, map), shrink, bones, progress)?;
+        let influences = fit_weights(src, start..end, (plan.grid, map), (shrink, bones), REFIT_SWEEPS, progress)?;
         units.push(SkinWeights { influences: influences.iter().map(quantize).collect(), ..Default::default() });
     }
     let weights = units.remove(0);
@@ -125,20 +125,9 @@ pub(super) fn fit_bones(
 
 /// The weights of frames `range` on the grid halved `shrink` times: SSDR
 /// on that grid, its rest pose the range's first frame, then refitted
-/// [`REFIT_SWEEPS`] times for their expansion (`weights_refit`).
+/// `sweeps` times for their expansion (`weights_refit`; the encoder's
+/// [`REFIT_SWEEPS`], 0: SSDR's weights).
 fn fit_weights(
-    src: &dyn FrameSource,
-    range: std::ops::Range<usize>,
-    (grid, map): (Grid, &SampleMap),
-    shrink: u8,
-    bones: usize,
-    progress: &mut dyn FnMut(&str, usize, usize),
-) -> Result<Vec<[(u16, f32); INFLUENCES]>> {
-    fit_weights_swept(src, range, (grid, map), (shrink, bones), REFIT_SWEEPS, progress)
-}
-
-/// [`fit_weights`] with `sweeps` of the refit (0: SSDR's weights).
-fn fit_weights_swept(
     src: &dyn FrameSource,
     range: std::ops::Range<usize>,
     (grid, map): (Grid, &SampleMap),
@@ -241,8 +230,7 @@ mod probe {
             let t0 = std::time::Instant::now();
             let range = 0..src.frame_count();
             let inf =
-                fit_weights_swept(src.as_ref(), range, (grid, &image.map), (shrink, 32), sweeps, &mut |_, _, _| {})
-                    .unwrap();
+                fit_weights(src.as_ref(), range, (grid, &image.map), (shrink, 32), sweeps, &mut |_, _, _| {}).unwrap();
             let secs = t0.elapsed().as_secs_f64();
             let (info, weights, mut p) = probe_bones(&inf, shrink, diag);
             let (mut l, mut sum, mut bytes) = (Vec::new(), 0.0, 0);
@@ -281,7 +269,8 @@ mod probe {
         let grid = Grid::new(128).unwrap();
         let shrink = skin_shrink(128);
         let range = 0..src.frame_count();
-        let inf = fit_weights(src.as_ref(), range, (grid, &image.map), shrink, 32, &mut |_, _, _| {}).unwrap();
+        let inf = fit_weights(src.as_ref(), range, (grid, &image.map), (shrink, 32), REFIT_SWEEPS, &mut |_, _, _| {})
+            .unwrap();
         let (_, _, mut p) = probe_bones(&inf, shrink, diag);
         let points = image.source_points();
         let faces = grid.topology().faces;
