@@ -451,9 +451,23 @@ fn a_clip_whose_topology_changes_halfway_gets_two_segments() {
     let truth: Vec<f64> = surface_rms(&walk, grid, &all);
     assert!(truth.iter().all(|&e| e < 0.02), "{truth:?}");
     // With bones, the second segment has weights of its own (version 21).
-    let all = decoded_from_both_points(&registered, &EncodeOptions { bones: Some(4), ..opts }, 21);
+    let opts = EncodeOptions { bones: Some(4), ..opts };
+    let all = decoded_from_both_points(&registered, &opts, 21);
     let truth: Vec<f64> = surface_rms(&walk, grid, &all);
     assert!(truth.iter().all(|&e| e < 0.02), "{truth:?}");
+    // A last segment of one frame carries no weights: bones predict none
+    // of its frames.
+    let (bytes, _) = encode(&registered, &EncodeOptions { segments: vec![4, 7], ..opts }, &mut |_, _, _| {}).unwrap();
+    let file = cgv::format::read(&bytes).unwrap();
+    let weights = |f: usize| file.frames[f].bones.as_ref().map_or(0, Vec::len);
+    assert!(file.header.is_random_access_point(7) && weights(4) > 0 && weights(7) == 0);
+    let mut dec = FileDecoder::new(file.clone(), cgv::solve::SolverKind::Predictive).unwrap();
+    let all: Vec<Vec<Vec3>> = (0..8).map(|_| dec.next_frame().unwrap().0).collect();
+    let truth: Vec<f64> = surface_rms(&walk, grid, &all);
+    assert!(truth.iter().all(|&e| e < 0.02), "{truth:?}");
+    let mut from7 = FileDecoder::new(file, cgv::solve::SolverKind::Predictive).unwrap();
+    assert_eq!(from7.seek(7).unwrap(), 0);
+    assert_eq!(from7.next_frame().unwrap().0, all[7]);
 }
 
 /// `src` coded with `opts` (a point at frame 4) as format version
@@ -664,6 +678,16 @@ fn unregistered_against_registered() {
         })
         .collect();
     println!("cone drift per frame (% of the diagonal): {drift:?}");
+    // CGV_JITTER=regions: each sample's jitter on the body by how near it
+    // lies (on frame 0) to a cone, or to another long track's feature.
+    if std::env::var("CGV_JITTER").as_deref() == Ok("regions") {
+        let others: Vec<Vec3> = (0..tracked.tracks.len())
+            .filter(|k| !report.cone_tracks.contains(k) && tracked.tracks[*k].frames_seen() * 2 >= frames)
+            .filter_map(|k| cgv::features::track::place(&tracked.tracks[k], &tracked.features, 0))
+            .map(|p| rest[nearest(0, p)])
+            .collect();
+        print_jitter_regions(&truth, &registered.grid.frames, &c0, &others);
+    }
     let bits = |bytes: usize| bytes as f64 * 8.0 / (truth.topology.vertex_count * frames) as f64;
     // --mesh frames at QP 28: what each frame's own mesh costs, and how far
     // its rebuilt vertices are from the capture's own.
@@ -1011,5 +1035,64 @@ fn print_body_motion(truth: &InMemory, grid_frames: &[Vec<Vec3>]) {
         "body jitter (second difference, RMS/median %): {:?}; mean median {:.3} %",
         show(&jitter),
         mean_median(&jitter)
+    );
+}
+
+/// Each sample's mean jitter on the body (second difference of
+/// [`body_places`]) by where it lies on frame 0: within 10 % of the
+/// diagonal of a cone, else of another long track's feature, else
+/// elsewhere; and by its distance to the nearest cone in fifths.
+fn print_jitter_regions(truth: &InMemory, grid_frames: &[Vec<Vec3>], cones: &[Vec3; 4], others: &[Vec3]) {
+    let diag = Bounds::of(&truth.frames[0]).diagonal();
+    let b: Vec<Vec<Vec3>> = (0..grid_frames.len()).map(|t| body_places(truth, &grid_frames[t], t)).collect();
+    let n = b[0].len();
+    let jit: Vec<f32> = (0..n)
+        .map(|i| {
+            let d: f32 = (1..b.len() - 1).map(|t| (b[t + 1][i] - 2.0 * b[t][i] + b[t - 1][i]).length()).sum();
+            d / (b.len() - 2) as f32 / diag * 100.0
+        })
+        .collect();
+    let near = |p: Vec3, set: &[Vec3]| set.iter().map(|c| c.distance(p)).fold(f32::MAX, f32::min) / diag;
+    let mut bins = [(0.0f32, 0usize); 3];
+    let mut by_cone = [(0.0f32, 0usize); 5];
+    for i in 0..n {
+        let (dc, dof) = (near(b[0][i], cones), near(b[0][i], others));
+        let k = if dc < 0.1 {
+            0
+        } else if dof < 0.1 {
+            1
+        } else {
+            2
+        };
+        bins[k].0 += jit[i];
+        bins[k].1 += 1;
+        let q = ((dc / 0.15) as usize).min(4);
+        by_cone[q].0 += jit[i];
+        by_cone[q].1 += 1;
+    }
+    let show =
+        |v: &[(f32, usize)]| v.iter().map(|(s, c)| format!("{:.3} ({c})", s / (*c).max(1) as f32)).collect::<Vec<_>>();
+    println!(
+        "{} other long tracks; mean jitter % near a cone / near another feature / elsewhere: {:?}",
+        others.len(),
+        show(&bins)
+    );
+    // By distance to the square's border (the cut) in grid steps.
+    let side = (grid_frames[0].len() as f64).sqrt() as usize;
+    let mut by_border = [(0.0f32, 0usize); 6];
+    for (i, j) in jit.iter().enumerate() {
+        let (r, c) = ((i * 7) / side, (i * 7) % side);
+        let d = r.min(c).min(side - 1 - r).min(side - 1 - c);
+        let k = [0usize, 2, 4, 8, 16].iter().filter(|&&e| d >= e).count() - 1 + usize::from(d >= 32);
+        by_border[k].0 += j;
+        by_border[k].1 += 1;
+    }
+    let mut sorted = jit.clone();
+    sorted.sort_by(f32::total_cmp);
+    let q = |f: f64| sorted[((sorted.len() - 1) as f64 * f) as usize];
+    println!("jitter quantiles 50/90/99 %: {:.3} / {:.3} / {:.3}; by steps from the border (0-1, 2-3, 4-7, 8-15, 16-31, 32+): {:?}", q(0.5), q(0.9), q(0.99), show(&by_border));
+    println!(
+        "mean jitter % by distance to the nearest cone (0-15, 15-30, 30-45, 45-60, 60+ % of the diagonal): {:?}",
+        show(&by_cone)
     );
 }

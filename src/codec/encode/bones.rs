@@ -70,7 +70,8 @@ fn skin_shrink(grid: usize) -> u8 {
 
 /// The bones for `opts.bones` (none with 0, or without the closed loop).
 /// A capture's segments (`src` with frame meshes) each have their own map,
-/// so each gets its own weights (version 21); else one set fits all.
+/// so each (of two frames or more) gets its own weights (version 21); else
+/// one set fits all.
 pub(super) fn fit_bones(
     src: &dyn FrameSource,
     plan: &Plan,
@@ -105,16 +106,22 @@ pub(super) fn fit_bones(
     let mut units = Vec::with_capacity(starts.len());
     for (k, &start) in starts.iter().enumerate() {
         let end = starts.get(k + 1).copied().unwrap_or(plan.frames);
+        // A later segment of one frame predicts nothing with bones (its
+        // frame is a random-access point): it keeps the chunk's weights.
+        if k > 0 && end - start < 2 {
+            units.push(None);
+            continue;
+        }
         let influences = fit_weights(src, start..end, (plan.grid, map), (shrink, bones), REFIT_SWEEPS, progress)?;
-        units.push(SkinWeights { influences: influences.iter().map(quantize).collect(), ..Default::default() });
+        units.push(Some(SkinWeights { influences: influences.iter().map(quantize).collect(), ..Default::default() }));
     }
-    let weights = units.remove(0);
+    let weights = units.remove(0).unwrap_or_default();
     // Each random-access point carries its segment's weights, but the
     // first segment's, which are the chunk's.
     let point_units: Vec<Vec<u8>> = (0..plan.frames)
         .filter(|&f| plan.is_rap(f))
         .map(|f| match starts.iter().rposition(|&s| s <= f) {
-            Some(k) if k > 0 => units[k - 1].to_bytes(&info),
+            Some(k) if k > 0 => units[k - 1].as_ref().map_or_else(Vec::new, |w| w.to_bytes(&info)),
             _ => Vec::new(),
         })
         .collect();
