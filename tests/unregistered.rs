@@ -218,7 +218,7 @@ fn a_remeshed_walk_is_tracked_registered_and_coded() {
         assert!(extreme, "feature at {p} is on no extremity");
     }
     let grid = Grid::new(64).unwrap();
-    let (registered, report) = register(Path::new("walk"), 30.0, &frames, grid, 0).unwrap();
+    let (registered, report) = register(Path::new("walk"), 30.0, &frames, grid, 0, &mut |_, _, _| {}).unwrap();
     // Every frame's cut follows the last one's: all maps agree up to a
     // turn, and the grid stays where it was on the body.
     assert_eq!(report.unmatched_frames, 0, "{report:?}");
@@ -250,7 +250,7 @@ fn six_frames_registered() -> (InMemory, Vec<CaptureFrame>, Grid, cgv::features:
     let walk = cgv::mesh::builtin::motion(6);
     let frames = remeshed(&walk, 6);
     let grid = Grid::new(64).unwrap();
-    let (registered, _) = register(Path::new("walk"), 30.0, &frames, grid, 0).unwrap();
+    let (registered, _) = register(Path::new("walk"), 30.0, &frames, grid, 0, &mut |_, _, _| {}).unwrap();
     (walk, frames, grid, registered)
 }
 
@@ -416,7 +416,7 @@ fn frames_with_fins_map_as_well_as_their_neighbours() {
     };
     assert!(frames[1..].iter().all(|c| fins(c) > 0) && fins(&frames[0]) == 0, "the case this test is about");
     let grid = Grid::new(128).unwrap();
-    let (registered, report) = register(&dir, 30.0, &frames, grid, 0).unwrap();
+    let (registered, report) = register(&dir, 30.0, &frames, grid, 0, &mut |_, _, _| {}).unwrap();
     let err = surface_rms(&clip, grid, &registered.grid.frames);
     eprintln!("horse-gallop frames 4-7 (fins in 5-7): registration {err:?}; {report:?}");
     assert!(err.iter().all(|&e| e < 0.003), "{err:?}");
@@ -444,7 +444,7 @@ fn a_clip_whose_topology_changes_halfway_gets_two_segments() {
     assert_eq!(segment_ranges(&frames, 3), [0..4, 4..8]);
     assert_eq!(segment_ranges(&frames, 0), [0..4, 4..8]);
     let grid = Grid::new(32).unwrap();
-    let (registered, report) = register(Path::new("walk"), 30.0, &frames, grid, 60).unwrap();
+    let (registered, report) = register(Path::new("walk"), 30.0, &frames, grid, 60, &mut |_, _, _| {}).unwrap();
     assert_eq!((report.frames, &report.segments[..], report.unmatched_frames), (8, &[4][..], 0), "{report:?}");
     let opts = EncodeOptions { grid: 32, source_mesh: false, segments: report.segments.clone(), ..Default::default() };
     let all = decoded_from_both_points(&registered, &opts, 15);
@@ -501,8 +501,13 @@ fn segments_go_on_where_the_last_left_off() {
     let walk = cgv::mesh::builtin::motion(12);
     let frames = remeshed(&walk, 12);
     let grid = Grid::new(32).unwrap();
-    let (registered, report) = register(Path::new("walk"), 30.0, &frames, grid, 4).unwrap();
+    let mut heard = Vec::new();
+    let mut progress = |stage: &str, done, total| heard.push((stage.to_string(), done, total));
+    let (registered, report) = register(Path::new("walk"), 30.0, &frames, grid, 4, &mut progress).unwrap();
     assert_eq!(report.segments, [4, 8], "{report:?}");
+    // Progress after each segment.
+    let registering = |done| ("registering".to_string(), done, 12);
+    assert_eq!(heard, [registering(4), registering(8), registering(12)]);
     // Where the samples lie on the body against frame 0: a step at each
     // start, against the steps within the segments.
     let on_body = swim(&walk, &registered.grid, &[]);
@@ -556,7 +561,7 @@ fn unregistered_against_registered() {
     let r: usize = std::env::var("CGV_REGISTER_GRID").ok().and_then(|s| s.parse().ok()).unwrap_or(n);
     // Segments as the encoder makes them (a map every 2 s at 30 frames/s).
     let (registered, report) =
-        register(&dir, 30.0, &capture, Grid::new(r).unwrap(), longest_segment(0.0, 30.0)).unwrap();
+        register(&dir, 30.0, &capture, Grid::new(r).unwrap(), longest_segment(0.0, 30.0), &mut |_, _, _| {}).unwrap();
     let mapped = surface_rms(&truth, Grid::new(r).unwrap(), &registered.grid.frames);
     // CGV_TURNS=1: the registration alone with every grid turned a
     // quarter (each quad's split laid the other way across the body).

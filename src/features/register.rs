@@ -129,12 +129,15 @@ impl FrameSource for Registered {
 /// its topology changes, and every `longest` frames), each with its own
 /// tracks and maps ([`registered_parts`]), going on where the last left
 /// off ([`handover`]: its cones, its cut, its turn of the square).
+/// `progress` hears ("registering", frames done, frames) after each
+/// segment.
 pub fn register(
     label: &Path,
     fps: f32,
     frames: &[CaptureFrame],
     grid: Grid,
     longest: usize,
+    progress: &mut dyn FnMut(&str, usize, usize),
 ) -> Result<(Registered, RegisterReport)> {
     let ranges = segment_ranges(frames, longest);
     let several = ranges.len() > 1;
@@ -147,6 +150,7 @@ pub fn register(
             true => Error::Argument(format!("the segment of frames {a}..{b}: {e}")),
         };
         let (pieces, next) = registered_parts(label, fps, &frames[r], grid, last.as_ref()).map_err(in_segment)?;
+        progress("registering", b, frames.len());
         last = Some(next);
         for (start, src, report) in pieces {
             starts.push(a + start);

@@ -426,8 +426,11 @@ fn registered(args: &Args) -> Result<(Box<dyn cgv::mesh::FrameSource>, Vec<u32>)
     let n = register_grid(args);
     let grid = cgv::grid::Grid::new(n)?;
     let longest = cgv::features::segments::longest_segment(args.random_access, args.input.fps);
-    let (src, r) = cgv::features::register::register(dir, args.input.fps, &frames, grid, longest)
+    let pb = super::progress(frames.len(), "registering", args.json);
+    let mut progress = |_: &str, done: usize, _| pb.set_position(done as u64);
+    let (src, r) = cgv::features::register::register(dir, args.input.fps, &frames, grid, longest, &mut progress)
         .with_context(|| format!("registering {}", dir.display()))?;
+    pb.finish_and_clear();
     eprintln!(
         "registered {} frames on {n}²: {:.1} features a frame, {} tracks, the cones' tracks seen in {:.0} % of their frames \
          (each in {} of the frames, the worst segment's), \

@@ -137,10 +137,17 @@ fn unregistered_info(args: &Args) -> Result<()> {
     let longest = longest_segment(0.0, args.input.fps);
     let ranges = segment_ranges(&frames, longest);
     let starts: Vec<usize> = ranges.iter().map(|r| r.start).collect();
+    let pb = super::progress(frames.len(), "tracking", args.json);
     let segments: Vec<_> = ranges
         .iter()
-        .map(|r| track_capture(dir, &frames[r.clone()]).with_context(|| format!("the segment of frames {r:?}")))
+        .map(|r| {
+            let tracked =
+                track_capture(dir, &frames[r.clone()]).with_context(|| format!("the segment of frames {r:?}"));
+            pb.set_position(r.end as u64);
+            tracked
+        })
         .collect::<Result<_>>()?;
+    pb.finish_and_clear();
     // The segments' tracking joined as the registration's report joins it.
     let all = RegisterReport::joined(&starts, segments.iter().map(RegisterReport::of_tracking));
     let (features_per_frame, tracks) = (all.features_per_frame, all.tracks);
