@@ -75,6 +75,16 @@ pub enum Error {
         *limit as f64 / 1048576.0
     )]
     Memory { needed: u64, limit: u64 },
+    /// Registering a capture would hold more memory than the caller allows
+    /// (every frame is held at once).
+    #[error(
+        "{}: its first {frames} frames already need about {:.1} MiB to register, more than the limit of {:.1} MiB \
+         (raise --memory-limit, or code the capture in parts with --frames A..B)",
+        path.display(),
+        *needed as f64 / 1048576.0,
+        *limit as f64 / 1048576.0
+    )]
+    CaptureMemory { path: PathBuf, frames: usize, needed: u64, limit: u64 },
     /// An H.264 stream could not be encoded or decoded.
     #[error("video: {0}")]
     Video(String),

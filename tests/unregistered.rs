@@ -829,6 +829,13 @@ fn the_commands_make_report_and_code_a_capture() {
         cgv(&["encode", capture_s, "--unregistered", "--grid", "32", "--segments", "8", "-o", file.to_str().unwrap()]);
     assert!(!past.status.success() && String::from_utf8_lossy(&past.stderr).contains("segments"));
     assert!(!file.exists());
+    // A registration past --memory-limit (8 frames on 256²: 1.5 MiB a
+    // frame) is refused, nothing written.
+    let args = ["encode", capture_s, "--unregistered", "--grid", "256", "--memory-limit", "4", "-o"];
+    let big = cgv(&[&args[..], &[file.to_str().unwrap()]].concat());
+    let err = String::from_utf8_lossy(&big.stderr);
+    assert!(!big.status.success() && err.contains("--memory-limit") && err.contains(capture_s), "{err}");
+    assert!(!file.exists());
     // A segment asked for at frame 4: a random-access point there.
     let args = ["encode", capture_s, "--unregistered", "--grid", "32", "--segments", "4", "-o", file.to_str().unwrap()];
     let coded = cgv(&args);
@@ -871,27 +878,35 @@ fn the_commands_make_report_and_code_a_capture() {
 /// kinds, and a glTF frame that is an animation, are refused by name.
 #[test]
 fn a_capture_of_glb_frames_reads_as_its_obj_frames() {
-    use cgv::features::capture::read_capture;
+    use cgv::features::capture::{read_capture, CaptureLimit};
     use cgv::mesh::{gltf_out::write_glb, Topology};
     let dir = common::temp_dir("unregistered-glb");
     let (objs, glbs) = (dir.join("obj"), dir.join("glb"));
     let out = cgv(&["unregister", "builtin:walk", "--frames", "0..4", "-o", objs.to_str().unwrap()]);
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
     std::fs::create_dir_all(&glbs).unwrap();
-    let from_obj = read_capture(&objs, None).unwrap();
+    let from_obj = read_capture(&objs, None, CaptureLimit::NONE).unwrap();
     for (t, f) in from_obj.iter().enumerate() {
         let topology = Topology { vertex_count: f.positions.len(), faces: f.faces.clone() };
         let path = glbs.join(format!("frame_{t}.glb"));
         write_glb(&path, &topology, 1, 30.0, "capture", None, |_| Ok(f.positions.clone())).unwrap();
     }
-    let from_glb = read_capture(&glbs, None).unwrap();
+    let from_glb = read_capture(&glbs, None, CaptureLimit::NONE).unwrap();
     assert_eq!(from_glb.len(), 4);
     for (a, b) in from_obj.iter().zip(&from_glb) {
         assert_eq!((a.positions.len(), a.faces.len()), (b.positions.len(), b.faces.len()));
         let sq: f32 = a.positions.iter().zip(&b.positions).map(|(p, q)| p.distance_squared(*q)).sum();
         assert!(sq < 1e-10, "positions {sq}");
     }
-    let middle = read_capture(&glbs, Some("1..3".parse().unwrap())).unwrap();
+    // A capture past the limit is refused while it is read, by name.
+    let one = CaptureLimit { bytes: CaptureLimit::NONE.frame_bytes(&from_obj[0]), grid_samples: 0 };
+    match read_capture(&glbs, None, one) {
+        Err(e @ cgv::Error::CaptureMemory { frames, needed, limit, .. }) => {
+            assert!(frames >= 2 && needed > limit && e.to_string().contains(glbs.to_str().unwrap()), "{e}");
+        }
+        other => panic!("{:?}", other.map(|f| f.len())),
+    }
+    let middle = read_capture(&glbs, Some("1..3".parse().unwrap()), CaptureLimit::NONE).unwrap();
     assert_eq!(middle.len(), 2);
     assert_eq!(middle[0].faces, from_glb[1].faces);
     assert_eq!(middle[1].faces, from_glb[2].faces);
@@ -901,7 +916,7 @@ fn a_capture_of_glb_frames_reads_as_its_obj_frames() {
     assert_eq!(report["frames"], 4);
     // Both kinds in one folder.
     std::fs::copy(objs.join("0.obj"), glbs.join("0.obj")).unwrap();
-    let mixed = read_capture(&glbs, None).unwrap_err().to_string();
+    let mixed = read_capture(&glbs, None, CaptureLimit::NONE).unwrap_err().to_string();
     assert!(mixed.contains("both OBJ (1) and glTF (4)") && mixed.contains(glbs.to_str().unwrap()), "{mixed}");
     std::fs::remove_file(glbs.join("0.obj")).unwrap();
     // A frame that is an animation of 3 frames.
@@ -909,7 +924,7 @@ fn a_capture_of_glb_frames_reads_as_its_obj_frames() {
     let topology = Topology { vertex_count: f.positions.len(), faces: f.faces.clone() };
     let moving = glbs.join("frame_4.glb");
     write_glb(&moving, &topology, 3, 30.0, "capture", None, |_| Ok(f.positions.clone())).unwrap();
-    let err = read_capture(&glbs, None).unwrap_err().to_string();
+    let err = read_capture(&glbs, None, CaptureLimit::NONE).unwrap_err().to_string();
     assert!(err.contains("frame_4.glb") && err.contains("bakes to 3 frames"), "{err}");
 }
 

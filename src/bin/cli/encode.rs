@@ -3,6 +3,7 @@
 use super::InputArgs;
 use anyhow::{bail, Context, Result};
 use cgv::codec::{h264::VideoSettings, CodecChoice, EncodeOptions, EncodeRequest, GridChoice, Made};
+use cgv::features::capture::CaptureLimit;
 use cgv::format::CorrectionMode;
 use cgv::output::AtomicFile;
 use cgv::param::ParamOptions;
@@ -160,6 +161,11 @@ pub struct Args {
     /// come back placed on the decoded grid.
     #[arg(long, requires = "unregistered")]
     no_slide: bool,
+    /// With --unregistered: refuse a capture whose registration would hold
+    /// more than this many MiB (every frame is held at once, with its own
+    /// mesh and grid), while it is read.
+    #[arg(long, value_name = "MIB", default_value_t = DEFAULT_CAPTURE_MIB, value_parser = clap::value_parser!(u64).range(1..))]
+    memory_limit: u64,
     /// Store each input vertex's place where the grid follows it best over
     /// the motion (up to a cell from its own, judged on 16 frames): the
     /// rebuilt vertices' floor falls 25-49 % on the shared sequences, which
@@ -417,13 +423,18 @@ fn register_grid(args: &Args) -> usize {
     }
 }
 
+/// The default `--memory-limit` of a capture's registration (and of `cgv
+/// info --unregistered`'s tracking), MiB.
+pub const DEFAULT_CAPTURE_MIB: u64 = 8192;
+
 /// The unregistered capture `args.input` registered onto the grid, and
 /// where its segments start (after frame 0), with what the registration
 /// found on stderr.
 fn registered(args: &Args) -> Result<(Box<dyn cgv::mesh::FrameSource>, Vec<u32>)> {
     let dir = std::path::Path::new(&args.input.input);
-    let frames = cgv::features::capture::read_capture(dir, args.input.frames)?;
     let n = register_grid(args);
+    let limit = CaptureLimit { bytes: args.memory_limit.saturating_mul(1 << 20), grid_samples: n * n };
+    let frames = cgv::features::capture::read_capture(dir, args.input.frames, limit)?;
     let grid = cgv::grid::Grid::new(n)?;
     let longest = cgv::features::segments::longest_segment(args.random_access, args.input.fps);
     let pb = super::progress(frames.len(), "registering", args.json);

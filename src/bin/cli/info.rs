@@ -22,6 +22,10 @@ pub struct Args {
     /// features found (heat kernel signature maxima) and how well they track.
     #[arg(long)]
     unregistered: bool,
+    /// With --unregistered: refuse a capture whose frames would hold more
+    /// than this many MiB (all are held at once), while it is read.
+    #[arg(long, value_name = "MIB", default_value_t = super::encode::DEFAULT_CAPTURE_MIB, requires = "unregistered", value_parser = clap::value_parser!(u64).range(1..))]
+    memory_limit: u64,
 }
 
 /// Reads every frame after the first (in parallel, with a progress bar
@@ -124,12 +128,13 @@ pub fn run(args: Args) -> Result<()> {
 
 /// `cgv info --unregistered`: the capture's frames, features and tracks.
 fn unregistered_info(args: &Args) -> Result<()> {
-    use cgv::features::capture::read_capture;
+    use cgv::features::capture::{read_capture, CaptureLimit};
     use cgv::features::register::track_capture;
     use cgv::features::report::RegisterReport;
     use cgv::features::segments::{longest_segment, segment_ranges};
     let dir = std::path::Path::new(&args.input.input);
-    let frames = read_capture(dir, args.input.frames)?;
+    let limit = CaptureLimit { bytes: args.memory_limit.saturating_mul(1 << 20), grid_samples: 0 };
+    let frames = read_capture(dir, args.input.frames, limit)?;
     let sizes: Vec<usize> = frames.iter().map(|f| f.positions.len()).collect();
     let (lo, hi) = (sizes.iter().min().copied().unwrap_or(0), sizes.iter().max().copied().unwrap_or(0));
     // Each segment (of one topology, at most the encoder's default
