@@ -11,9 +11,9 @@ pub enum MeshProblem {
     NoFaces,
     #[error("face {face} uses vertex {index}, but there are only {count} vertices")]
     IndexOutOfRange { face: usize, index: i64, count: usize },
-    #[error("has {found} vertices, but the first frame has {expected} (a capture whose frames are each their own mesh: --unregistered)")]
+    #[error("has {found} vertices, but the first frame has {expected} (a capture whose frames are each their own mesh: `cgv info` and `cgv encode` read one with --unregistered)")]
     VertexCountMismatch { expected: usize, found: usize },
-    #[error("has {found} faces, but the first frame has {expected} (a capture whose frames are each their own mesh: --unregistered)")]
+    #[error("has {found} faces, but the first frame has {expected} (a capture whose frames are each their own mesh: `cgv info` and `cgv encode` read one with --unregistered)")]
     FaceCountMismatch { expected: usize, found: usize },
     #[error("face {face} differs from the first frame's face {face} (frames must share one connectivity, or be read with --unregistered)")]
     FacesDiffer { face: usize },

@@ -229,6 +229,19 @@ fn a_remeshed_walk_is_tracked_registered_and_coded() {
     let image = cgv::codec::prepare(&registered, &opts).unwrap();
     assert_eq!(image.map.apply(&registered.grid.frames[5]), registered.grid.frames[5]);
     let mapped = surface_rms(&walk, grid, &registered.grid.frames);
+    // The report's floor: each grid against its frame's own mesh (no
+    // truth), as far as against the truth within the simplification's error.
+    let own: Vec<f64> = (0..12)
+        .map(|t| {
+            let (c, g) = (&frames[t], &registered.grid.frames[t]);
+            let d = cgv::metrics::surface::symmetric(&c.positions, &c.faces, g, &grid.topology().faces).unwrap();
+            d.rms / Bounds::of(&c.positions).diagonal() as f64
+        })
+        .collect();
+    let mean = own.iter().sum::<f64>() / 12.0;
+    assert!((report.resampling_mean - mean).abs() < 1e-9 * mean.max(1e-9), "{report:?} {own:?}");
+    assert_eq!(report.resampling_worst, own.iter().copied().fold(0.0, f64::max));
+    assert!(report.resampling_mean > 0.0 && report.resampling_worst < 0.01, "{report:?}");
     let (bytes, decoded) = round_trip(&registered.grid, 64, 20);
     let coded = surface_rms(&walk, grid, &decoded);
     eprintln!("{bytes} bytes; registration {mapped:?}; decoded {coded:?}; swim {swum:?}");
@@ -840,7 +853,11 @@ fn the_commands_make_report_and_code_a_capture() {
     let args = ["encode", capture_s, "--unregistered", "--grid", "32", "--segments", "4", "-o", file.to_str().unwrap()];
     let coded = cgv(&args);
     assert!(coded.status.success(), "{}", String::from_utf8_lossy(&coded.stderr));
-    assert!(String::from_utf8_lossy(&coded.stderr).contains("registered 8 frames"));
+    let said = String::from_utf8_lossy(&coded.stderr);
+    assert!(said.contains("registered 8 frames") && said.contains("from each frame's own mesh"), "{said}");
+    // The grid's own line (the geometry image's floor) is no figure for a
+    // capture: its grid is its own mesh.
+    assert!(!String::from_utf8_lossy(&coded.stdout).contains("resamples the reference frame"));
     let info = String::from_utf8_lossy(&cgv(&["info", file.to_str().unwrap()]).stdout).to_string();
     assert!(info.contains("segments      2, from frames 0, 4"), "{info}");
     let glb = dir.join("capture.glb");

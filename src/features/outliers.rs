@@ -40,14 +40,15 @@ pub const OUTLIER: f64 = 3.0;
 /// or carried on from the frame before where the piece has no steady
 /// frame after, or from the frame after where it has none before. A piece
 /// that is all outliers is carried on from the last frame of the piece
-/// before. Returns how many frames took their rebuilt grid.
+/// before. Returns how many frames took their rebuilt grid, and how far
+/// each frame's grid then lies from its mesh ([`resampling_errors`]).
 pub fn rebuilt(
     grid: Grid,
     frames: &[CaptureFrame],
     starts: &[usize],
     grids: &mut [Vec<Vec3>],
     meshes: &mut [FrameMesh],
-) -> Result<usize> {
+) -> Result<(usize, Vec<f64>)> {
     let mut errors = resampling_errors(frames, grids, grid)?;
     let mut sorted = errors.clone();
     sorted.sort_by(f64::total_cmp);
@@ -77,7 +78,7 @@ pub fn rebuilt(
             count += usize::from(steady[t]);
         }
     }
-    Ok(count)
+    Ok((count, errors))
 }
 
 /// Frame `t`'s grid rebuilt from `before` and `after` (frame indices),
@@ -126,14 +127,17 @@ mod tests {
         let mut grids: Vec<Vec<Vec3>> = (0..frames).map(|t| at(t, if off.contains(&t) { 0.5 } else { 0.0 })).collect();
         let mut meshes: Vec<FrameMesh> = capture.iter().map(|f| f.mesh()).collect();
         let before = resampling_errors(&capture, &grids, grid).unwrap();
-        let count = rebuilt(grid, &capture, starts, &mut grids, &mut meshes).unwrap();
+        let (count, errors) = rebuilt(grid, &capture, starts, &mut grids, &mut meshes).unwrap();
         // A rebuilt frame's vertices are placed on its new grid.
         let placed: Vec<usize> = meshes.iter().map(|m| m.places.len()).collect();
         assert!(
             placed.iter().enumerate().all(|(t, &p)| p == if off.contains(&t) { 36 } else { 0 }),
             "{off:?}: {placed:?}"
         );
-        (count, before, resampling_errors(&capture, &grids, grid).unwrap())
+        // What it returns is each frame's error as it now is.
+        let after = resampling_errors(&capture, &grids, grid).unwrap();
+        assert_eq!(errors, after);
+        (count, before, after)
     }
 
     /// Outlying frames are rebuilt onto their mesh: one between steady

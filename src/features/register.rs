@@ -167,7 +167,15 @@ pub fn register(
     }
     let (mut src, mut report) =
         out.ok_or_else(|| Error::Argument(format!("{}: a capture without frames", label.display())))?;
-    report.rebuilt_frames = outliers::rebuilt(grid, frames, &starts, &mut src.grid.frames, &mut src.meshes)?;
+    let errors;
+    (report.rebuilt_frames, errors) = outliers::rebuilt(grid, frames, &starts, &mut src.grid.frames, &mut src.meshes)?;
+    let relative: Vec<f64> = errors
+        .iter()
+        .zip(frames)
+        .map(|(e, f)| e / (Bounds::of(&f.positions).diagonal() as f64).max(f64::MIN_POSITIVE))
+        .collect();
+    report.resampling_mean = relative.iter().sum::<f64>() / relative.len().max(1) as f64;
+    report.resampling_worst = relative.iter().copied().fold(0.0, f64::max);
     Ok((src, report))
 }
 

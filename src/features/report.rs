@@ -32,6 +32,12 @@ pub struct RegisterReport {
     /// Frames whose grid lay far from their own mesh, rebuilt from their
     /// neighbours ([`super::outliers`]).
     pub rebuilt_frames: usize,
+    /// How far each frame's grid lies from the frame's own mesh (symmetric
+    /// surface RMS, a fraction of that frame's bounding-box diagonal): the
+    /// mean over frames and the worst frame. The registration's own floor,
+    /// under which no coding of its grid goes.
+    pub resampling_mean: f64,
+    pub resampling_worst: f64,
     pub seconds_features: f64,
     pub seconds_maps: f64,
     /// Frames where a segment (after the first) starts: the topology

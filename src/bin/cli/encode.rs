@@ -446,7 +446,9 @@ fn registered(args: &Args) -> Result<(Box<dyn cgv::mesh::FrameSource>, Vec<u32>)
         "registered {} frames on {n}²: {:.1} features a frame, {} tracks, the cones' tracks seen in {:.0} % of their frames \
          (each in {} of the frames, the worst segment's), \
          {} frames turned back to the first's sides, {} that no symmetry matches, {} bridged from their neighbours (their grid jumped), \
-         {} smoothed in time, {} rebuilt from their neighbours (their grid lay far from their mesh); {:.1} s features, {:.1} s maps",
+         {} smoothed in time, {} rebuilt from their neighbours (their grid lay far from their mesh); the grid lies {:.4} % of \
+         the diagonal from each frame's own mesh on average (worst frame {:.4} %; surface RMS, the floor under any coding); \
+         {:.1} s features, {:.1} s maps",
         r.frames,
         r.features_per_frame,
         r.tracks,
@@ -457,6 +459,8 @@ fn registered(args: &Args) -> Result<(Box<dyn cgv::mesh::FrameSource>, Vec<u32>)
         r.bridged_frames,
         r.smoothed_frames,
         r.rebuilt_frames,
+        100.0 * r.resampling_mean,
+        100.0 * r.resampling_worst,
         r.seconds_features,
         r.seconds_maps
     );
@@ -571,7 +575,9 @@ fn print_report(
         print_sizes(report);
         if let Some(p) = &report.parameterization {
             super::warn_folds(&p.distortion);
-            if let Some(score) = p.score {
+            // A capture's grid is its own mesh: its floor is the
+            // registration's, printed with it.
+            if let Some(score) = p.score.filter(|_| !args.unregistered) {
                 let diagonal = cgv::mesh::Bounds::of(&src.read_frame(opts.reference)?).diagonal() as f64;
                 println!(
                     "  grid: resamples the reference frame to {:.4} % of its bounding-box diagonal (RMS surface distance; {} area-correction passes kept)",
