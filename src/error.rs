@@ -75,11 +75,11 @@ pub enum Error {
         *limit as f64 / 1048576.0
     )]
     Memory { needed: u64, limit: u64 },
-    /// Registering a capture would hold more memory than the caller allows
-    /// (every frame is held at once).
+    /// Reading (and registering) a capture would hold more memory than the
+    /// caller allows (every frame is held at once).
     #[error(
-        "{}: its first {frames} frames already need about {:.1} MiB to register, more than the limit of {:.1} MiB \
-         (raise --memory-limit, or code the capture in parts with --frames A..B)",
+        "{}: its first {frames} frames already need about {:.1} MiB at once, more than the limit of {:.1} MiB \
+         (raise --memory-limit, or take the capture in parts with --frames A..B)",
         path.display(),
         *needed as f64 / 1048576.0,
         *limit as f64 / 1048576.0

@@ -39,49 +39,66 @@ impl CaptureFrame {
     }
 }
 
-/// How much a capture's registration may hold: every frame is held at
-/// once (the registration looks across a segment's frames, and each
-/// frame's own mesh is kept for the encoder), so a long capture is refused
-/// while it is read, not when memory runs out.
+/// How much reading a capture may hold: every frame is held at once (the
+/// registration looks across a segment's frames, and keeps each frame's
+/// own mesh for the encoder), so a long capture is refused while it is
+/// read, not when memory runs out.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CaptureLimit {
     /// Most bytes the frames may take, as [`CaptureLimit::frame_bytes`]
     /// counts them.
     pub bytes: u64,
-    /// Samples of the grid each frame is registered on (0: tracking only).
-    pub grid_samples: usize,
+    /// Samples of the grid each frame is registered on; `None`: the frames
+    /// are only tracked (`cgv info --unregistered`), not registered.
+    pub grid_samples: Option<usize>,
 }
 
 impl CaptureLimit {
     /// No limit (tests, callers that bound their input themselves).
-    pub const NONE: CaptureLimit = CaptureLimit { bytes: u64::MAX, grid_samples: 0 };
+    pub const NONE: CaptureLimit = CaptureLimit { bytes: u64::MAX, grid_samples: None };
 
-    /// About what registering `frame` holds: the frame, its copy kept as
-    /// the frame's own mesh with each vertex's place, and its grid twice
-    /// (the maps' and the smoothing's).
+    /// About what `frame` holds: the frame itself, and where it is
+    /// registered, its copy kept as the frame's own mesh with each
+    /// vertex's place, and its grid twice (the maps' and the smoothing's).
     pub fn frame_bytes(&self, frame: &CaptureFrame) -> u64 {
-        let mesh = 12 * frame.positions.len() + 12 * frame.faces.len();
-        (2 * mesh + 8 * frame.positions.len() + 24 * self.grid_samples) as u64
+        let (v, f) = (frame.positions.len() as u64, frame.faces.len() as u64);
+        let mesh = 12 * v + 12 * f;
+        match self.grid_samples {
+            None => mesh,
+            Some(n) => 2 * mesh + 8 * v + 24 * n as u64,
+        }
     }
 }
 
 /// The frames of a folder of OBJ, or of glTF and GLB, files (`frames`, if
 /// given, a range of them), each its own mesh
 /// ([`crate::mesh::open::capture_files`]), read a few at a time in
-/// parallel until `limit` would be passed.
+/// parallel: never more at once than the largest frame so far says fit
+/// under `limit`, so the limit is passed by one frame at most, and then
+/// refused.
 pub fn read_capture(dir: &Path, frames: Option<FrameSelection>, limit: CaptureLimit) -> Result<Vec<CaptureFrame>> {
     let files = crate::mesh::open::capture_files(dir)?;
     let (first, count) = match frames {
         Some(s) => s.resolve(files.len()).map_err(|e| Error::Argument(format!("{}: {e}", dir.display())))?,
         None => (0, files.len()),
     };
-    let (mut read, mut held) = (Vec::with_capacity(count), 0u64);
-    for batch in files[first..first + count].chunks(2 * rayon::current_num_threads()) {
-        let part: Vec<CaptureFrame> = batch
+    let files = &files[first..first + count];
+    let (mut read, mut held, mut largest) = (Vec::with_capacity(count), 0u64, 0u64);
+    while read.len() < files.len() {
+        // The first frame alone, to learn a frame's size.
+        let room = match largest {
+            0 => 1,
+            _ => limit.bytes.saturating_sub(held) / largest,
+        };
+        let batch = (2 * rayon::current_num_threads()).min(room.max(1) as usize).min(files.len() - read.len());
+        let part: Vec<CaptureFrame> = files[read.len()..read.len() + batch]
             .par_iter()
             .map(|f| crate::mesh::open::read_still(f).map(|(positions, faces)| CaptureFrame { positions, faces }))
             .collect::<Result<_>>()?;
-        held = part.iter().fold(held, |sum, f| sum.saturating_add(limit.frame_bytes(f)));
+        for f in &part {
+            let bytes = limit.frame_bytes(f);
+            (held, largest) = (held.saturating_add(bytes), largest.max(bytes));
+        }
         read.extend(part);
         if held > limit.bytes {
             return Err(Error::CaptureMemory {

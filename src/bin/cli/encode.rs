@@ -4,6 +4,7 @@ use super::InputArgs;
 use anyhow::{bail, Context, Result};
 use cgv::codec::{h264::VideoSettings, CodecChoice, EncodeOptions, EncodeRequest, GridChoice, Made};
 use cgv::features::capture::CaptureLimit;
+use cgv::features::report::RegisterReport;
 use cgv::format::CorrectionMode;
 use cgv::output::AtomicFile;
 use cgv::param::ParamOptions;
@@ -164,7 +165,8 @@ pub struct Args {
     /// With --unregistered: refuse a capture whose registration would hold
     /// more than this many MiB (every frame is held at once, with its own
     /// mesh and grid), while it is read.
-    #[arg(long, value_name = "MIB", default_value_t = DEFAULT_CAPTURE_MIB, value_parser = clap::value_parser!(u64).range(1..))]
+    #[arg(long, value_name = "MIB", default_value_t = DEFAULT_CAPTURE_MIB, requires = "unregistered",
+          value_parser = clap::value_parser!(u64).range(1..))]
     memory_limit: u64,
     /// Store each input vertex's place where the grid follows it best over
     /// the motion (up to a cell from its own, judged on 16 frames): the
@@ -381,16 +383,16 @@ fn encode_one(args: &Args) -> Result<()> {
     // Every option is checked before the motion is read.
     let mut request = request(args);
     request.options(input.fps)?;
-    let src = match args.unregistered {
+    let (src, registration) = match args.unregistered {
         true => {
-            let (src, found) = registered(args)?;
+            let (src, report) = registered(args)?;
             let segments = &mut request.base.segments;
-            segments.extend(found);
+            segments.extend(&report.segments);
             segments.sort_unstable();
             segments.dedup();
-            src
+            (src, Some(report))
         }
-        false => input.open()?,
+        false => (input.open()?, None),
     };
     let pb = super::progress(src.frame_count(), "encoding", args.json);
     let mut progress = |stage: &str, done: usize, _| {
@@ -410,7 +412,8 @@ fn encode_one(args: &Args) -> Result<()> {
         Made::Streamed(f) => f.commit()?,
         Made::Bytes(b) => cgv::output::write_atomic(output, &b)?,
     }
-    print_report(args, src.as_ref(), &made.options, &made.report, made.target.as_ref())
+    let coded = (&made.options, &made.report, made.target.as_ref());
+    print_report(args, src.as_ref(), coded, registration.as_ref())
 }
 
 /// Grid size an unregistered capture is registered on with `--grid auto`.
@@ -428,12 +431,12 @@ fn register_grid(args: &Args) -> usize {
 pub const DEFAULT_CAPTURE_MIB: u64 = 8192;
 
 /// The unregistered capture `args.input` registered onto the grid, and
-/// where its segments start (after frame 0), with what the registration
-/// found on stderr.
-fn registered(args: &Args) -> Result<(Box<dyn cgv::mesh::FrameSource>, Vec<u32>)> {
+/// the registration's report (where its segments start, after frame 0),
+/// which is also printed on stderr.
+fn registered(args: &Args) -> Result<(Box<dyn cgv::mesh::FrameSource>, RegisterReport)> {
     let dir = std::path::Path::new(&args.input.input);
     let n = register_grid(args);
-    let limit = CaptureLimit { bytes: args.memory_limit.saturating_mul(1 << 20), grid_samples: n * n };
+    let limit = CaptureLimit { bytes: args.memory_limit.saturating_mul(1 << 20), grid_samples: Some(n * n) };
     let frames = cgv::features::capture::read_capture(dir, args.input.frames, limit)?;
     let grid = cgv::grid::Grid::new(n)?;
     let longest = cgv::features::segments::longest_segment(args.random_access, args.input.fps);
@@ -470,7 +473,7 @@ fn registered(args: &Args) -> Result<(Box<dyn cgv::mesh::FrameSource>, Vec<u32>)
             join(&r.segments)
         );
     }
-    Ok((Box::new(src), r.segments))
+    Ok((Box::new(src), r))
 }
 
 /// What mesh an unregistered capture's file gives back.
@@ -529,9 +532,8 @@ fn print_sizes(report: &cgv::codec::EncodeReport) {
 fn print_report(
     args: &Args,
     src: &dyn cgv::mesh::FrameSource,
-    opts: &EncodeOptions,
-    report: &cgv::codec::EncodeReport,
-    target: Option<&cgv::codec::TargetReport>,
+    (opts, report, target): (&EncodeOptions, &cgv::codec::EncodeReport, Option<&cgv::codec::TargetReport>),
+    registration: Option<&RegisterReport>,
 ) -> Result<()> {
     let output = &args.output;
     let seconds = report.frames as f64 / src.fps() as f64;
@@ -541,7 +543,8 @@ fn print_report(
         println!(
             "{}",
             serde_json::to_string_pretty(&serde_json::json!({
-                "output": output, "bytes": report.bytes, "kbps": kbps, "report": report, "target": target
+                "output": output, "bytes": report.bytes, "kbps": kbps, "report": report, "target": target,
+                "registration": registration
             }))?
         );
     } else {

@@ -133,7 +133,7 @@ fn unregistered_info(args: &Args) -> Result<()> {
     use cgv::features::report::RegisterReport;
     use cgv::features::segments::{longest_segment, segment_ranges};
     let dir = std::path::Path::new(&args.input.input);
-    let limit = CaptureLimit { bytes: args.memory_limit.saturating_mul(1 << 20), grid_samples: 0 };
+    let limit = CaptureLimit { bytes: args.memory_limit.saturating_mul(1 << 20), grid_samples: None };
     let frames = read_capture(dir, args.input.frames, limit)?;
     let sizes: Vec<usize> = frames.iter().map(|f| f.positions.len()).collect();
     let (lo, hi) = (sizes.iter().min().copied().unwrap_or(0), sizes.iter().max().copied().unwrap_or(0));

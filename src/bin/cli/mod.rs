@@ -145,7 +145,9 @@ pub fn progress(len: usize, msg: &'static str, quiet: bool) -> ProgressBar {
     if quiet {
         return ProgressBar::hidden();
     }
-    let pb = ProgressBar::new(len as u64);
+    // Cleared when dropped too: an error returned past the bar leaves
+    // no half-drawn bar above its message.
+    let pb = ProgressBar::new(len as u64).with_finish(indicatif::ProgressFinish::AndClear);
     pb.set_style(
         ProgressStyle::with_template("{msg:>12} [{bar:30}] {pos}/{len} frames, {elapsed} (eta {eta})")
             .unwrap_or_else(|_| ProgressStyle::default_bar())

@@ -17,6 +17,7 @@ use crate::resample::SampleMap;
 use crate::skin::{decompose, BoneTransform, SkinOptions};
 use crate::solve::skinned::{SkinnedPredictor, FIT_STRIDE};
 use glam::Vec3;
+use std::ops::Range;
 
 /// Bones when the options leave it to the encoder (`EncodeOptions::bones`
 /// `None`): samba's 32 fit in 0.4 s on the weights' grid.
@@ -90,6 +91,8 @@ pub(super) fn fit_bones(
     }
     let shrink = skin_shrink(plan.grid.n);
     let bones = usize::from(asked).min((plan.grid.n >> shrink).pow(2));
+    let segments = if src.frame_mesh(0).is_some() { &plan.segments[..] } else { &[] };
+    let (ranges, own) = weight_segments(segments, plan.frames, |f| plan.is_rap(f));
     let info = SkinInfo {
         bones: bones as u16,
         shrink,
@@ -97,22 +100,16 @@ pub(super) fn fit_bones(
         translation_step: (diagonal * TRANSLATION_STEP).max(f32::MIN_POSITIVE),
         packed: true,
         rest_step: None,
-        point_weights: !plan.segments.is_empty() && src.frame_mesh(0).is_some(),
+        point_weights: own.iter().any(|&o| o),
     };
-    let starts: Vec<usize> = match info.point_weights {
-        true => [0].into_iter().chain(plan.segments.iter().map(|&s| s as usize)).collect(),
-        false => vec![0],
-    };
+    let starts: Vec<usize> = ranges.iter().map(|r| r.start).collect();
     let mut units = Vec::with_capacity(starts.len());
-    for (k, &start) in starts.iter().enumerate() {
-        let end = starts.get(k + 1).copied().unwrap_or(plan.frames);
-        // A later segment of one frame predicts nothing with bones (its
-        // frame is a random-access point): it keeps the chunk's weights.
-        if k > 0 && end - start < 2 {
+    for (range, &own) in ranges.iter().zip(&own) {
+        if range.start > 0 && !own {
             units.push(None);
             continue;
         }
-        let influences = fit_weights(src, start..end, (plan.grid, map), (shrink, bones), REFIT_SWEEPS, progress)?;
+        let influences = fit_weights(src, range.clone(), (plan.grid, map), (shrink, bones), REFIT_SWEEPS, progress)?;
         units.push(Some(SkinWeights { influences: influences.iter().map(quantize).collect(), ..Default::default() }));
     }
     let weights = units.remove(0).unwrap_or_default();
@@ -130,13 +127,26 @@ pub(super) fn fit_bones(
     Ok(Some(Bones { info, weights, point_units, predictor }))
 }
 
+/// The frames of each segment of a motion of `frames` frames whose later
+/// segments start at `segments` (a capture's, each its own map), and
+/// whether each after the first gets weights of its own: not where every
+/// frame of it is a random-access point (`is_rap`; one frame, say), as
+/// bones then predict none of them.
+fn weight_segments(segments: &[u32], frames: usize, is_rap: impl Fn(usize) -> bool) -> (Vec<Range<usize>>, Vec<bool>) {
+    let starts: Vec<usize> = [0].into_iter().chain(segments.iter().map(|&s| s as usize)).collect();
+    let ranges: Vec<Range<usize>> =
+        starts.iter().enumerate().map(|(k, &s)| s..starts.get(k + 1).copied().unwrap_or(frames)).collect();
+    let own = ranges.iter().map(|r| r.start > 0 && !r.clone().all(&is_rap)).collect();
+    (ranges, own)
+}
+
 /// The weights of frames `range` on the grid halved `shrink` times: SSDR
 /// on that grid, its rest pose the range's first frame, then refitted
 /// `sweeps` times for their expansion (`weights_refit`; the encoder's
 /// [`REFIT_SWEEPS`], 0: SSDR's weights).
 fn fit_weights(
     src: &dyn FrameSource,
-    range: std::ops::Range<usize>,
+    range: Range<usize>,
     (grid, map): (Grid, &SampleMap),
     (shrink, bones): (u8, usize),
     sweeps: usize,
@@ -185,6 +195,28 @@ pub(super) fn quantize(inf: &[(u16, f32); INFLUENCES]) -> [(u8, u8); INFLUENCES]
         q[k].1 = 1;
     }
     q
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A segment gets weights of its own unless every frame of it is a
+    /// random-access point; the first segment's are the chunk's.
+    #[test]
+    fn segments_whose_frames_are_all_points_keep_the_chunks_weights() {
+        let points = |p: &'static [usize]| move |f: usize| p.contains(&f);
+        let (ranges, own) = weight_segments(&[4, 7], 8, points(&[0, 4, 7]));
+        assert_eq!((ranges, own), (vec![0..4, 4..7, 7..8], vec![false, true, false]));
+        // A point every frame: no segment's bones predict anything.
+        let (_, own) = weight_segments(&[4], 8, |_| true);
+        assert_eq!(own, [false, false]);
+        // A two-frame segment whose second frame is a point too.
+        let (_, own) = weight_segments(&[2, 4], 6, points(&[0, 2, 3, 4]));
+        assert_eq!(own, [false, false, true]);
+        let (ranges, own) = weight_segments(&[], 5, |f| f == 0);
+        assert_eq!((ranges.len(), ranges[0].clone(), own), (1, 0..5, vec![false]));
+    }
 }
 
 #[cfg(test)]
