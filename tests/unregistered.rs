@@ -9,9 +9,10 @@ mod common;
 
 use cgv::codec::{encode, EncodeOptions, FileDecoder};
 use cgv::features::capture::CaptureFrame;
-use cgv::features::register::{register, register_tracked, track_capture, track_features};
+use cgv::features::register::{register, register_tracked};
 use cgv::features::segments::{longest_segment, segment_ranges, segment_starts};
 use cgv::features::symmetry::{apply_symmetry, TURNS};
+use cgv::features::tracking::{track_capture, track_features};
 use cgv::grid::Grid;
 use cgv::mesh::unregister::{keep_for, remesh_frame};
 use cgv::mesh::{Bounds, FrameSource, InMemory};

@@ -9,6 +9,7 @@
 //! - [`detect`]: its local maxima at a short diffusion time, the body's
 //!   extremities;
 //! - [`track`]: features matched between adjacent frames into tracks;
+//! - [`tracking`]: a capture's features found on every frame and tracked;
 //! - [`jumps`]: frames whose grid jumps, found by its speed;
 //! - [`outliers`]: frames whose grid lies far from their own mesh,
 //!   rebuilt from their neighbours;
@@ -23,7 +24,9 @@
 //!   where a stretch's tracks or maps fail);
 //! - [`smooth`]: the registered grid smoothed in time along the surface;
 //! - [`symmetry`]: the square's turns, which take one frame's map to
-//!   another's.
+//!   another's;
+//! - [`diagonals`]: which of the square's turns lays the grid's diagonals
+//!   the better way across a piece's frames.
 
 pub mod capture;
 pub mod detect;
@@ -40,3 +43,4 @@ pub mod segments;
 pub mod smooth;
 pub mod symmetry;
 pub mod track;
+pub mod tracking;

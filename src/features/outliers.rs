@@ -40,17 +40,24 @@ pub const OUTLIER: f64 = 3.0;
 /// or carried on from the frame before where the piece has no steady
 /// frame after, or from the frame after where it has none before. A piece
 /// that is all outliers is carried on from the last frame of the piece
-/// before. Returns how many frames took their rebuilt grid, and how far
-/// each frame's grid then lies from its mesh ([`resampling_errors`]).
+/// before. `errors`: how far each frame's grid lies from its mesh
+/// ([`resampling_errors`]), updated as frames are rebuilt. Returns how many
+/// frames took their rebuilt grid.
 pub fn rebuilt(
     grid: Grid,
     frames: &[CaptureFrame],
     starts: &[usize],
-    grids: &mut [Vec<Vec3>],
-    meshes: &mut [FrameMesh],
-) -> Result<(usize, Vec<f64>)> {
-    let mut errors = resampling_errors(frames, grids, grid)?;
-    let mut sorted = errors.clone();
+    (grids, meshes): (&mut [Vec<Vec3>], &mut [FrameMesh]),
+    errors: &mut [f64],
+) -> Result<usize> {
+    if errors.len() != frames.len() {
+        return Err(crate::error::Error::Argument(format!(
+            "the resampling errors of {} frames for {}",
+            errors.len(),
+            frames.len()
+        )));
+    }
+    let mut sorted = errors.to_vec();
     sorted.sort_by(f64::total_cmp);
     let limit = OUTLIER * sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
     let first: Vec<bool> = errors.iter().map(|&e| e <= limit).collect();
@@ -68,17 +75,17 @@ pub fn rebuilt(
         let before = (t > s || (whole && t > 0)).then(|| t - 1).filter(|&k| steady[k]);
         let Some(b) = before.filter(|_| !steady[t]) else { continue };
         let after = (t + 1..e).find(|&k| steady[k]).filter(|_| b >= s);
-        steady[t] = rebuild(grid, frames, grids, meshes, &mut errors, t, Some(b), after)?;
+        steady[t] = rebuild(grid, frames, grids, meshes, errors, t, Some(b), after)?;
         (tried[t], count) = (true, count + usize::from(steady[t]));
     }
     // Backward: the outliers that open their piece, from the frame after.
     for t in (0..frames.len().saturating_sub(1)).rev() {
         if !steady[t] && !tried[t] && t + 1 < piece(t).1 && steady[t + 1] {
-            steady[t] = rebuild(grid, frames, grids, meshes, &mut errors, t, None, Some(t + 1))?;
+            steady[t] = rebuild(grid, frames, grids, meshes, errors, t, None, Some(t + 1))?;
             count += usize::from(steady[t]);
         }
     }
-    Ok((count, errors))
+    Ok(count)
 }
 
 /// Frame `t`'s grid rebuilt from `before` and `after` (frame indices),
@@ -127,14 +134,15 @@ mod tests {
         let mut grids: Vec<Vec<Vec3>> = (0..frames).map(|t| at(t, if off.contains(&t) { 0.5 } else { 0.0 })).collect();
         let mut meshes: Vec<FrameMesh> = capture.iter().map(|f| f.mesh()).collect();
         let before = resampling_errors(&capture, &grids, grid).unwrap();
-        let (count, errors) = rebuilt(grid, &capture, starts, &mut grids, &mut meshes).unwrap();
+        let mut errors = before.clone();
+        let count = rebuilt(grid, &capture, starts, (&mut grids, &mut meshes), &mut errors).unwrap();
         // A rebuilt frame's vertices are placed on its new grid.
         let placed: Vec<usize> = meshes.iter().map(|m| m.places.len()).collect();
         assert!(
             placed.iter().enumerate().all(|(t, &p)| p == if off.contains(&t) { 36 } else { 0 }),
             "{off:?}: {placed:?}"
         );
-        // What it returns is each frame's error as it now is.
+        // The errors it updates are each frame's as it now is.
         let after = resampling_errors(&capture, &grids, grid).unwrap();
         assert_eq!(errors, after);
         (count, before, after)

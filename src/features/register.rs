@@ -10,14 +10,14 @@
 //! other motion.
 
 use super::capture::CaptureFrame;
-use super::detect::{features_near, Feature};
 use super::follow::{self, CutTrace};
 use super::handover::{self, Handover};
 pub use super::report::RegisterReport;
 use super::segments::segment_ranges;
 use super::symmetry::{apply_symmetry, symmetry_between, turn_place, IDENTITY};
 pub use super::track::Tracked;
-use super::track::{place, track, Track};
+use super::track::{place, Track};
+use super::tracking::track_capture;
 use super::{diagonals, jumps, outliers, segments, smooth};
 use crate::error::{Error, Result};
 use crate::grid::Grid;
@@ -35,61 +35,6 @@ use std::sync::Arc;
 /// frame's map stops earlier than another's (pcow's best at N = 128 was
 /// after 20, `crate::param::SCORED_PASSES`).
 pub const AREA_PASSES: usize = 20;
-
-/// The features of every frame of `frames` (named `label`), tracked.
-pub fn track_capture(label: &Path, frames: &[CaptureFrame]) -> Result<Tracked> {
-    if frames.is_empty() {
-        return Err(Error::Argument(format!("{}: a capture without frames", label.display())));
-    }
-    let t0 = std::time::Instant::now();
-    let features = features_in_runs(frames)?;
-    let centers: Vec<Vec3> = frames.par_iter().map(CaptureFrame::center).collect();
-    let mut tracked = track_features(label, features, &centers, Bounds::of(&frames[0].positions).diagonal())?;
-    tracked.seconds = t0.elapsed().as_secs_f64();
-    Ok(tracked)
-}
-
-/// Frames in a run of [`features_in_runs`]: a fixed length, so that the
-/// features do not depend on the machine's thread count.
-const FEATURE_RUN: usize = 12;
-
-/// Every frame's features, in runs of [`FEATURE_RUN`] consecutive frames
-/// (in parallel), each frame's eigenpairs started from the frame before's
-/// (`features_near`): LOBPCG then takes a few iterations, not tens.
-fn features_in_runs(frames: &[CaptureFrame]) -> Result<Vec<Vec<Feature>>> {
-    let run = |frames: &[CaptureFrame]| -> Result<Vec<Vec<Feature>>> {
-        let (mut out, mut last) = (Vec::with_capacity(frames.len()), None);
-        for f in frames {
-            let (found, spectrum) = features_near(&f.faces, &f.positions, last.as_ref().map(|(p, s)| (*p, s)))?;
-            out.push(found);
-            last = Some((f.positions.as_slice(), spectrum));
-        }
-        Ok(out)
-    };
-    let parts: Vec<Vec<Vec<Feature>>> = frames.par_chunks(FEATURE_RUN).map(run).collect::<Result<_>>()?;
-    Ok(parts.into_iter().flatten().collect())
-}
-
-/// Features found on every frame (`features`, of a capture named `label`
-/// whose frames' centers are `centers`, [`CaptureFrame::center`], and
-/// first frame's diagonal is `diagonal`), tracked.
-pub fn track_features(label: &Path, features: Vec<Vec<Feature>>, centers: &[Vec3], diagonal: f32) -> Result<Tracked> {
-    if centers.len() != features.len() {
-        return Err(Error::Argument(format!(
-            "{}: the centers of {} frames for features of {}",
-            label.display(),
-            centers.len(),
-            features.len()
-        )));
-    }
-    let t0 = std::time::Instant::now();
-    let tracks = track(&features, centers, diagonal);
-    let cones = cone_tracks(&tracks).ok_or_else(|| {
-        Error::Argument(format!("{}: fewer than four features could be tracked through the frames", label.display()))
-    })?;
-    let centers = centers.to_vec();
-    Ok(Tracked { features, centers, tracks, cones, seconds: t0.elapsed().as_secs_f64() })
-}
 
 /// A registered capture: its frames on the grid (a motion on the grid's
 /// own mesh, which this source gives), and each frame's own mesh with
@@ -142,6 +87,8 @@ pub fn register(
     let ranges = segment_ranges(frames, longest);
     let several = ranges.len() > 1;
     let (mut out, mut starts): (Option<(Registered, RegisterReport)>, Vec<usize>) = (None, Vec::new());
+    // Each frame's resampling error, as the pieces' checks measured it.
+    let mut errors: Vec<f64> = Vec::with_capacity(frames.len());
     let mut last: Option<Handover> = None;
     for r in ranges {
         let (a, b) = (r.start, r.end);
@@ -152,7 +99,13 @@ pub fn register(
         let (pieces, next) = registered_parts(label, fps, &frames[r], grid, last.as_ref()).map_err(in_segment)?;
         progress("registering", b, frames.len());
         last = Some(next);
-        for (start, src, report) in pieces {
+        for (start, src, report, known) in pieces {
+            let piece = frames.get(a + start..a + start + src.grid.frames.len()).unwrap_or_default();
+            let measured = match known {
+                Some(e) => e,
+                None => outliers::resampling_errors(piece, &src.grid.frames, grid)?,
+            };
+            errors.extend(measured);
             starts.push(a + start);
             out = Some(match out {
                 None => (src, report),
@@ -167,8 +120,8 @@ pub fn register(
     }
     let (mut src, mut report) =
         out.ok_or_else(|| Error::Argument(format!("{}: a capture without frames", label.display())))?;
-    let errors;
-    (report.rebuilt_frames, errors) = outliers::rebuilt(grid, frames, &starts, &mut src.grid.frames, &mut src.meshes)?;
+    let grids = (&mut src.grid.frames[..], &mut src.meshes[..]);
+    report.rebuilt_frames = outliers::rebuilt(grid, frames, &starts, grids, &mut errors)?;
     let relative: Vec<f64> = errors
         .iter()
         .zip(frames)
@@ -194,12 +147,13 @@ fn registered_parts(
 ) -> Result<(Vec<Piece>, Handover)> {
     let tracked = track_capture(label, part)?;
     let (src, report, next) = register_piece(label, fps, part, tracked, grid, handover)?;
-    if let Some(mid) = segments::split_at(part, &src.grid.frames, report.cones_seen, grid)? {
+    let (split, errors) = segments::split_at(part, &src.grid.frames, report.cones_seen, grid)?;
+    if let Some(mid) = split {
         if let Ok((left, between)) = registered_parts(label, fps, &part[..mid], grid, handover) {
             if let Ok((right, end)) = registered_parts(label, fps, &part[mid..], grid, Some(&between)) {
                 let pieces: Vec<Piece> =
-                    left.into_iter().chain(right.into_iter().map(|(s, g, r)| (s + mid, g, r))).collect();
-                let whole = [(0, src, report)];
+                    left.into_iter().chain(right.into_iter().map(|(s, g, r, e)| (s + mid, g, r, e))).collect();
+                let whole = [(0, src, report, errors)];
                 if worst_resampling(part, &pieces, grid)? <= worst_resampling(part, &whole, grid)? {
                     return Ok((pieces, end));
                 }
@@ -207,26 +161,30 @@ fn registered_parts(
             }
         }
     }
-    Ok((vec![(0, src, report)], next))
+    Ok((vec![(0, src, report, errors)], next))
 }
 
 /// The furthest any frame of `part`, registered as `pieces`, lies from
 /// its own mesh ([`outliers::resampling_errors`]).
 fn worst_resampling(part: &[CaptureFrame], pieces: &[Piece], grid: Grid) -> Result<f64> {
     let mut worst: f64 = 0.0;
-    for (start, src, _) in pieces {
+    for (start, src, _, known) in pieces {
         let frames = &src.grid.frames;
         let frames_of = part.get(*start..*start + frames.len());
         let piece = frames_of
             .ok_or_else(|| Error::Argument(format!("a piece of {} frames past the segment's end", frames.len())))?;
-        let errors = outliers::resampling_errors(piece, frames, grid)?;
+        let errors = match known {
+            Some(e) => e.clone(),
+            None => outliers::resampling_errors(piece, frames, grid)?,
+        };
         worst = errors.into_iter().fold(worst, f64::max);
     }
     Ok(worst)
 }
 
-/// A registered piece of a capture: its first frame, grid and report.
-type Piece = (usize, Registered, RegisterReport);
+/// A registered piece of a capture: its first frame, grid and report, and
+/// its frames' resampling errors where its checks measured them.
+type Piece = (usize, Registered, RegisterReport, Option<Vec<f64>>);
 
 /// [`register`] with the features already found and tracked.
 pub fn register_tracked(
@@ -507,20 +465,6 @@ fn turned_back(grid: Grid, mapped: Vec<Mapped>, reference: &[usize; 4]) -> Turne
 /// [`turned_back`]'s grids, places, turned and unmatched frames.
 type Turned = (Vec<Vec<Vec3>>, Vec<Vec<[u32; 2]>>, usize, usize);
 
-/// The four tracks seen in the most frames (among equals, the earliest,
-/// then the strongest feature there).
-fn cone_tracks(tracks: &[Track]) -> Option<[usize; 4]> {
-    let mut order: Vec<usize> = (0..tracks.len()).collect();
-    let first_index = |k: usize| tracks[k].seen.iter().position(Option::is_some).unwrap_or(usize::MAX);
-    let strength = |k: usize| {
-        let s = first_index(k);
-        tracks[k].seen.get(s).copied().flatten().unwrap_or(u32::MAX)
-    };
-    order.sort_by_key(|&k| (std::cmp::Reverse(tracks[k].frames_seen()), first_index(k), strength(k)));
-    let picked: Vec<usize> = order.into_iter().take(4).collect();
-    picked.try_into().ok()
-}
-
 /// How much harder a frame mapped again pulls its cut to the trace.
 const RETRY_PULL: f64 = 3.0;
 
@@ -777,7 +721,7 @@ mod tests {
         let part = vec![CaptureFrame { positions: p.clone(), faces: faces.clone() }; 6];
         let piece = |start: usize, frames: Vec<Vec<Vec3>>| {
             let grid = InMemory { label: PathBuf::new(), fps: 30.0, topology: grid.topology(), frames };
-            (start, Registered { grid, meshes: Vec::new() }, RegisterReport::default())
+            (start, Registered { grid, meshes: Vec::new() }, RegisterReport::default(), None)
         };
         let whole = [piece(0, vec![p.clone(); 6])];
         let off: Vec<Vec3> = p.iter().map(|&x| x * 1.1).collect();
@@ -785,6 +729,10 @@ mod tests {
         let (w, h) = (worst_resampling(&part, &whole, grid).unwrap(), worst_resampling(&part, &halves, grid).unwrap());
         assert!(w < 1e-6 && h > 0.1, "{w} {h}");
         assert!(worst_resampling(&part, &[piece(4, vec![p.clone(); 3])], grid).is_err());
+        // Errors a piece's checks measured already are taken as they are.
+        let (start, src, report, _) = piece(0, vec![p.clone(); 6]);
+        let known = [(start, src, report, Some(vec![0.5; 6]))];
+        assert_eq!(worst_resampling(&part, &known, grid).unwrap(), 0.5);
     }
 
     /// The faces past the second on an edge go; a manifold mesh keeps all.

@@ -9,7 +9,7 @@ pub struct RegisterReport {
     /// Features found per frame, on average.
     pub features_per_frame: f64,
     pub tracks: usize,
-    /// The tracks the cones follow (indices into [`super::register::track_capture`]'s).
+    /// The tracks the cones follow (indices into [`super::tracking::track_capture`]'s).
     pub cone_tracks: [usize; 4],
     /// The share of frames each cone's track was seen in (the rest placed
     /// between its sightings); over several segments, the worst segment's.

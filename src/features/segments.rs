@@ -87,22 +87,29 @@ pub const WORST: f64 = 3.0;
 /// Where to split a registered segment (`part`, registered as `grids`
 /// with its cones' tracks seen in `cones_seen` of its frames) that fails
 /// its checks ([`SEEN`], [`WORST`]): at its middle, or nowhere if it holds
-/// or has fewer than twice [`SHORTEST`] frames. Measured on pcow's 204
+/// or has fewer than twice [`SHORTEST`] frames; and each frame's
+/// resampling error where it was measured (for the registration's later
+/// use). Measured on pcow's 204
 /// frames: tracked in stretches of 60 frames, one stretch's cones' tracks
 /// were seen in 60 % of its frames and frames 3-8 of another resampled
 /// 0.5-1.8 % off the truth (its 24-frame clip: 0.06 % at most).
-pub fn split_at(part: &[CaptureFrame], grids: &[Vec<Vec3>], cones_seen: [f64; 4], grid: Grid) -> Result<Option<usize>> {
+pub fn split_at(
+    part: &[CaptureFrame],
+    grids: &[Vec<Vec3>],
+    cones_seen: [f64; 4],
+    grid: Grid,
+) -> Result<(Option<usize>, Option<Vec<f64>>)> {
     if part.len() < 2 * SHORTEST {
-        return Ok(None);
+        return Ok((None, None));
     }
     let middle = Some(part.len() / 2);
     if cones_seen.iter().any(|&s| s < SEEN) {
-        return Ok(middle);
+        return Ok((middle, None));
     }
     let errors = resampling_errors(part, grids, grid)?;
     let mean = errors.iter().sum::<f64>() / errors.len() as f64;
     let worst = errors.iter().copied().fold(0.0, f64::max);
-    Ok(if worst > WORST * mean { middle } else { None })
+    Ok((if worst > WORST * mean { middle } else { None }, Some(errors)))
 }
 
 #[cfg(test)]
@@ -127,11 +134,13 @@ mod tests {
     fn a_failing_segment_is_split_at_its_middle() {
         let (fine, missed) = ([1.0; 4], [1.0, 1.0, 1.0, 0.9]);
         let (part, grids, grid) = case(24, None);
-        assert_eq!(split_at(&part, &grids, fine, grid).ok(), Some(None));
-        assert_eq!(split_at(&part, &grids, missed, grid).ok(), Some(Some(12)));
+        let at = |part: &[CaptureFrame], grids: &[Vec<Vec3>], seen, grid| split_at(part, grids, seen, grid).ok();
+        let measured = resampling_errors(&part, &grids, grid).ok();
+        assert_eq!(at(&part, &grids, fine, grid), Some((None, measured)));
+        assert_eq!(at(&part, &grids, missed, grid), Some((Some(12), None)));
         let (part, grids, grid) = case(25, Some(5));
-        assert_eq!(split_at(&part, &grids, fine, grid).ok(), Some(Some(12)));
+        assert_eq!(at(&part, &grids, fine, grid).map(|s| s.0), Some(Some(12)));
         let (part, grids, grid) = case(23, Some(5));
-        assert_eq!(split_at(&part, &grids, missed, grid).ok(), Some(None), "too short");
+        assert_eq!(at(&part, &grids, missed, grid), Some((None, None)), "too short");
     }
 }

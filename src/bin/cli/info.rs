@@ -129,9 +129,9 @@ pub fn run(args: Args) -> Result<()> {
 /// `cgv info --unregistered`: the capture's frames, features and tracks.
 fn unregistered_info(args: &Args) -> Result<()> {
     use cgv::features::capture::{read_capture, CaptureLimit};
-    use cgv::features::register::track_capture;
     use cgv::features::report::RegisterReport;
     use cgv::features::segments::{longest_segment, segment_ranges};
+    use cgv::features::tracking::track_capture;
     let dir = std::path::Path::new(&args.input.input);
     let limit = CaptureLimit { bytes: args.memory_limit.saturating_mul(1 << 20), grid_samples: None };
     let frames = read_capture(dir, args.input.frames, limit)?;
