@@ -869,6 +869,9 @@ fn the_commands_make_report_and_code_a_capture() {
     // (Its segments are those it found: none; frame 4's was asked for.)
     assert_eq!((registration["frames"].as_u64(), &registration["segments"]), (Some(8), &serde_json::json!([])));
     assert!(registration["resampling_mean"].as_f64().is_some_and(|e| e > 0.0 && e < 0.05), "{registration}");
+    // The whole registration's time holds its kept pieces' features and maps.
+    let secs = |k: &str| registration[k].as_f64().unwrap_or(f64::NAN);
+    assert!(secs("seconds") >= secs("seconds_features") + secs("seconds_maps") - 1e-3, "{registration}");
     // --memory-limit is for a capture only.
     let plain = cgv(&["encode", "builtin:walk", "--memory-limit", "64", "-o", file.to_str().unwrap()]);
     assert!(!plain.status.success() && String::from_utf8_lossy(&plain.stderr).contains("--unregistered"));

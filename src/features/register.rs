@@ -84,6 +84,7 @@ pub fn register(
     longest: usize,
     progress: &mut dyn FnMut(&str, usize, usize),
 ) -> Result<(Registered, RegisterReport)> {
+    let t0 = std::time::Instant::now();
     let ranges = segment_ranges(frames, longest);
     let several = ranges.len() > 1;
     let (mut out, mut starts): (Option<(Registered, RegisterReport)>, Vec<usize>) = (None, Vec::new());
@@ -129,6 +130,7 @@ pub fn register(
         .collect();
     report.resampling_mean = relative.iter().sum::<f64>() / relative.len().max(1) as f64;
     report.resampling_worst = relative.iter().copied().fold(0.0, f64::max);
+    report.seconds = t0.elapsed().as_secs_f64();
     Ok((src, report))
 }
 

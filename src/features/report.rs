@@ -38,8 +38,12 @@ pub struct RegisterReport {
     /// under which no coding of its grid goes.
     pub resampling_mean: f64,
     pub resampling_worst: f64,
+    /// The kept pieces' features and maps; a segment that failed its
+    /// checks had its halves registered too, which `seconds` counts.
     pub seconds_features: f64,
     pub seconds_maps: f64,
+    /// The whole registration, wall clock (set by [`super::register::register`]).
+    pub seconds: f64,
     /// Frames where a segment (after the first) starts: the topology
     /// changed there, or the last segment reached its longest
     /// ([`super::segments::segment_ranges`]).
