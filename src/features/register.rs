@@ -100,13 +100,10 @@ pub fn register(
         let (pieces, next) = registered_parts(label, fps, &frames[r], grid, last.as_ref()).map_err(in_segment)?;
         progress("registering", b, frames.len());
         last = Some(next);
-        for (start, src, report, known) in pieces {
-            let piece = frames.get(a + start..a + start + src.grid.frames.len()).unwrap_or_default();
-            let measured = match known {
-                Some(e) => e,
-                None => outliers::resampling_errors(piece, &src.grid.frames, grid)?,
-            };
-            errors.extend(measured);
+        for (start, src, report, measured) in pieces {
+            // Every piece comes measured ([`measure_pieces`]); the outlier
+            // pass checks the count.
+            errors.extend(measured.into_iter().flatten());
             starts.push(a + start);
             out = Some(match out {
                 None => (src, report),
@@ -153,39 +150,43 @@ fn registered_parts(
     if let Some(mid) = split {
         if let Ok((left, between)) = registered_parts(label, fps, &part[..mid], grid, handover) {
             if let Ok((right, end)) = registered_parts(label, fps, &part[mid..], grid, Some(&between)) {
-                let pieces: Vec<Piece> =
+                let mut pieces: Vec<Piece> =
                     left.into_iter().chain(right.into_iter().map(|(s, g, r, e)| (s + mid, g, r, e))).collect();
-                let whole = [(0, src, report, errors)];
-                if worst_resampling(part, &pieces, grid)? <= worst_resampling(part, &whole, grid)? {
+                let mut whole = [(0, src, report, errors)];
+                if worst_resampling(part, &mut pieces, grid)? <= worst_resampling(part, &mut whole, grid)? {
                     return Ok((pieces, end));
                 }
                 return Ok((whole.into(), next));
             }
         }
     }
-    Ok((vec![(0, src, report, errors)], next))
+    let mut whole = vec![(0, src, report, errors)];
+    measure_pieces(part, &mut whole, grid)?;
+    Ok((whole, next))
 }
 
-/// The furthest any frame of `part`, registered as `pieces`, lies from
-/// its own mesh ([`outliers::resampling_errors`]).
-fn worst_resampling(part: &[CaptureFrame], pieces: &[Piece], grid: Grid) -> Result<f64> {
-    let mut worst: f64 = 0.0;
-    for (start, src, _, known) in pieces {
+/// Each of `pieces` (of `part`) with its frames' resampling errors
+/// ([`outliers::resampling_errors`]), measured where its checks did not.
+fn measure_pieces(part: &[CaptureFrame], pieces: &mut [Piece], grid: Grid) -> Result<()> {
+    for (start, src, _, measured) in pieces.iter_mut().filter(|p| p.3.is_none()) {
         let frames = &src.grid.frames;
         let frames_of = part.get(*start..*start + frames.len());
         let piece = frames_of
             .ok_or_else(|| Error::Argument(format!("a piece of {} frames past the segment's end", frames.len())))?;
-        let errors = match known {
-            Some(e) => e.clone(),
-            None => outliers::resampling_errors(piece, frames, grid)?,
-        };
-        worst = errors.into_iter().fold(worst, f64::max);
+        *measured = Some(outliers::resampling_errors(piece, frames, grid)?);
     }
-    Ok(worst)
+    Ok(())
+}
+
+/// The furthest any frame of `part`, registered as `pieces` (measured
+/// here where they were not), lies from its own mesh.
+fn worst_resampling(part: &[CaptureFrame], pieces: &mut [Piece], grid: Grid) -> Result<f64> {
+    measure_pieces(part, pieces, grid)?;
+    Ok(pieces.iter().flat_map(|p| p.3.iter().flatten()).copied().fold(0.0, f64::max))
 }
 
 /// A registered piece of a capture: its first frame, grid and report, and
-/// its frames' resampling errors where its checks measured them.
+/// its frames' resampling errors (`None` until measured).
 type Piece = (usize, Registered, RegisterReport, Option<Vec<f64>>);
 
 /// [`register`] with the features already found and tracked.
@@ -725,16 +726,19 @@ mod tests {
             let grid = InMemory { label: PathBuf::new(), fps: 30.0, topology: grid.topology(), frames };
             (start, Registered { grid, meshes: Vec::new() }, RegisterReport::default(), None)
         };
-        let whole = [piece(0, vec![p.clone(); 6])];
+        let mut whole = [piece(0, vec![p.clone(); 6])];
         let off: Vec<Vec3> = p.iter().map(|&x| x * 1.1).collect();
-        let halves = [piece(0, vec![p.clone(); 3]), piece(3, vec![p.clone(), off, p.clone()])];
-        let (w, h) = (worst_resampling(&part, &whole, grid).unwrap(), worst_resampling(&part, &halves, grid).unwrap());
+        let mut halves = [piece(0, vec![p.clone(); 3]), piece(3, vec![p.clone(), off, p.clone()])];
+        let w = worst_resampling(&part, &mut whole, grid).unwrap();
+        let h = worst_resampling(&part, &mut halves, grid).unwrap();
         assert!(w < 1e-6 && h > 0.1, "{w} {h}");
-        assert!(worst_resampling(&part, &[piece(4, vec![p.clone(); 3])], grid).is_err());
+        // Measured once, kept with the pieces.
+        assert!(halves.iter().all(|p| p.3.as_ref().is_some_and(|e| e.len() == 3)));
+        assert!(worst_resampling(&part, &mut [piece(4, vec![p.clone(); 3])], grid).is_err());
         // Errors a piece's checks measured already are taken as they are.
         let (start, src, report, _) = piece(0, vec![p.clone(); 6]);
-        let known = [(start, src, report, Some(vec![0.5; 6]))];
-        assert_eq!(worst_resampling(&part, &known, grid).unwrap(), 0.5);
+        let mut known = [(start, src, report, Some(vec![0.5; 6]))];
+        assert_eq!(worst_resampling(&part, &mut known, grid).unwrap(), 0.5);
     }
 
     /// The faces past the second on an edge go; a manifold mesh keeps all.

@@ -102,8 +102,7 @@ pub(super) fn fit_bones(
         rest_step: None,
         point_weights: own.iter().any(|&o| o),
     };
-    let starts: Vec<usize> = ranges.iter().map(|r| r.start).collect();
-    let mut units = Vec::with_capacity(starts.len());
+    let mut units = Vec::with_capacity(ranges.len());
     for (range, &own) in ranges.iter().zip(&own) {
         if range.start > 0 && !own {
             units.push(None);
@@ -117,7 +116,7 @@ pub(super) fn fit_bones(
     // first segment's, which are the chunk's.
     let point_units: Vec<Vec<u8>> = (0..plan.frames)
         .filter(|&f| plan.is_rap(f))
-        .map(|f| match starts.iter().rposition(|&s| s <= f) {
+        .map(|f| match ranges.iter().rposition(|r| r.start <= f) {
             Some(k) if k > 0 => units[k - 1].as_ref().map_or_else(Vec::new, |w| w.to_bytes(&info)),
             _ => Vec::new(),
         })
