@@ -76,15 +76,16 @@ pub enum Error {
     )]
     Memory { needed: u64, limit: u64 },
     /// Reading (and registering) a capture would hold more memory than the
-    /// caller allows (every frame is held at once).
+    /// caller allows (a segment's frames are held at once).
     #[error(
-        "{}: its first {frames} frames already need about {:.1} MiB at once, more than the limit of {:.1} MiB \
-         (raise --memory-limit, or take the capture in parts with --frames A..B)",
+        "{}: {frames} frames from frame {first}, held at once (one segment's), already need about {:.1} MiB, \
+         more than the limit of {:.1} MiB (raise --memory-limit, shorten the segments with --random-access, \
+         or take the capture in parts with --frames A..B)",
         path.display(),
         *needed as f64 / 1048576.0,
         *limit as f64 / 1048576.0
     )]
-    CaptureMemory { path: PathBuf, frames: usize, needed: u64, limit: u64 },
+    CaptureMemory { path: PathBuf, first: usize, frames: usize, needed: u64, limit: u64 },
     /// An H.264 stream could not be encoded or decoded.
     #[error("video: {0}")]
     Video(String),

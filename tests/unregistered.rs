@@ -169,8 +169,11 @@ impl FrameSource for Slice<'_> {
     fn kind(&self) -> &'static str {
         self.src.kind()
     }
-    fn frame_mesh(&self, i: usize) -> Option<&cgv::mesh::FrameMesh> {
+    fn frame_mesh(&self, i: usize) -> cgv::Result<Option<std::borrow::Cow<'_, cgv::mesh::FrameMesh>>> {
         self.src.frame_mesh(self.start + i)
+    }
+    fn has_frame_meshes(&self) -> bool {
+        self.src.has_frame_meshes()
     }
 }
 
@@ -266,6 +269,41 @@ fn six_frames_registered() -> (InMemory, Vec<CaptureFrame>, Grid, cgv::features:
     let grid = Grid::new(64).unwrap();
     let (registered, _) = register(Path::new("walk"), 30.0, &frames, grid, 0, &mut |_, _, _| {}).unwrap();
     (walk, frames, grid, registered)
+}
+
+/// A capture registered from its files a segment at a time, its frames
+/// spilled to a temporary file (what `cgv encode --unregistered` does),
+/// is the capture registered in memory: every frame's grid and own mesh,
+/// its vertices' places, and the report.
+#[test]
+fn a_spilled_registration_is_the_one_held_in_memory() {
+    use cgv::features::capture::{read_capture, CaptureFiles, CaptureLimit};
+    use cgv::features::register::register_into;
+    use cgv::features::store::Spilled;
+    let dir = common::temp_dir("unregistered-spilled").join("walk");
+    let out = cgv(&["unregister", "builtin:walk", "--frames", "0..8", "-o", dir.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let grid = Grid::new(32).unwrap();
+    let frames = read_capture(&dir, None, CaptureLimit::NONE).unwrap();
+    let (held, report) = register(&dir, 30.0, &frames, grid, 4, &mut |_, _, _| {}).unwrap();
+    let files = CaptureFiles::open(&dir, None, CaptureLimit::NONE).unwrap();
+    let mut spilled = Spilled::new(&dir, 30.0, grid).unwrap();
+    let mut steps = Vec::new();
+    let mut progress = |step: &str, done: usize, _: usize| steps.push((step.to_string(), done));
+    let streamed = register_into(&dir, 30.0, &files, grid, 4, &mut spilled, &mut progress).unwrap();
+    assert_eq!((&report.segments, report.rebuilt_frames), (&streamed.segments, streamed.rebuilt_frames));
+    assert_eq!(
+        (report.resampling_mean, report.resampling_worst),
+        (streamed.resampling_mean, streamed.resampling_worst)
+    );
+    assert_eq!(spilled.frame_count(), 8);
+    for t in 0..8 {
+        assert_eq!(spilled.read_frame(t).unwrap(), held.read_frame(t).unwrap(), "frame {t}");
+        assert_eq!(spilled.frame_mesh(t).unwrap(), held.frame_mesh(t).unwrap(), "frame {t}'s own mesh");
+    }
+    assert!(spilled.bytes() > 8 * 32 * 32 * 12, "{} bytes spilled", spilled.bytes());
+    assert_eq!(steps.last(), Some(&("registering".to_string(), 8)), "{steps:?}");
+    assert!(steps.iter().any(|(s, _)| s == "reading"), "{steps:?}");
 }
 
 /// The grid's diagonals lie the better way across the body: every frame
@@ -440,6 +478,11 @@ fn frames_with_fins_map_as_well_as_their_neighbours() {
 /// gone; a hole in one frame only is noise): two segments, each registered on its own, and a file with a
 /// random-access point where the second starts, which decodes from there
 /// as from the start.
+/// `frames`' segments of at most `longest` frames.
+fn ranges(frames: &[CaptureFrame], longest: usize) -> Vec<std::ops::Range<usize>> {
+    segment_ranges(&frames, longest, &mut |_, _, _| {}).unwrap()
+}
+
 #[test]
 fn a_clip_whose_topology_changes_halfway_gets_two_segments() {
     let walk = cgv::mesh::builtin::motion(8);
@@ -449,14 +492,14 @@ fn a_clip_whose_topology_changes_halfway_gets_two_segments() {
     flicker[2].faces.swap_remove(0);
     assert_eq!(segment_starts(&flicker), [0]);
     // At most 3 frames a segment: one every 3 frames.
-    assert_eq!(segment_ranges(&frames, 3), [0..3, 3..6, 6..8]);
+    assert_eq!(ranges(&frames, 3), [0..3, 3..6, 6..8]);
     for f in &mut frames[4..] {
         f.faces.swap_remove(0);
     }
     assert_eq!(segment_starts(&frames), [0, 4]);
     // Frames 3 and 6 lie within SEGMENT_FRAMES of the change at 4.
-    assert_eq!(segment_ranges(&frames, 3), [0..4, 4..8]);
-    assert_eq!(segment_ranges(&frames, 0), [0..4, 4..8]);
+    assert_eq!(ranges(&frames, 3), [0..4, 4..8]);
+    assert_eq!(ranges(&frames, 0), [0..4, 4..8]);
     let grid = Grid::new(32).unwrap();
     let (registered, report) = register(Path::new("walk"), 30.0, &frames, grid, 60, &mut |_, _, _| {}).unwrap();
     assert_eq!((report.frames, &report.segments[..], report.unmatched_frames), (8, &[4][..], 0), "{report:?}");
@@ -519,9 +562,12 @@ fn segments_go_on_where_the_last_left_off() {
     let mut progress = |stage: &str, done, total| heard.push((stage.to_string(), done, total));
     let (registered, report) = register(Path::new("walk"), 30.0, &frames, grid, 4, &mut progress).unwrap();
     assert_eq!(report.segments, [4, 8], "{report:?}");
-    // Progress after each segment.
+    // Progress while the frames are read for their topology (a few at a
+    // time, as many as the threads allow), then after each segment.
+    let reading = heard.iter().take_while(|h| h.0 == "reading").count();
+    assert_eq!(heard.get(reading.max(1) - 1), Some(&("reading".to_string(), 12, 12)), "{heard:?}");
     let registering = |done| ("registering".to_string(), done, 12);
-    assert_eq!(heard, [registering(4), registering(8), registering(12)]);
+    assert_eq!(heard[reading..], [registering(4), registering(8), registering(12)]);
     // Where the samples lie on the body against frame 0: a step at each
     // start, against the steps within the segments.
     let on_body = swim(&walk, &registered.grid, &[]);
@@ -910,7 +956,7 @@ fn the_commands_make_report_and_code_a_capture() {
 /// kinds, and a glTF frame that is an animation, are refused by name.
 #[test]
 fn a_capture_of_glb_frames_reads_as_its_obj_frames() {
-    use cgv::features::capture::{read_capture, CaptureLimit};
+    use cgv::features::capture::{read_capture, Capture, CaptureFiles, CaptureLimit};
     use cgv::mesh::{gltf_out::write_glb, Topology};
     let dir = common::temp_dir("unregistered-glb");
     let (objs, glbs) = (dir.join("obj"), dir.join("glb"));
@@ -937,6 +983,17 @@ fn a_capture_of_glb_frames_reads_as_its_obj_frames() {
     match read_capture(&glbs, None, one) {
         Err(e @ cgv::Error::CaptureMemory { frames, needed, limit, .. }) => {
             assert!(frames == 2 && needed > limit && e.to_string().contains(glbs.to_str().unwrap()), "{e}");
+        }
+        other => panic!("{:?}", other.map(|f| f.len())),
+    }
+    // A segment is read on its own: the limit holds for its frames, and
+    // the error says where it starts.
+    let largest = from_glb.iter().map(|f| CaptureLimit::NONE.frame_bytes(f)).max().unwrap();
+    let files = CaptureFiles::open(&glbs, None, CaptureLimit { bytes: largest, grid_samples: None }).unwrap();
+    assert_eq!(files.frames(3..4).unwrap().len(), 1);
+    match files.frames(2..4) {
+        Err(e @ cgv::Error::CaptureMemory { first: 2, frames: 2, .. }) => {
+            assert!(e.to_string().contains("from frame 2"), "{e}")
         }
         other => panic!("{:?}", other.map(|f| f.len())),
     }

@@ -5,7 +5,9 @@ use crate::error::{Error, Result};
 use crate::mesh::{FrameMesh, FrameSelection};
 use glam::Vec3;
 use rayon::prelude::*;
-use std::path::Path;
+use std::borrow::Cow;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
 
 /// One frame of a capture: its own mesh.
 #[derive(Debug, Clone)]
@@ -39,10 +41,9 @@ impl CaptureFrame {
     }
 }
 
-/// How much reading a capture may hold: every frame is held at once (the
-/// registration looks across a segment's frames, and keeps each frame's
-/// own mesh for the encoder), so a long capture is refused while it is
-/// read, not when memory runs out.
+/// How much reading a capture may hold: a segment's frames are held at
+/// once (the registration looks across them), so a long segment is
+/// refused while it is read, not when memory runs out.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CaptureLimit {
     /// Most bytes the frames may take, as [`CaptureLimit::frame_bytes`]
@@ -70,46 +71,100 @@ impl CaptureLimit {
     }
 }
 
-/// The frames of a folder of OBJ, or of glTF and GLB, files (`frames`, if
-/// given, a range of them), each its own mesh
-/// ([`crate::mesh::open::capture_files`]), read a few at a time in
-/// parallel: never more at once than the largest frame so far says fit
-/// under `limit`, so the limit is passed by one frame at most, and then
-/// refused.
-pub fn read_capture(dir: &Path, frames: Option<FrameSelection>, limit: CaptureLimit) -> Result<Vec<CaptureFrame>> {
-    let files = crate::mesh::open::capture_files(dir)?;
-    let (first, count) = match frames {
-        Some(s) => s.resolve(files.len()).map_err(|e| Error::Argument(format!("{}: {e}", dir.display())))?,
-        None => (0, files.len()),
-    };
-    let files = &files[first..first + count];
-    let (mut read, mut held, mut largest) = (Vec::with_capacity(count), 0u64, 0u64);
-    while read.len() < files.len() {
-        // The first frame alone, to learn a frame's size.
-        let room = match largest {
-            0 => 1,
-            _ => limit.bytes.saturating_sub(held) / largest,
-        };
-        let batch = (2 * rayon::current_num_threads()).min(room.max(1) as usize).min(files.len() - read.len());
-        let part: Vec<CaptureFrame> = files[read.len()..read.len() + batch]
-            .par_iter()
-            .map(|f| crate::mesh::open::read_still(f).map(|(positions, faces)| CaptureFrame { positions, faces }))
-            .collect::<Result<_>>()?;
-        for f in &part {
-            let bytes = limit.frame_bytes(f);
-            (held, largest) = (held.saturating_add(bytes), largest.max(bytes));
-        }
-        read.extend(part);
-        if held > limit.bytes {
-            return Err(Error::CaptureMemory {
-                path: dir.into(),
-                frames: read.len(),
-                needed: held,
-                limit: limit.bytes,
-            });
-        }
+/// A capture's frames as a registration reads them: a stretch at a time,
+/// from memory or from its files.
+pub trait Capture: Sync {
+    /// Frames in the capture.
+    fn len(&self) -> usize;
+    fn is_empty(&self) -> bool {
+        self.len() == 0
     }
-    Ok(read)
+    /// The frames of `range`, each its own mesh.
+    fn frames(&self, range: Range<usize>) -> Result<Cow<'_, [CaptureFrame]>>;
+}
+
+impl Capture for &[CaptureFrame] {
+    fn len(&self) -> usize {
+        <[CaptureFrame]>::len(self)
+    }
+    fn frames(&self, range: Range<usize>) -> Result<Cow<'_, [CaptureFrame]>> {
+        let n = <[CaptureFrame]>::len(self);
+        self.get(range.clone())
+            .map(Cow::Borrowed)
+            .ok_or_else(|| Error::Argument(format!("frames {range:?} of a capture of {n}")))
+    }
+}
+
+/// A capture's frame files (a folder of OBJ, or of glTF and GLB, files,
+/// [`crate::mesh::open::capture_files`]), read when asked for, never more
+/// at once than `limit` allows.
+pub struct CaptureFiles {
+    dir: PathBuf,
+    files: Vec<PathBuf>,
+    limit: CaptureLimit,
+}
+
+impl CaptureFiles {
+    /// The frame files of `dir` (`frames`, if given, a range of them).
+    pub fn open(dir: &Path, frames: Option<FrameSelection>, limit: CaptureLimit) -> Result<CaptureFiles> {
+        let files = crate::mesh::open::capture_files(dir)?;
+        let (first, count) = match frames {
+            Some(s) => s.resolve(files.len()).map_err(|e| Error::Argument(format!("{}: {e}", dir.display())))?,
+            None => (0, files.len()),
+        };
+        Ok(CaptureFiles { dir: dir.into(), files: files[first..first + count].to_vec(), limit })
+    }
+}
+
+impl Capture for CaptureFiles {
+    fn len(&self) -> usize {
+        self.files.len()
+    }
+
+    /// The frames of `range`, read a few at a time in parallel: never more
+    /// at once than the largest frame so far says fit under the limit, so
+    /// the limit is passed by one frame at most, and then refused.
+    fn frames(&self, range: Range<usize>) -> Result<Cow<'_, [CaptureFrame]>> {
+        let files = self.files.get(range.clone()).ok_or_else(|| {
+            Error::Argument(format!("{}: frames {range:?} of a capture of {}", self.dir.display(), self.files.len()))
+        })?;
+        let (mut read, mut held, mut largest) = (Vec::with_capacity(files.len()), 0u64, 0u64);
+        while read.len() < files.len() {
+            // The first frame alone, to learn a frame's size.
+            let room = match largest {
+                0 => 1,
+                _ => self.limit.bytes.saturating_sub(held) / largest,
+            };
+            let batch = (2 * rayon::current_num_threads()).min(room.max(1) as usize).min(files.len() - read.len());
+            let part: Vec<CaptureFrame> = files[read.len()..read.len() + batch]
+                .par_iter()
+                .map(|f| crate::mesh::open::read_still(f).map(|(positions, faces)| CaptureFrame { positions, faces }))
+                .collect::<Result<_>>()?;
+            for f in &part {
+                let bytes = self.limit.frame_bytes(f);
+                (held, largest) = (held.saturating_add(bytes), largest.max(bytes));
+            }
+            read.extend(part);
+            if held > self.limit.bytes {
+                return Err(Error::CaptureMemory {
+                    path: self.dir.clone(),
+                    first: range.start,
+                    frames: read.len(),
+                    needed: held,
+                    limit: self.limit.bytes,
+                });
+            }
+        }
+        Ok(Cow::Owned(read))
+    }
+}
+
+/// Every frame of a folder of OBJ, or of glTF and GLB, files (`frames`, if
+/// given, a range of them), each its own mesh, held at once within `limit`
+/// ([`CaptureFiles`]).
+pub fn read_capture(dir: &Path, frames: Option<FrameSelection>, limit: CaptureLimit) -> Result<Vec<CaptureFrame>> {
+    let capture = CaptureFiles::open(dir, frames, limit)?;
+    capture.frames(0..capture.len()).map(Cow::into_owned)
 }
 
 #[cfg(test)]

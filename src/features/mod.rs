@@ -23,6 +23,8 @@
 //!   tracks (where the topology changes, every random-access interval, and
 //!   where a stretch's tracks or maps fail);
 //! - [`smooth`]: the registered grid smoothed in time along the surface;
+//! - [`store`]: where a registration's frames are kept, in memory or
+//!   spilled to a temporary file;
 //! - [`symmetry`]: the square's turns, which take one frame's map to
 //!   another's;
 //! - [`diagonals`]: which of the square's turns lays the grid's diagonals
@@ -41,6 +43,7 @@ pub mod register;
 pub mod report;
 pub mod segments;
 pub mod smooth;
+pub mod store;
 pub mod symmetry;
 pub mod track;
 pub mod tracking;

@@ -7,11 +7,11 @@
 //! to the mesh (pcow's 204 frames, after the jump finder's fixes: 1-3
 //! frames, each slightly closer).
 
-use super::capture::CaptureFrame;
+use super::capture::{Capture, CaptureFrame};
 use super::jumps;
+use super::store::FrameStore;
 use crate::error::Result;
 use crate::grid::Grid;
-use crate::mesh::FrameMesh;
 use crate::metrics::surface::symmetric;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -34,8 +34,8 @@ pub(super) fn resampling_error(f: &CaptureFrame, g: &[Vec3], faces: &[[u32; 3]])
 /// the worst frame at most 3x the mean).
 pub const OUTLIER: f64 = 3.0;
 
-/// The outlying frames of `frames` (registered as `grids`, in pieces that
-/// start at `starts`, each with its own map) rebuilt from their
+/// The outlying frames of `capture` (registered in `store`, in pieces
+/// that start at `starts`, each with its own map) rebuilt from their
 /// neighbours in the same piece: between the steady frames around them,
 /// or carried on from the frame before where the piece has no steady
 /// frame after, or from the frame after where it has none before. A piece
@@ -45,43 +45,44 @@ pub const OUTLIER: f64 = 3.0;
 /// frames took their rebuilt grid.
 pub fn rebuilt(
     grid: Grid,
-    frames: &[CaptureFrame],
+    capture: &dyn Capture,
     starts: &[usize],
-    (grids, meshes): (&mut [Vec<Vec3>], &mut [FrameMesh]),
+    store: &mut dyn FrameStore,
     errors: &mut [f64],
 ) -> Result<usize> {
-    if errors.len() != frames.len() {
+    let n = capture.len();
+    if errors.len() != n || store.len() != n {
         return Err(crate::error::Error::Argument(format!(
-            "the resampling errors of {} frames for {}",
+            "the resampling errors of {} frames and the grids of {} for {n}",
             errors.len(),
-            frames.len()
+            store.len()
         )));
     }
     let mut sorted = errors.to_vec();
     sorted.sort_by(f64::total_cmp);
     let limit = OUTLIER * sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
     let first: Vec<bool> = errors.iter().map(|&e| e <= limit).collect();
-    let (mut steady, mut tried) = (first.clone(), vec![false; frames.len()]);
+    let (mut steady, mut tried) = (first.clone(), vec![false; n]);
     let piece = |t: usize| {
         let p = starts.iter().rposition(|&s| s <= t).unwrap_or(0);
-        (starts.get(p).copied().unwrap_or(0), starts.get(p + 1).copied().unwrap_or(frames.len()))
+        (starts.get(p).copied().unwrap_or(0), starts.get(p + 1).copied().unwrap_or(n))
     };
     let mut count = 0;
     // Forward: each outlier with a steady frame just before it, in its
     // piece or, for a piece of outliers only, in the piece before.
-    for t in 0..frames.len() {
+    for t in 0..n {
         let (s, e) = piece(t);
         let whole = (s..e).all(|k| !first[k]);
         let before = (t > s || (whole && t > 0)).then(|| t - 1).filter(|&k| steady[k]);
         let Some(b) = before.filter(|_| !steady[t]) else { continue };
         let after = (t + 1..e).find(|&k| steady[k]).filter(|_| b >= s);
-        steady[t] = rebuild(grid, frames, grids, meshes, errors, t, Some(b), after)?;
+        steady[t] = rebuild(grid, capture, store, errors, t, (Some(b), after))?;
         (tried[t], count) = (true, count + usize::from(steady[t]));
     }
     // Backward: the outliers that open their piece, from the frame after.
-    for t in (0..frames.len().saturating_sub(1)).rev() {
+    for t in (0..n.saturating_sub(1)).rev() {
         if !steady[t] && !tried[t] && t + 1 < piece(t).1 && steady[t + 1] {
-            steady[t] = rebuild(grid, frames, grids, meshes, errors, t, None, Some(t + 1))?;
+            steady[t] = rebuild(grid, capture, store, errors, t, (None, Some(t + 1)))?;
             count += usize::from(steady[t]);
         }
     }
@@ -90,20 +91,21 @@ pub fn rebuilt(
 
 /// Frame `t`'s grid rebuilt from `before` and `after` (frame indices),
 /// kept where it lies closer to the frame's mesh; whether it was kept.
-#[allow(clippy::too_many_arguments)]
 fn rebuild(
     grid: Grid,
-    frames: &[CaptureFrame],
-    grids: &mut [Vec<Vec3>],
-    meshes: &mut [FrameMesh],
+    capture: &dyn Capture,
+    store: &mut dyn FrameStore,
     errors: &mut [f64],
     t: usize,
-    before: Option<usize>,
-    after: Option<usize>,
+    (before, after): (Option<usize>, Option<usize>),
 ) -> Result<bool> {
-    let f = &frames[t];
-    let side = |k: Option<usize>| k.map(|k| (k, grids[k].as_slice()));
-    let (g, places) = jumps::bridged(grid, t, side(before), side(after), &f.positions, &f.faces)?;
+    let frame = capture.frames(t..t + 1)?;
+    let f = &frame[0];
+    let side = |k: Option<usize>| k.map(|k| store.grid(k).map(|g| (k, g.into_owned()))).transpose();
+    let (before, after) = (side(before)?, side(after)?);
+    let before = before.as_ref().map(|(k, g)| (*k, g.as_slice()));
+    let after = after.as_ref().map(|(k, g)| (*k, g.as_slice()));
+    let (g, places) = jumps::bridged(grid, t, before, after, &f.positions, &f.faces)?;
     if g.is_empty() {
         return Ok(false);
     }
@@ -111,13 +113,16 @@ fn rebuild(
     if e >= errors[t] {
         return Ok(false);
     }
-    (grids[t], meshes[t].places, errors[t]) = (g, places, e);
+    store.replace(t, g, places)?;
+    errors[t] = e;
     Ok(true)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::features::store::Registered;
+    use std::path::Path;
 
     /// A curved 6 x 6 patch moving along x, captured as the grid's own
     /// mesh, with its grids on the mesh except those of `off` (lifted off
@@ -131,13 +136,17 @@ mod tests {
         };
         let capture: Vec<CaptureFrame> =
             (0..frames).map(|t| CaptureFrame { positions: at(t, 0.0), faces: faces.clone() }).collect();
-        let mut grids: Vec<Vec<Vec3>> = (0..frames).map(|t| at(t, if off.contains(&t) { 0.5 } else { 0.0 })).collect();
-        let mut meshes: Vec<FrameMesh> = capture.iter().map(|f| f.mesh()).collect();
+        let grids: Vec<Vec<Vec3>> = (0..frames).map(|t| at(t, if off.contains(&t) { 0.5 } else { 0.0 })).collect();
+        let mut store = Registered::empty(Path::new("patch"), 30.0, grid);
+        for (g, f) in grids.iter().zip(&capture) {
+            store.push(g.clone(), f.mesh()).unwrap();
+        }
         let before = resampling_errors(&capture, &grids, grid).unwrap();
         let mut errors = before.clone();
-        let count = rebuilt(grid, &capture, starts, (&mut grids, &mut meshes), &mut errors).unwrap();
+        let count = rebuilt(grid, &capture.as_slice(), starts, &mut store, &mut errors).unwrap();
+        let grids = store.grid.frames;
         // A rebuilt frame's vertices are placed on its new grid.
-        let placed: Vec<usize> = meshes.iter().map(|m| m.places.len()).collect();
+        let placed: Vec<usize> = store.meshes.iter().map(|m| m.places.len()).collect();
         assert!(
             placed.iter().enumerate().all(|(t, &p)| p == if off.contains(&t) { 36 } else { 0 }),
             "{off:?}: {placed:?}"

@@ -9,11 +9,13 @@
 //! a registered animation of the capture, which the codec codes as any
 //! other motion.
 
-use super::capture::CaptureFrame;
+use super::capture::{Capture, CaptureFrame};
 use super::follow::{self, CutTrace};
 use super::handover::{self, Handover};
 pub use super::report::RegisterReport;
 use super::segments::segment_ranges;
+use super::store::FrameStore;
+pub use super::store::Registered;
 use super::symmetry::{apply_symmetry, symmetry_between, turn_place, IDENTITY};
 pub use super::track::Tracked;
 use super::track::{place, Track};
@@ -22,7 +24,7 @@ use super::{diagonals, jumps, outliers, segments, smooth};
 use crate::error::{Error, Result};
 use crate::grid::Grid;
 use crate::mesh::carrier::Carrier;
-use crate::mesh::{Bounds, FrameMesh, FrameSource, InMemory, Topology};
+use crate::mesh::{Bounds, FrameMesh, InMemory, Topology};
 use crate::param::cut::{corner_for, Graph};
 use crate::param::{parameterize, ParamOptions, Parameterization};
 use crate::resample::{carrier_places, SampleMap};
@@ -36,46 +38,9 @@ use std::sync::Arc;
 /// after 20, `crate::param::SCORED_PASSES`).
 pub const AREA_PASSES: usize = 20;
 
-/// A registered capture: its frames on the grid (a motion on the grid's
-/// own mesh, which this source gives), and each frame's own mesh with
-/// every vertex's place on that frame's map, turned as its grid was.
-pub struct Registered {
-    pub grid: InMemory,
-    pub meshes: Vec<FrameMesh>,
-}
-
-impl FrameSource for Registered {
-    fn label(&self) -> &Path {
-        self.grid.label()
-    }
-    fn frame_count(&self) -> usize {
-        self.grid.frame_count()
-    }
-    fn fps(&self) -> f32 {
-        self.grid.fps()
-    }
-    fn topology(&self) -> &Topology {
-        self.grid.topology()
-    }
-    fn read_frame(&self, i: usize) -> Result<crate::mesh::Frame> {
-        self.grid.read_frame(i)
-    }
-    fn kind(&self) -> &'static str {
-        "capture registered on the grid"
-    }
-    fn frame_mesh(&self, i: usize) -> Option<&FrameMesh> {
-        self.meshes.get(i)
-    }
-}
-
-/// The capture `frames` (named `label`) on `grid`: each frame's grid
-/// positions, as a motion on the grid's own mesh, and the report. The
-/// capture is registered segment by segment ([`segment_ranges`]: where
-/// its topology changes, and every `longest` frames), each with its own
-/// tracks and maps ([`registered_parts`]), going on where the last left
-/// off ([`handover`]: its cones, its cut, its turn of the square).
-/// `progress` hears ("registering", frames done, frames) after each
-/// segment.
+/// The capture `frames` (named `label`) on `grid`, held in memory: each
+/// frame's grid positions, as a motion on the grid's own mesh, and the
+/// report ([`register_into`]).
 pub fn register(
     label: &Path,
     fps: f32,
@@ -84,12 +49,36 @@ pub fn register(
     longest: usize,
     progress: &mut dyn FnMut(&str, usize, usize),
 ) -> Result<(Registered, RegisterReport)> {
+    let mut store = Registered::empty(label, fps, grid);
+    let report = register_into(label, fps, &frames, grid, longest, &mut store, progress)?;
+    Ok((store, report))
+}
+
+/// The capture `capture` (named `label`) on `grid`, each frame's grid and
+/// own mesh written to `store`, and the report. The capture is registered
+/// segment by segment ([`segment_ranges`]: where its topology changes,
+/// and every `longest` frames), each read on its own and with its own
+/// tracks and maps ([`registered_parts`]), going on where the last left
+/// off ([`handover`]: its cones, its cut, its turn of the square); only
+/// the segment in hand is held. `progress` hears ("reading", frames read,
+/// frames) while the segments are found, then ("registering", frames
+/// done, frames) after each segment.
+pub fn register_into(
+    label: &Path,
+    fps: f32,
+    capture: &dyn Capture,
+    grid: Grid,
+    longest: usize,
+    store: &mut dyn FrameStore,
+    progress: &mut dyn FnMut(&str, usize, usize),
+) -> Result<RegisterReport> {
     let t0 = std::time::Instant::now();
-    let ranges = segment_ranges(frames, longest);
+    let ranges = segment_ranges(capture, longest, progress)?;
     let several = ranges.len() > 1;
-    let (mut out, mut starts): (Option<(Registered, RegisterReport)>, Vec<usize>) = (None, Vec::new());
-    // Each frame's resampling error, as the pieces' checks measured it.
-    let mut errors: Vec<f64> = Vec::with_capacity(frames.len());
+    let (mut all, mut starts): (Option<RegisterReport>, Vec<usize>) = (None, Vec::new());
+    // Each frame's resampling error, as the pieces' checks measured it,
+    // and each frame's diagonal.
+    let (mut errors, mut diagonals) = (Vec::with_capacity(capture.len()), Vec::with_capacity(capture.len()));
     let mut last: Option<Handover> = None;
     for r in ranges {
         let (a, b) = (r.start, r.end);
@@ -97,46 +86,43 @@ pub fn register(
             false => e,
             true => Error::Argument(format!("the segment of frames {a}..{b}: {e}")),
         };
-        let (pieces, next) = registered_parts(label, fps, &frames[r], grid, last.as_ref()).map_err(in_segment)?;
-        progress("registering", b, frames.len());
+        let part = capture.frames(r)?;
+        diagonals.extend(part.iter().map(|f| Bounds::of(&f.positions).diagonal() as f64));
+        let (pieces, next) = registered_parts(label, fps, &part, grid, last.as_ref()).map_err(in_segment)?;
+        progress("registering", b, capture.len());
         last = Some(next);
         for (start, src, report, measured) in pieces {
             // Every piece comes measured ([`measure_pieces`]); the outlier
             // pass checks the count.
             errors.extend(measured.into_iter().flatten());
             starts.push(a + start);
-            out = Some(match out {
-                None => (src, report),
-                Some((mut all, mut so_far)) => {
-                    all.grid.frames.extend(src.grid.frames);
-                    all.meshes.extend(src.meshes);
-                    so_far.join(a + start, &report);
-                    (all, so_far)
-                }
-            });
+            for (g, m) in src.grid.frames.into_iter().zip(src.meshes) {
+                store.push(g, m)?;
+            }
+            match &mut all {
+                None => all = Some(report),
+                Some(so_far) => so_far.join(a + start, &report),
+            }
         }
     }
-    let (mut src, mut report) =
-        out.ok_or_else(|| Error::Argument(format!("{}: a capture without frames", label.display())))?;
-    let grids = (&mut src.grid.frames[..], &mut src.meshes[..]);
-    report.rebuilt_frames = outliers::rebuilt(grid, frames, &starts, grids, &mut errors)?;
-    let relative: Vec<f64> = errors
-        .iter()
-        .zip(frames)
-        .map(|(e, f)| e / (Bounds::of(&f.positions).diagonal() as f64).max(f64::MIN_POSITIVE))
-        .collect();
+    let mut report = all.ok_or_else(|| Error::Argument(format!("{}: a capture without frames", label.display())))?;
+    report.rebuilt_frames = outliers::rebuilt(grid, capture, &starts, store, &mut errors)?;
+    let relative: Vec<f64> = errors.iter().zip(&diagonals).map(|(e, d)| e / d.max(f64::MIN_POSITIVE)).collect();
     report.resampling_mean = relative.iter().sum::<f64>() / relative.len().max(1) as f64;
     report.resampling_worst = relative.iter().copied().fold(0.0, f64::max);
     report.seconds = t0.elapsed().as_secs_f64();
-    Ok((src, report))
+    Ok(report)
 }
 
-/// One segment `part` registered, as one piece or, where that fails its
-/// checks ([`segments::split_at`]), as the pieces of its halves where both
-/// register and their worst frame lies no further from its own mesh than
-/// the whole's: each piece's first frame (in `part`), grid and report,
-/// and what the next segment starts from. Each piece goes on from the
-/// last one's `handover`.
+/// One segment `part` registered, as one piece or as the pieces of its
+/// halves ([`halves`]): where fewer than four of its tracks, or of the
+/// cones chosen, are seen in enough of its frames
+/// ([`segments::untracked_split`]), the halves are tried before the whole
+/// is mapped; where its mapped frames fail the swim check
+/// ([`segments::split_at`]), they are kept if their worst frame lies no
+/// further from its own mesh than the whole's. Returns each piece's first
+/// frame (in `part`), grid and report, and what the next segment starts
+/// from. Each piece goes on from the last one's `handover`.
 fn registered_parts(
     label: &Path,
     fps: f32,
@@ -144,25 +130,59 @@ fn registered_parts(
     grid: Grid,
     handover: Option<&Handover>,
 ) -> Result<(Vec<Piece>, Handover)> {
-    let tracked = track_capture(label, part)?;
-    let (src, report, next) = register_piece(label, fps, part, tracked, grid, handover)?;
-    let (split, errors) = segments::split_at(part, &src.grid.frames, report.cones_seen, grid)?;
-    if let Some(mid) = split {
-        if let Ok((left, between)) = registered_parts(label, fps, &part[..mid], grid, handover) {
-            if let Ok((right, end)) = registered_parts(label, fps, &part[mid..], grid, Some(&between)) {
-                let mut pieces: Vec<Piece> =
-                    left.into_iter().chain(right.into_iter().map(|(s, g, r, e)| (s + mid, g, r, e))).collect();
-                let mut whole = [(0, src, report, errors)];
-                if worst_resampling(part, &mut pieces, grid)? <= worst_resampling(part, &mut whole, grid)? {
-                    return Ok((pieces, end));
-                }
-                return Ok((whole.into(), next));
+    let mut tracked = track_capture(label, part)?;
+    // Mapping a segment that is split anyway took most of whole pcow's
+    // registration (295 s, 81 of them the kept pieces' features and maps).
+    let share = |t: &Track| t.frames_seen() as f64 / part.len().max(1) as f64;
+    let untracked = segments::untracked_split(part.len(), tracked.tracks.iter().map(share));
+    if let Some(pieces) = untracked.and_then(|mid| halves(label, fps, part, grid, handover, mid)) {
+        return Ok(pieces);
+    }
+    let first_trace;
+    (tracked.cones, first_trace) = chosen_cones(label, part, &tracked, (grid, diagonal_of(part)), handover)?;
+    let unseen = match untracked {
+        None => segments::untracked_split(part.len(), tracked.cones_seen().into_iter()),
+        Some(_) => None,
+    };
+    if let Some(pieces) = unseen.and_then(|mid| halves(label, fps, part, grid, handover, mid)) {
+        return Ok(pieces);
+    }
+    // Halves that did not register are not tried again.
+    let tried = untracked.or(unseen).is_some();
+    let (src, report, next) = register_piece(label, fps, part, tracked, first_trace, grid, handover)?;
+    let (swims, errors) = segments::split_at(part, &src.grid.frames, grid)?;
+    let mut whole = vec![(0, src, report, errors)];
+    if let Some(mid) = swims.filter(|_| !tried) {
+        if let Some((mut pieces, end)) = halves(label, fps, part, grid, handover, mid) {
+            if worst_resampling(part, &mut pieces, grid)? <= worst_resampling(part, &mut whole, grid)? {
+                return Ok((pieces, end));
             }
         }
     }
-    let mut whole = vec![(0, src, report, errors)];
     measure_pieces(part, &mut whole, grid)?;
     Ok((whole, next))
+}
+
+/// `part` registered as its halves split at `mid`, the second going on
+/// from the first: their pieces and what the next segment starts from, or
+/// `None` if either fails to register.
+fn halves(
+    label: &Path,
+    fps: f32,
+    part: &[CaptureFrame],
+    grid: Grid,
+    handover: Option<&Handover>,
+    mid: usize,
+) -> Option<(Vec<Piece>, Handover)> {
+    let (left, between) = registered_parts(label, fps, &part[..mid], grid, handover).ok()?;
+    let (right, end) = registered_parts(label, fps, &part[mid..], grid, Some(&between)).ok()?;
+    let right = right.into_iter().map(|(s, g, r, e)| (s + mid, g, r, e));
+    Some((left.into_iter().chain(right).collect(), end))
+}
+
+/// The diagonal of a piece's first frame (the tracker's and cut's scale).
+fn diagonal_of(part: &[CaptureFrame]) -> f32 {
+    part.first().map_or(0.0, |f| Bounds::of(&f.positions).diagonal())
 }
 
 /// Each of `pieces` (of `part`) with its frames' resampling errors
@@ -197,34 +217,29 @@ pub fn register_tracked(
     tracked: Tracked,
     grid: Grid,
 ) -> Result<(Registered, RegisterReport)> {
-    register_piece(label, fps, frames, tracked, grid, None).map(|(src, report, _)| (src, report))
+    fits(label, frames, &tracked)?;
+    let mut tracked = tracked;
+    let first_trace;
+    (tracked.cones, first_trace) = chosen_cones(label, frames, &tracked, (grid, diagonal_of(frames)), None)?;
+    register_piece(label, fps, frames, tracked, first_trace, grid, None).map(|(src, report, _)| (src, report))
 }
 
-/// [`register_tracked`] going on from the last piece's `handover`
-/// ([`handover`]), and what the next piece starts from.
+/// [`register_tracked`] with the cones chosen ([`chosen_cones`]: the
+/// first frame's cut traced from `first_trace`), going on from the last
+/// piece's `handover` ([`handover`]), and what the next piece starts
+/// from.
 fn register_piece(
     label: &Path,
     fps: f32,
     frames: &[CaptureFrame],
-    mut tracked: Tracked,
+    tracked: Tracked,
+    first_trace: Option<&CutTrace>,
     grid: Grid,
     handover: Option<&Handover>,
 ) -> Result<(Registered, RegisterReport, Handover)> {
-    if frames.is_empty() {
-        return Err(no_frames(label));
-    }
-    if tracked.features.len() != frames.len() {
-        return Err(Error::Argument(format!(
-            "{}: features of {} frames for a capture of {}",
-            label.display(),
-            tracked.features.len(),
-            frames.len()
-        )));
-    }
+    fits(label, frames, &tracked)?;
     let t1 = std::time::Instant::now();
-    let diagonal = Bounds::of(&frames[0].positions).diagonal();
-    let first_trace;
-    (tracked.cones, first_trace) = chosen_cones(label, frames, &tracked, (grid, diagonal), handover)?;
+    let diagonal = diagonal_of(frames);
     let cones_at = |t: usize| {
         tracked.cones.map(|k| {
             let track = &tracked.tracks[k];
@@ -266,6 +281,23 @@ fn register_piece(
     let meshes = frames.iter().zip(places).map(|(f, places)| FrameMesh { places, ..f.mesh() }).collect();
     let grid = InMemory { label: PathBuf::from(label), fps, topology: grid.topology(), frames: positions };
     Ok((Registered { grid, meshes }, report, next))
+}
+
+/// An error unless `tracked` holds the features of every one of
+/// `frames`, and there are some.
+fn fits(label: &Path, frames: &[CaptureFrame], tracked: &Tracked) -> Result<()> {
+    if frames.is_empty() {
+        return Err(no_frames(label));
+    }
+    if tracked.features.len() != frames.len() {
+        return Err(Error::Argument(format!(
+            "{}: features of {} frames for a capture of {}",
+            label.display(),
+            tracked.features.len(),
+            frames.len()
+        )));
+    }
+    Ok(())
 }
 
 /// The error of a piece without frames.

@@ -5,33 +5,43 @@
 //! ([`super::handover`]). Each segment starts at a random-access point of
 //! the file (format version 15).
 
-use super::capture::CaptureFrame;
+use super::capture::{Capture, CaptureFrame};
 use super::outliers::resampling_errors;
 use crate::error::Result;
 use crate::grid::Grid;
 use crate::mesh::{analyze, Topology};
 use glam::Vec3;
 use rayon::prelude::*;
+use std::ops::Range;
 
 /// Where a capture's segments start: frame 0, and each frame whose
 /// topology (Euler characteristic, parts, holes) differs from the
 /// segment's and stays so for [`SEGMENT_FRAMES`] frames (an arm that
 /// touches the body, a part that appears). No map carries over such a
-/// change, so each segment is registered on its own. A frame that is not
-/// a manifold (a simplifier's pinched edge) has no say: its counts mean
-/// nothing.
+/// change, so each segment is registered on its own.
 pub fn segment_starts(frames: &[CaptureFrame]) -> Vec<usize> {
-    let class = |f: &CaptureFrame| {
-        let r = analyze(&Topology { vertex_count: f.positions.len(), faces: f.faces.clone() }, &f.positions);
-        let manifold = r.non_manifold_edges == 0 && r.non_manifold_vertices == 0;
-        manifold.then_some((r.euler_characteristic, r.components, r.boundary_loops))
-    };
-    let classes: Vec<_> = frames.par_iter().map(class).collect();
+    starts_of(&frames.par_iter().map(class).collect::<Vec<_>>())
+}
+
+/// A frame's topology: its Euler characteristic, parts and holes, or
+/// `None` for a frame that is not a manifold (a simplifier's pinched
+/// edge), whose counts mean nothing.
+type Class = Option<(i64, usize, usize)>;
+
+fn class(f: &CaptureFrame) -> Class {
+    let r = analyze(&Topology { vertex_count: f.positions.len(), faces: f.faces.clone() }, &f.positions);
+    let manifold = r.non_manifold_edges == 0 && r.non_manifold_vertices == 0;
+    manifold.then_some((r.euler_characteristic, r.components, r.boundary_loops))
+}
+
+/// [`segment_starts`] of frames of topology `classes`; a frame that is
+/// not a manifold has no say.
+fn starts_of(classes: &[Class]) -> Vec<usize> {
     let mut starts = vec![0];
     let mut current = classes.iter().flatten().next().copied();
-    for t in 1..frames.len() {
+    for t in 1..classes.len() {
         let Some(c) = classes[t] else { continue };
-        let lasting = classes[t..frames.len().min(t + SEGMENT_FRAMES)].iter().all(|k| k.is_none_or(|k| k == c));
+        let lasting = classes[t..classes.len().min(t + SEGMENT_FRAMES)].iter().all(|k| k.is_none_or(|k| k == c));
         if current.is_some_and(|cur| cur != c) && lasting {
             starts.push(t);
             current = Some(c);
@@ -40,24 +50,36 @@ pub fn segment_starts(frames: &[CaptureFrame]) -> Vec<usize> {
     starts
 }
 
-/// The frames of each segment, in order: one starts where the topology
-/// changes ([`segment_starts`]) and at every multiple of `longest` frames
-/// (0: no limit) that is not within [`SEGMENT_FRAMES`] of such a change.
-/// A long capture's features come and go (pcow's 204 frames as one
-/// segment: its cones' tracks seen in 100 / 73 / 40 / 33 % of them, 29
-/// frames that no turn of the grid matches), so a capture is tracked and
-/// mapped a stretch at a time; at multiples of the encoder's
-/// random-access interval a new map costs no extra point.
-pub fn segment_ranges(frames: &[CaptureFrame], longest: usize) -> Vec<std::ops::Range<usize>> {
-    let changes = segment_starts(frames);
+/// The frames of each segment of `capture`, in order: one starts where
+/// the topology changes ([`segment_starts`]) and at every multiple of
+/// `longest` frames (0: no limit) that is not within [`SEGMENT_FRAMES`]
+/// of such a change. A long capture's features come and go (pcow's 204
+/// frames as one segment: its cones' tracks seen in 100 / 73 / 40 / 33 %
+/// of them, 29 frames that no turn of the grid matches), so a capture is
+/// tracked and mapped a stretch at a time; at multiples of the encoder's
+/// random-access interval a new map costs no extra point. The frames are
+/// read a few at a time (`progress` hears how many so far), never all at
+/// once.
+pub fn segment_ranges(
+    capture: &dyn Capture,
+    longest: usize,
+    progress: &mut dyn FnMut(&str, usize, usize),
+) -> Result<Vec<Range<usize>>> {
+    let (n, batch) = (capture.len(), 4 * rayon::current_num_threads());
+    let mut classes = Vec::with_capacity(n);
+    for a in (0..n).step_by(batch.max(1)) {
+        classes.extend(capture.frames(a..n.min(a + batch))?.par_iter().map(class).collect::<Vec<_>>());
+        progress("reading", classes.len(), n);
+    }
+    let changes = starts_of(&classes);
     let near_change = |t: usize| changes.iter().any(|&c| c.abs_diff(t) < SEGMENT_FRAMES);
     let mut starts = changes.clone();
     if longest > 0 {
-        starts.extend((longest..frames.len()).step_by(longest).filter(|&t| !near_change(t)));
+        starts.extend((longest..n).step_by(longest).filter(|&t| !near_change(t)));
         starts.sort_unstable();
     }
-    let ends = starts.iter().skip(1).copied().chain([frames.len()]);
-    starts.iter().zip(ends).map(|(&a, b)| a..b).collect()
+    let ends = starts.iter().skip(1).copied().chain([n]);
+    Ok(starts.iter().zip(ends).map(|(&a, b)| a..b).collect())
 }
 
 /// Frames a new topology must last to start a segment.
@@ -84,32 +106,33 @@ pub const SEEN: f64 = 0.95;
 /// many times as far off as the segment's mean (its swim target).
 pub const WORST: f64 = 3.0;
 
-/// Where to split a registered segment (`part`, registered as `grids`
-/// with its cones' tracks seen in `cones_seen` of its frames) that fails
-/// its checks ([`SEEN`], [`WORST`]): at its middle, or nowhere if it holds
-/// or has fewer than twice [`SHORTEST`] frames; and each frame's
-/// resampling error where it was measured (for the registration's later
-/// use). Measured on pcow's 204
+/// Where to split a segment of `frames` frames before it is mapped, given
+/// the share of its frames each of its tracks (or its four cones' tracks)
+/// is seen in: at its middle where fewer than four are seen in [`SEEN`]
+/// of them, so that no four cones meet the tracking target; nowhere if it
+/// has fewer than twice [`SHORTEST`] frames. Measured on pcow's 204
 /// frames: tracked in stretches of 60 frames, one stretch's cones' tracks
-/// were seen in 60 % of its frames and frames 3-8 of another resampled
-/// 0.5-1.8 % off the truth (its 24-frame clip: 0.06 % at most).
-pub fn split_at(
-    part: &[CaptureFrame],
-    grids: &[Vec<Vec3>],
-    cones_seen: [f64; 4],
-    grid: Grid,
-) -> Result<(Option<usize>, Option<Vec<f64>>)> {
+/// were seen in 60 % of its frames.
+pub fn untracked_split(frames: usize, seen: impl Iterator<Item = f64>) -> Option<usize> {
+    let tracked = seen.filter(|&s| s >= SEEN).count();
+    (frames >= 2 * SHORTEST && tracked < 4).then_some(frames / 2)
+}
+
+/// Where to split a registered segment (`part`, registered as `grids`)
+/// whose frames swim ([`WORST`]): at its middle, or nowhere if it holds or
+/// has fewer than twice [`SHORTEST`] frames; and each frame's resampling
+/// error where it was measured (for the registration's later use).
+/// Measured on pcow's 204 frames: tracked in stretches of 60 frames,
+/// frames 3-8 of one stretch resampled 0.5-1.8 % off the truth (its
+/// 24-frame clip: 0.06 % at most).
+pub fn split_at(part: &[CaptureFrame], grids: &[Vec<Vec3>], grid: Grid) -> Result<(Option<usize>, Option<Vec<f64>>)> {
     if part.len() < 2 * SHORTEST {
         return Ok((None, None));
-    }
-    let middle = Some(part.len() / 2);
-    if cones_seen.iter().any(|&s| s < SEEN) {
-        return Ok((middle, None));
     }
     let errors = resampling_errors(part, grids, grid)?;
     let mean = errors.iter().sum::<f64>() / errors.len() as f64;
     let worst = errors.iter().copied().fold(0.0, f64::max);
-    Ok((if worst > WORST * mean { middle } else { None }, Some(errors)))
+    Ok((if worst > WORST * mean { Some(part.len() / 2) } else { None }, Some(errors)))
 }
 
 #[cfg(test)]
@@ -127,20 +150,28 @@ mod tests {
         (capture, grids.collect(), grid)
     }
 
-    /// A segment is split at its middle where a cone's track is missed
-    /// too often or one frame's grid lies far off its mesh, and not where
-    /// it holds or is too short to split.
+    /// A segment is split at its middle where one frame's grid lies far
+    /// off its mesh, and not where it holds or is too short to split.
     #[test]
-    fn a_failing_segment_is_split_at_its_middle() {
-        let (fine, missed) = ([1.0; 4], [1.0, 1.0, 1.0, 0.9]);
+    fn a_swimming_segment_is_split_at_its_middle() {
         let (part, grids, grid) = case(24, None);
-        let at = |part: &[CaptureFrame], grids: &[Vec<Vec3>], seen, grid| split_at(part, grids, seen, grid).ok();
         let measured = resampling_errors(&part, &grids, grid).ok();
-        assert_eq!(at(&part, &grids, fine, grid), Some((None, measured)));
-        assert_eq!(at(&part, &grids, missed, grid), Some((Some(12), None)));
+        assert_eq!(split_at(&part, &grids, grid).ok(), Some((None, measured)));
         let (part, grids, grid) = case(25, Some(5));
-        assert_eq!(at(&part, &grids, fine, grid).map(|s| s.0), Some(Some(12)));
+        assert_eq!(split_at(&part, &grids, grid).ok().map(|s| s.0), Some(Some(12)));
         let (part, grids, grid) = case(23, Some(5));
-        assert_eq!(at(&part, &grids, missed, grid), Some((None, None)), "too short");
+        assert_eq!(split_at(&part, &grids, grid).ok(), Some((None, None)), "too short");
+    }
+
+    /// A segment is split before it is mapped where fewer than four
+    /// tracks are seen in 95 % of its frames, and not where four are or
+    /// it is too short to split.
+    #[test]
+    fn a_segment_without_four_tracked_features_is_split_at_its_middle() {
+        let (four, three) = ([1.0, 0.96, 0.95, 1.0, 0.2], [1.0, 1.0, 1.0, 0.94]);
+        assert_eq!(untracked_split(24, four.into_iter()), None);
+        assert_eq!(untracked_split(24, three.into_iter()), Some(12));
+        assert_eq!(untracked_split(61, three.into_iter()), Some(30));
+        assert_eq!(untracked_split(23, three.into_iter()), None, "too short");
     }
 }

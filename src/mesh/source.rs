@@ -29,8 +29,13 @@ pub trait FrameSource: Send + Sync {
     /// Frame `i`'s own mesh, where every frame has its own (a registered
     /// capture's, whose frames this source gives on the grid): none for a
     /// sequence whose frames share their vertices.
-    fn frame_mesh(&self, _i: usize) -> Option<&FrameMesh> {
-        None
+    fn frame_mesh(&self, _i: usize) -> Result<Option<std::borrow::Cow<'_, FrameMesh>>> {
+        Ok(None)
+    }
+    /// Whether every frame has a mesh of its own ([`Self::frame_mesh`]),
+    /// without reading one.
+    fn has_frame_meshes(&self) -> bool {
+        false
     }
     /// A decoded source mesh's vertices (the file's stored order) indexed
     /// as this sequence's: a textured input's stored mesh splits vertices

@@ -3,8 +3,9 @@
 use super::InputArgs;
 use anyhow::{bail, Context, Result};
 use cgv::codec::{h264::VideoSettings, CodecChoice, EncodeOptions, EncodeRequest, GridChoice, Made};
-use cgv::features::capture::CaptureLimit;
+use cgv::features::capture::{Capture, CaptureFiles, CaptureLimit};
 use cgv::features::report::RegisterReport;
+use cgv::features::store::Spilled;
 use cgv::format::CorrectionMode;
 use cgv::output::AtomicFile;
 use cgv::param::ParamOptions;
@@ -162,9 +163,12 @@ pub struct Args {
     /// come back placed on the decoded grid.
     #[arg(long, requires = "unregistered")]
     no_slide: bool,
-    /// With --unregistered: refuse a capture whose registration would hold
-    /// more than this many MiB (every frame is held at once, with its own
-    /// mesh and grid), while it is read.
+    /// With --unregistered: refuse a segment (at most --random-access
+    /// seconds of frames of one topology) whose registration would hold
+    /// more than this many MiB (its frames are held at once, with their own
+    /// meshes and grids), while it is read. Registered frames go to a
+    /// temporary file in TMPDIR, so a capture's length is bounded by the
+    /// disk, not by memory.
     #[arg(long, value_name = "MIB", default_value_t = DEFAULT_CAPTURE_MIB, requires = "unregistered",
           value_parser = clap::value_parser!(u64).range(1..))]
     memory_limit: u64,
@@ -437,12 +441,23 @@ fn registered(args: &Args) -> Result<(Box<dyn cgv::mesh::FrameSource>, RegisterR
     let dir = std::path::Path::new(&args.input.input);
     let n = register_grid(args);
     let limit = CaptureLimit { bytes: args.memory_limit.saturating_mul(1 << 20), grid_samples: Some(n * n) };
-    let frames = cgv::features::capture::read_capture(dir, args.input.frames, limit)?;
+    let capture = CaptureFiles::open(dir, args.input.frames, limit)?;
     let grid = cgv::grid::Grid::new(n)?;
     let longest = cgv::features::segments::longest_segment(args.random_access, args.input.fps);
-    let pb = super::progress(frames.len(), "registering", args.json);
-    let mut progress = |_: &str, done: usize, _| pb.set_position(done as u64);
-    let (src, r) = cgv::features::register::register(dir, args.input.fps, &frames, grid, longest, &mut progress)
+    // Only the segment in hand is held; the registered frames go to a
+    // temporary file, which the encoder reads a frame at a time.
+    let mut store = Spilled::new(dir, args.input.fps, grid)?;
+    let pb = super::progress(capture.len(), "reading", args.json);
+    let mut progress = |step: &str, done: usize, _| {
+        // Reading the frames for their topology, then registering them.
+        if pb.message() != step {
+            pb.reset();
+            pb.set_message(step.to_string());
+        }
+        pb.set_position(done as u64)
+    };
+    let fps = args.input.fps;
+    let r = cgv::features::register::register_into(dir, fps, &capture, grid, longest, &mut store, &mut progress)
         .with_context(|| format!("registering {}", dir.display()))?;
     pb.finish_and_clear();
     eprintln!(
@@ -474,7 +489,7 @@ fn registered(args: &Args) -> Result<(Box<dyn cgv::mesh::FrameSource>, RegisterR
             join(&r.segments)
         );
     }
-    Ok((Box::new(src), r))
+    Ok((Box::new(store), r))
 }
 
 /// What mesh an unregistered capture's file gives back.

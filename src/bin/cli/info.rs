@@ -22,8 +22,9 @@ pub struct Args {
     /// features found (heat kernel signature maxima) and how well they track.
     #[arg(long)]
     unregistered: bool,
-    /// With --unregistered: refuse a capture whose frames would hold more
-    /// than this many MiB (all are held at once), while it is read.
+    /// With --unregistered: refuse a segment (at most 2 s of frames of one
+    /// topology) whose frames would hold more than this many MiB (a
+    /// segment's frames are held at once), while it is read.
     #[arg(long, value_name = "MIB", default_value_t = super::encode::DEFAULT_CAPTURE_MIB, requires = "unregistered", value_parser = clap::value_parser!(u64).range(1..))]
     memory_limit: u64,
 }
@@ -128,41 +129,47 @@ pub fn run(args: Args) -> Result<()> {
 
 /// `cgv info --unregistered`: the capture's frames, features and tracks.
 fn unregistered_info(args: &Args) -> Result<()> {
-    use cgv::features::capture::{read_capture, CaptureLimit};
+    use cgv::features::capture::{Capture, CaptureFiles, CaptureLimit};
     use cgv::features::report::RegisterReport;
     use cgv::features::segments::{longest_segment, segment_ranges};
     use cgv::features::tracking::track_capture;
     let dir = std::path::Path::new(&args.input.input);
     let limit = CaptureLimit { bytes: args.memory_limit.saturating_mul(1 << 20), grid_samples: None };
-    let frames = read_capture(dir, args.input.frames, limit)?;
-    let sizes: Vec<usize> = frames.iter().map(|f| f.positions.len()).collect();
-    let (lo, hi) = (sizes.iter().min().copied().unwrap_or(0), sizes.iter().max().copied().unwrap_or(0));
+    let capture = CaptureFiles::open(dir, args.input.frames, limit)?;
     // Each segment (of one topology, at most the encoder's default
-    // random-access interval) is tracked on its own, as encode does.
+    // random-access interval) is read and tracked on its own, as encode
+    // does.
     let longest = longest_segment(0.0, args.input.fps);
-    let ranges = segment_ranges(&frames, longest);
+    let pb = super::progress(capture.len(), "reading", args.json);
+    let ranges = segment_ranges(&capture, longest, &mut |_, done, _| pb.set_position(done as u64))?;
     let starts: Vec<usize> = ranges.iter().map(|r| r.start).collect();
-    let pb = super::progress(frames.len(), "tracking", args.json);
+    pb.reset();
+    pb.set_message("tracking");
+    let (mut lo, mut hi) = (usize::MAX, 0);
     let segments: Vec<_> = ranges
         .iter()
         .map(|r| {
-            let tracked =
-                track_capture(dir, &frames[r.clone()]).with_context(|| format!("the segment of frames {r:?}"));
+            let frames = capture.frames(r.clone())?;
+            let sizes = frames.iter().map(|f| f.positions.len());
+            (lo, hi) = (lo.min(sizes.clone().min().unwrap_or(lo)), hi.max(sizes.max().unwrap_or(0)));
+            let tracked = track_capture(dir, &frames).with_context(|| format!("the segment of frames {r:?}"));
             pb.set_position(r.end as u64);
             tracked
         })
         .collect::<Result<_>>()?;
     pb.finish_and_clear();
+    let lo = lo.min(hi);
+    let frames = capture.len();
     // The segments' tracking joined as the registration's report joins it.
     let all = RegisterReport::joined(&starts, segments.iter().map(RegisterReport::of_tracking));
     let (features_per_frame, tracks) = (all.features_per_frame, all.tracks);
     let (seen, overall) = (all.cones_seen, all.cones_seen_overall);
-    let rate = frames.len() as f64 / segments.iter().map(|t| t.seconds).sum::<f64>().max(1e-9);
+    let rate = frames as f64 / segments.iter().map(|t| t.seconds).sum::<f64>().max(1e-9);
     if args.json {
         let report = serde_json::json!({
             "input": dir,
             "kind": "unregistered mesh frames",
-            "frames": frames.len(),
+            "frames": frames,
             "vertices_min": lo,
             "vertices_max": hi,
             "features_per_frame": features_per_frame,
@@ -176,7 +183,7 @@ fn unregistered_info(args: &Args) -> Result<()> {
         return Ok(());
     }
     println!("{} (unregistered: every frame its own mesh)", dir.display());
-    println!("  frames        {} at {} fps", frames.len(), args.input.fps);
+    println!("  frames        {frames} at {} fps", args.input.fps);
     println!("  vertices      {lo} to {hi} a frame");
     match starts.len() {
         1 => println!("  segments      1 (the topology never changes, at most {longest} frames)"),

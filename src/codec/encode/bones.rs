@@ -91,7 +91,7 @@ pub(super) fn fit_bones(
     }
     let shrink = skin_shrink(plan.grid.n);
     let bones = usize::from(asked).min((plan.grid.n >> shrink).pow(2));
-    let segments = if src.frame_mesh(0).is_some() { &plan.segments[..] } else { &[] };
+    let segments = if src.has_frame_meshes() { &plan.segments[..] } else { &[] };
     let (ranges, own) = weight_segments(segments, plan.frames, |f| plan.is_rap(f));
     let info = SkinInfo {
         bones: bones as u16,

@@ -345,7 +345,7 @@ fn frame_mesh_unit(
     // Slid samples lie elsewhere on the surface than the grid coded: the
     // frame's own vertices are then placed on what the decoder has.
     let g = decoded.as_deref().filter(|_| opts.slide).unwrap_or(registered);
-    let mesh = src.frame_mesh(f).ok_or_else(|| {
+    let mesh = src.frame_mesh(f)?.ok_or_else(|| {
         Error::Argument(format!(
             "{}: frame meshes asked for, but frame {f} has no mesh of its own (only a registered capture, \
              `--unregistered`, has)",

@@ -121,7 +121,7 @@ impl EncodeRequest {
             && self.grid == GridChoice::Auto
             && b.source_mesh
             && !b.frame_meshes
-            && src.frame_mesh(0).is_none()
+            && !src.has_frame_meshes()
             && src.frame_count() < MIN_BONE_FRAMES;
         fits.then(|| EncodeRequest {
             codec: CodecChoice::Named(crate::format::Representation::Vertices),

@@ -59,13 +59,13 @@ impl Surface {
         if !opts.slide {
             return Ok(None);
         }
-        let mesh = src.frame_mesh(fi).ok_or_else(|| {
+        let mesh = src.frame_mesh(fi)?.ok_or_else(|| {
             Error::Argument(format!(
                 "{}, frame {fi}: sliding the samples needs each frame's own mesh (an unregistered capture)",
                 src.label().display()
             ))
         })?;
-        Surface::new(mesh).map(Some)
+        Surface::new(&mesh).map(Some)
     }
 
     pub fn new(frame: &FrameMesh) -> Result<Surface> {
