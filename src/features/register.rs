@@ -115,14 +115,16 @@ pub fn register_into(
 }
 
 /// One segment `part` registered, as one piece or as the pieces of its
-/// halves ([`halves`]): where fewer than four of its tracks, or of the
+/// halves ([`halves`]). Where fewer than four of its tracks, or of the
 /// cones chosen, are seen in enough of its frames
-/// ([`segments::untracked_split`]), the halves are tried before the whole
-/// is mapped; where its mapped frames fail the swim check
-/// ([`segments::split_at`]), they are kept if their worst frame lies no
-/// further from its own mesh than the whole's. Returns each piece's first
-/// frame (in `part`), grid and report, and what the next segment starts
-/// from. Each piece goes on from the last one's `handover`.
+/// ([`segments::untracked_split`]), the halves are registered before the
+/// whole is mapped, and kept if their frames do not swim
+/// ([`segments::swims`]). Otherwise the whole is mapped, and where it
+/// swims ([`segments::split_at`]) or its early halves did, the halves are
+/// kept if their worst frame lies no further from its own mesh than the
+/// whole's. Returns each piece's first frame (in `part`), grid and
+/// report, and what the next segment starts from. Each piece goes on from
+/// the last one's `handover`.
 fn registered_parts(
     label: &Path,
     fps: f32,
@@ -132,31 +134,34 @@ fn registered_parts(
 ) -> Result<(Vec<Piece>, Handover)> {
     let mut tracked = track_capture(label, part)?;
     // Mapping a segment that is split anyway took most of whole pcow's
-    // registration (295 s, 81 of them the kept pieces' features and maps).
+    // registration (385 s; its kept pieces' features and maps, 81 s).
     let share = |t: &Track| t.frames_seen() as f64 / part.len().max(1) as f64;
     let untracked = segments::untracked_split(part.len(), tracked.tracks.iter().map(share));
-    if let Some(pieces) = untracked.and_then(|mid| halves(label, fps, part, grid, handover, mid)) {
+    let mut early = untracked.map(|mid| halves(label, fps, part, grid, handover, mid));
+    if let Some(pieces) = steady_halves(part, &mut early, grid)? {
         return Ok(pieces);
     }
     let first_trace;
     (tracked.cones, first_trace) = chosen_cones(label, part, &tracked, (grid, diagonal_of(part)), handover)?;
-    let unseen = match untracked {
-        None => segments::untracked_split(part.len(), tracked.cones_seen().into_iter()),
-        Some(_) => None,
-    };
-    if let Some(pieces) = unseen.and_then(|mid| halves(label, fps, part, grid, handover, mid)) {
-        return Ok(pieces);
+    if untracked.is_none() {
+        let unseen = segments::untracked_split(part.len(), tracked.cones_seen().into_iter());
+        early = unseen.map(|mid| halves(label, fps, part, grid, handover, mid));
+        if let Some(pieces) = steady_halves(part, &mut early, grid)? {
+            return Ok(pieces);
+        }
     }
-    // Halves that did not register are not tried again.
-    let tried = untracked.or(unseen).is_some();
     let (src, report, next) = register_piece(label, fps, part, tracked, first_trace, grid, handover)?;
     let (swims, errors) = segments::split_at(part, &src.grid.frames, grid)?;
     let mut whole = vec![(0, src, report, errors)];
-    if let Some(mid) = swims.filter(|_| !tried) {
-        if let Some((mut pieces, end)) = halves(label, fps, part, grid, handover, mid) {
-            if worst_resampling(part, &mut pieces, grid)? <= worst_resampling(part, &mut whole, grid)? {
-                return Ok((pieces, end));
-            }
+    // Halves tried early (which swim, or did not register) are not tried
+    // again.
+    let split = match early {
+        Some(tried) => tried,
+        None => swims.and_then(|mid| halves(label, fps, part, grid, handover, mid)),
+    };
+    if let Some((mut pieces, end)) = split {
+        if worst_resampling(part, &mut pieces, grid)? <= worst_resampling(part, &mut whole, grid)? {
+            return Ok((pieces, end));
         }
     }
     measure_pieces(part, &mut whole, grid)?;
@@ -178,6 +183,20 @@ fn halves(
     let (right, end) = registered_parts(label, fps, &part[mid..], grid, Some(&between)).ok()?;
     let right = right.into_iter().map(|(s, g, r, e)| (s + mid, g, r, e));
     Some((left.into_iter().chain(right).collect(), end))
+}
+
+/// The halves in `early`, taken out, if they registered and their frames
+/// do not swim ([`segments::swims`]); halves that swim are left for the
+/// whole to be compared with.
+fn steady_halves(
+    part: &[CaptureFrame],
+    early: &mut Option<Option<(Vec<Piece>, Handover)>>,
+    grid: Grid,
+) -> Result<Option<(Vec<Piece>, Handover)>> {
+    let Some(Some((pieces, _))) = early else { return Ok(None) };
+    measure_pieces(part, pieces, grid)?;
+    let errors: Vec<f64> = pieces.iter().flat_map(|p| p.3.iter().flatten()).copied().collect();
+    Ok(if segments::swims(&errors) { None } else { early.take().flatten() })
 }
 
 /// The diagonal of a piece's first frame (the tracker's and cut's scale).
@@ -633,7 +652,8 @@ fn map_frame(
     // A fin left in would become a part of its own, joined to the body by
     // a tube the map then spreads over (horse-gallop's remeshed frames 5-7
     // resampled 0.67-0.85 % off; without their fins 0.09-0.11 %).
-    let topology = Topology { vertex_count: frame.positions.len(), faces: without_fins(&frame.faces) };
+    let topology =
+        Topology { vertex_count: frame.positions.len(), faces: crate::mesh::topology::without_fins(&frame.faces) };
     let mut carrier = Carrier::build(label, &topology, &frame.positions)?;
     let positions = carrier.positions(&frame.positions);
     let cones = at.map(|(p, _)| nearest(&positions, p).unwrap_or(0));
@@ -673,26 +693,6 @@ fn apart(graph: &Graph, mut cones: [u32; 4]) -> [u32; 4] {
         }
     }
     cones
-}
-
-/// `faces` without the faces past the first two on any edge: a fin (a
-/// simplifier pinches them out of two rims that meet), which the carrier
-/// would detach as a part of its own.
-fn without_fins(faces: &[[u32; 3]]) -> Vec<[u32; 3]> {
-    let mut seen = std::collections::HashMap::<(u32, u32), usize>::new();
-    let mut count = |f: &[u32; 3]| {
-        (0..3)
-            .map(|k| {
-                let (a, b) = (f[k], f[(k + 1) % 3]);
-                let n = seen.entry((a.min(b), a.max(b))).or_default();
-                *n += 1;
-                *n
-            })
-            .max()
-            .unwrap_or(0)
-    };
-    let over: Vec<bool> = faces.iter().map(|f| count(f) > 2).collect();
-    faces.iter().zip(over).filter(|(_, o)| !o).map(|(f, _)| *f).collect()
 }
 
 /// A frame's map: its grid positions, which cone (its index in the
@@ -771,15 +771,5 @@ mod tests {
         let (start, src, report, _) = piece(0, vec![p.clone(); 6]);
         let mut known = [(start, src, report, Some(vec![0.5; 6]))];
         assert_eq!(worst_resampling(&part, &mut known, grid).unwrap(), 0.5);
-    }
-
-    /// The faces past the second on an edge go; a manifold mesh keeps all.
-    #[test]
-    fn fins_are_left_out_and_nothing_else() {
-        let tetra = vec![[0, 1, 2], [0, 3, 1], [1, 3, 2], [2, 3, 0]];
-        assert_eq!(without_fins(&tetra), tetra);
-        let mut finned = tetra.clone();
-        finned.push([1, 0, 4]);
-        assert_eq!(without_fins(&finned), tetra);
     }
 }

@@ -130,9 +130,14 @@ pub fn split_at(part: &[CaptureFrame], grids: &[Vec<Vec3>], grid: Grid) -> Resul
         return Ok((None, None));
     }
     let errors = resampling_errors(part, grids, grid)?;
-    let mean = errors.iter().sum::<f64>() / errors.len() as f64;
-    let worst = errors.iter().copied().fold(0.0, f64::max);
-    Ok((if worst > WORST * mean { Some(part.len() / 2) } else { None }, Some(errors)))
+    Ok((swims(&errors).then_some(part.len() / 2), Some(errors)))
+}
+
+/// Whether frames whose grids lie `errors` from their own meshes swim: the
+/// worst more than [`WORST`] times as far off as their mean.
+pub fn swims(errors: &[f64]) -> bool {
+    let mean = errors.iter().sum::<f64>() / errors.len().max(1) as f64;
+    errors.iter().any(|&e| e > WORST * mean)
 }
 
 #[cfg(test)]
@@ -161,6 +166,7 @@ mod tests {
         assert_eq!(split_at(&part, &grids, grid).ok().map(|s| s.0), Some(Some(12)));
         let (part, grids, grid) = case(23, Some(5));
         assert_eq!(split_at(&part, &grids, grid).ok(), Some((None, None)), "too short");
+        assert!(swims(&[1.0, 1.0, 1.0, 1.0, 9.0]) && !swims(&[1.0, 1.5, 0.6]) && !swims(&[]));
     }
 
     /// A segment is split before it is mapped where fewer than four

@@ -338,3 +338,38 @@ impl HoleFill {
         }
     }
 }
+
+/// `faces` without the faces past the first two on any edge: a fin (a
+/// simplifier pinches them out of two rims that meet), which the carrier
+/// would detach as a part of its own.
+pub fn without_fins(faces: &[[u32; 3]]) -> Vec<[u32; 3]> {
+    let mut seen = std::collections::HashMap::<(u32, u32), usize>::new();
+    let mut count = |f: &[u32; 3]| {
+        (0..3)
+            .map(|k| {
+                let (a, b) = (f[k], f[(k + 1) % 3]);
+                let n = seen.entry((a.min(b), a.max(b))).or_default();
+                *n += 1;
+                *n
+            })
+            .max()
+            .unwrap_or(0)
+    };
+    let over: Vec<bool> = faces.iter().map(|f| count(f) > 2).collect();
+    faces.iter().zip(over).filter(|(_, o)| !o).map(|(f, _)| *f).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The faces past the second on an edge go; a manifold mesh keeps all.
+    #[test]
+    fn fins_are_left_out_and_nothing_else() {
+        let tetra = vec![[0, 1, 2], [0, 3, 1], [1, 3, 2], [2, 3, 0]];
+        assert_eq!(without_fins(&tetra), tetra);
+        let mut finned = tetra.clone();
+        finned.push([1, 0, 4]);
+        assert_eq!(without_fins(&finned), tetra);
+    }
+}
