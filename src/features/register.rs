@@ -117,11 +117,12 @@ pub fn register_into(
 /// One segment `part` registered, as one piece or as the pieces of its
 /// halves ([`halves`]). Where fewer than four of its tracks, or of the
 /// cones chosen, are seen in enough of its frames
-/// ([`segments::untracked_split`]), the halves are registered before the
-/// whole is mapped, and kept if their frames do not swim
-/// ([`segments::swims`]). Otherwise the whole is mapped, and where it
-/// swims ([`segments::split_at`]) or its early halves did, the halves are
-/// kept if their worst frame lies no further from its own mesh than the
+/// ([`segments::untracked_split`]), the halves of a segment of at least
+/// [`segments::EARLY_SPLIT`] frames are registered before the whole is
+/// mapped, and kept if their frames do not swim ([`segments::swims`]).
+/// Otherwise the whole is mapped, and where its tracks fail, it swims
+/// ([`segments::split_at`]) or its early halves did, the halves are kept
+/// if their worst frame lies no further from its own mesh than the
 /// whole's. Returns each piece's first frame (in `part`), grid and
 /// report, and what the next segment starts from. Each piece goes on from
 /// the last one's `handover`.
@@ -133,18 +134,20 @@ fn registered_parts(
     handover: Option<&Handover>,
 ) -> Result<(Vec<Piece>, Handover)> {
     let mut tracked = track_capture(label, part)?;
-    // Mapping a segment that is split anyway took most of whole pcow's
-    // registration (385 s; its kept pieces' features and maps, 81 s).
+    // Mapping a long segment that is split anyway took most of whole
+    // pcow's registration (385 s; its kept pieces' features and maps,
+    // 81 s); a shorter one's halves won or lost against it about as often.
+    let long = part.len() >= segments::EARLY_SPLIT;
     let share = |t: &Track| t.frames_seen() as f64 / part.len().max(1) as f64;
-    let untracked = segments::untracked_split(part.len(), tracked.tracks.iter().map(share));
+    let untracked = segments::untracked_split(part.len(), tracked.tracks.iter().map(share)).filter(|_| long);
     let mut early = untracked.map(|mid| halves(label, fps, part, grid, handover, mid));
     if let Some(pieces) = steady_halves(part, &mut early, grid)? {
         return Ok(pieces);
     }
     let first_trace;
     (tracked.cones, first_trace) = chosen_cones(label, part, &tracked, (grid, diagonal_of(part)), handover)?;
-    if untracked.is_none() {
-        let unseen = segments::untracked_split(part.len(), tracked.cones_seen().into_iter());
+    let unseen = segments::untracked_split(part.len(), tracked.cones_seen().into_iter());
+    if long && untracked.is_none() {
         early = unseen.map(|mid| halves(label, fps, part, grid, handover, mid));
         if let Some(pieces) = steady_halves(part, &mut early, grid)? {
             return Ok(pieces);
@@ -157,7 +160,7 @@ fn registered_parts(
     // again.
     let split = match early {
         Some(tried) => tried,
-        None => swims.and_then(|mid| halves(label, fps, part, grid, handover, mid)),
+        None => swims.or(unseen).and_then(|mid| halves(label, fps, part, grid, handover, mid)),
     };
     if let Some((mut pieces, end)) = split {
         if worst_resampling(part, &mut pieces, grid)? <= worst_resampling(part, &mut whole, grid)? {
