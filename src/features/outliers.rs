@@ -12,7 +12,7 @@ use super::jumps;
 use super::store::FrameStore;
 use crate::error::Result;
 use crate::grid::Grid;
-use crate::metrics::surface::symmetric;
+use crate::metrics::surface::symmetric_rms;
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -26,7 +26,7 @@ pub fn resampling_errors(frames: &[CaptureFrame], grids: &[Vec<Vec3>], grid: Gri
 /// How far one frame's grid (`g`, on the grid's `faces`) lies from the
 /// frame's own mesh.
 pub(super) fn resampling_error(f: &CaptureFrame, g: &[Vec3], faces: &[[u32; 3]]) -> Result<f64> {
-    Ok(symmetric(&f.positions, &f.faces, g, faces)?.rms)
+    symmetric_rms(&f.positions, &f.faces, g, faces)
 }
 
 /// A frame is an outlier where its grid lies further from its mesh than

@@ -25,6 +25,7 @@ use crate::error::{Error, Result};
 use crate::grid::Grid;
 use crate::mesh::carrier::Carrier;
 use crate::mesh::{Bounds, FrameMesh, InMemory, Topology};
+use crate::metrics::surface::{symmetric_rms_to, Target};
 use crate::param::cut::{corner_for, Graph};
 use crate::param::{parameterize, ParamOptions, Parameterization};
 use crate::resample::{carrier_places, SampleMap};
@@ -569,15 +570,20 @@ fn best_cones(label: &Path, frames: &[CaptureFrame], tracked: &Tracked, grid: Gr
     let last = frames.len() - 1;
     let mut scored_frames: Vec<usize> = (0..SCORED_FRAMES).map(|i| i * last / (SCORED_FRAMES - 1)).collect();
     scored_frames.dedup();
-    let score = |set: &[usize; 4], t: usize| -> Option<f64> {
+    // Each scored frame's query tree, built once for every set's map of it.
+    let targets: Vec<Option<Target>> =
+        scored_frames.par_iter().map(|&t| Target::new(&frames[t].positions, &frames[t].faces).ok()).collect();
+    let faces = grid.topology().faces;
+    let score = |set: &[usize; 4], (t, target): (usize, &Option<Target>)| -> Option<f64> {
         let at = set.map(|k| (place(&tracked.tracks[k], &tracked.features, t).unwrap_or(Vec3::ZERO), true));
         let g = map_frame(label, &frames[t], &at, None, grid).ok()?.grid;
-        let f = &frames[t];
-        let d = crate::metrics::surface::symmetric(&f.positions, &f.faces, &g, &grid.topology().faces).ok()?;
-        Some(d.rms)
+        let f = (&frames[t].positions[..], &frames[t].faces[..]);
+        symmetric_rms_to((&g, &faces), &|_| None, f, target.as_ref()?, (f64::INFINITY, 1)).ok()
     };
-    let runs: Vec<(usize, usize)> = (0..sets.len()).flat_map(|s| scored_frames.iter().map(move |&t| (s, t))).collect();
-    let errors: Vec<Option<f64>> = runs.par_iter().map(|&(s, t)| score(&sets[s], t)).collect();
+    let runs: Vec<(usize, usize)> =
+        (0..sets.len()).flat_map(|s| (0..scored_frames.len()).map(move |i| (s, i))).collect();
+    let errors: Vec<Option<f64>> =
+        runs.par_iter().map(|&(s, i)| score(&sets[s], (scored_frames[i], &targets[i]))).collect();
     // `runs` holds each set's frames together: a set whose map failed on
     // any of them is out.
     let scored: Vec<(f64, [usize; 4])> = errors

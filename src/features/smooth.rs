@@ -22,7 +22,7 @@
 //! the grid's normal dropped, so that it slides on the surface.
 
 use crate::error::Result;
-use crate::metrics::surface::{symmetric, Target};
+use crate::metrics::surface::{symmetric_rms_to, Target};
 use glam::Vec3;
 use rayon::prelude::*;
 
@@ -65,36 +65,49 @@ pub fn smooth(grids: &mut [Vec<Vec3>], surfaces: &[Surface], faces: &[[u32; 3]],
         windowed(grids, &targets, faces, diagonal, &inner, Window::Midpoint);
     }
     // Each inner frame's own grid's resampling error, for both checks.
-    let own_rms: Vec<f64> = (1..grids.len() - 1)
-        .map(|t| symmetric(surfaces[t].0, surfaces[t].1, &own[t], faces).map(|d| d.rms))
+    let own_rms: Vec<f64> = inner
+        .par_iter()
+        .map(|&t| resampling(&own[t], faces, surfaces[t], &targets[t - 1], f64::INFINITY))
         .collect::<Result<_>>()?;
-    let refused = keep_closer(grids, &own, &own_rms, surfaces, faces, 1..grids.len() - 1)?;
+    let refused = keep_closer(grids, &own, &own_rms, (surfaces, &targets), faces, &inner)?;
     windowed(grids, &targets, faces, diagonal, &refused, Window::AlongSurface);
-    let still = keep_closer(grids, &own, &own_rms, surfaces, faces, refused.iter().copied())?;
+    let still = keep_closer(grids, &own, &own_rms, (surfaces, &targets), faces, &refused)?;
     Ok(grids.len() - 2 - still.len())
 }
 
 /// Each inner frame of `frames` whose grid resamples its surface more
 /// than [`WORSE`] times as far off as its own grid (`own`, resampling at
-/// `own_rms[t - 1]`) given its own back; returns those frames.
+/// `own_rms[t - 1]`) given its own back; returns those frames. `targets`:
+/// the inner frames' surfaces, built once.
 fn keep_closer(
     grids: &mut [Vec<Vec3>],
     own: &[Vec<Vec3>],
     own_rms: &[f64],
-    surfaces: &[Surface],
+    (surfaces, targets): (&[Surface], &[Target]),
     faces: &[[u32; 3]],
-    frames: impl Iterator<Item = usize>,
+    frames: &[usize],
 ) -> Result<Vec<usize>> {
+    // Each measure stops once the grid is certainly refused (infinity).
+    let allowed = |t: usize| WORSE * own_rms[t - 1];
+    let smoothed: Vec<f64> = frames
+        .par_iter()
+        .map(|&t| resampling(&grids[t], faces, surfaces[t], &targets[t - 1], allowed(t)))
+        .collect::<Result<_>>()?;
     let mut refused = Vec::new();
-    for t in frames {
-        let (positions, frame_faces) = surfaces[t];
-        let smoothed = symmetric(positions, frame_faces, &grids[t], faces)?.rms;
-        if smoothed > WORSE * own_rms[t - 1] {
+    for (&t, smoothed) in frames.iter().zip(smoothed) {
+        if smoothed > allowed(t) {
             grids[t].clone_from(&own[t]);
             refused.push(t);
         }
     }
     Ok(refused)
+}
+
+/// How far a frame's grid lies from the frame's surface (symmetric surface
+/// RMS), its query tree (`target`) already built; infinity once certainly
+/// above `above`.
+fn resampling(grid: &[Vec3], faces: &[[u32; 3]], surface: Surface, target: &Target, above: f64) -> Result<f64> {
+    symmetric_rms_to((grid, faces), &|_| None, surface, target, (above, 1))
 }
 
 /// Savitzky-Golay's quadratic 5-point smoothing weights (sum 35).

@@ -121,8 +121,12 @@ impl Lbvh {
         // A hair of slack, so that rounding in a box's distance cannot
         // prune a triangle as near as the best.
         let beyond = |d2: f32, best: f32| d2 > best * best * (1.0 + 1e-5);
-        let mut stack = vec![(0u32, 0.0f32)];
-        while let Some((i, d2)) = stack.pop() {
+        // Each level adds one node to the stack (and one popped at once),
+        // and a level splits on one bit of a 64-bit key: at most 65 deep.
+        let (mut stack, mut len) = ([(0u32, 0.0f32); 66], 1);
+        while len > 0 {
+            len -= 1;
+            let (i, d2) = stack[len];
             if beyond(d2, best) {
                 continue;
             }
@@ -141,8 +145,9 @@ impl Lbvh {
             if children[1].1 < children[0].1 {
                 children.swap(0, 1);
             }
-            stack.push(children[1]);
-            stack.push(children[0]);
+            stack[len] = children[1];
+            stack[len + 1] = children[0];
+            len += 2;
         }
         best as f64
     }

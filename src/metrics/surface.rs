@@ -207,6 +207,17 @@ pub fn symmetric_rms_to(
     Ok(a_to_b.max(b_to_a))
 }
 
+/// [`symmetric`]'s RMS alone, with both query trees of the kind that
+/// builds fast ([`Lbvh`]) and no vertex queries (only the maxima use
+/// them): for a pair of surfaces measured once, as a capture frame's grid
+/// against the frame. The same figure as [`symmetric`]'s `rms`.
+pub fn symmetric_rms(a: &[Vec3], a_faces: &[[u32; 3]], b: &[Vec3], b_faces: &[[u32; 3]]) -> Result<f64> {
+    let all = (f64::INFINITY, 1);
+    let a_to_b = face_rms(a, a_faces, &Lbvh::new(b, b_faces)?, &|_| None, all).map_or(f64::INFINITY, |d| d.0);
+    let b_to_a = face_rms(b, b_faces, &Lbvh::new(a, a_faces)?, &|_| None, all).map_or(f64::INFINITY, |d| d.0);
+    Ok(a_to_b.max(b_to_a))
+}
+
 /// Symmetric distance between surfaces A and B.
 pub fn symmetric(a: &[Vec3], a_faces: &[[u32; 3]], b: &[Vec3], b_faces: &[[u32; 3]]) -> Result<SurfaceDistance> {
     symmetric_to(a, a_faces, b, b_faces, &Target::new(b, b_faces)?)
@@ -250,6 +261,7 @@ mod tests {
         let (mut b, fb) = square(0.1);
         let d = symmetric(&a, &fa, &b, &fb).unwrap();
         assert!((d.max - 0.1).abs() < 1e-6 && (d.rms - 0.1).abs() < 1e-6, "{d:?}");
+        assert_eq!(symmetric_rms(&a, &fa, &b, &fb).unwrap(), d.rms);
         // A vertex no face uses (a sample on a filler face, a loose vertex)
         // far away is not part of B's surface.
         b.push(Vec3::new(0.5, 0.5, 10.0));
@@ -258,5 +270,39 @@ mod tests {
         // The same vertex in a face is.
         let fc = [fb.clone(), vec![[0, 1, 4]]].concat();
         assert!(symmetric(&a, &fa, &b, &fc).unwrap().max > 5.0);
+    }
+
+    /// A height field z = f(x, y) over [0, 1]², `n` x `m` quads.
+    fn field(n: usize, m: usize, f: impl Fn(f32, f32) -> f32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+        let mut p = Vec::new();
+        for j in 0..=m {
+            for i in 0..=n {
+                let (x, y) = (i as f32 / n as f32, j as f32 / m as f32);
+                p.push(Vec3::new(x, y, f(x, y)));
+            }
+        }
+        let at = |i: usize, j: usize| (j * (n + 1) + i) as u32;
+        let faces = (0..m)
+            .flat_map(|j| {
+                (0..n).flat_map(move |i| {
+                    [[at(i, j), at(i + 1, j), at(i + 1, j + 1)], [at(i, j), at(i + 1, j + 1), at(i, j + 1)]]
+                })
+            })
+            .collect();
+        (p, faces)
+    }
+
+    #[test]
+    fn the_rms_alone_is_the_symmetric_distance_rms() {
+        // Two triangulations of nearby bumps: every query lands somewhere
+        // different, so the two kinds of query tree are compared on many.
+        let (a, fa) = field(23, 17, |x, y| 0.2 * (6.0 * x).sin() * (5.0 * y).cos());
+        let (b, fb) = field(31, 29, |x, y| 0.2 * (6.0 * x + 0.1).sin() * (5.0 * y).cos() + 0.01);
+        let d = symmetric(&a, &fa, &b, &fb).unwrap();
+        assert!(d.rms > 0.01 && d.rms_a_to_b != d.rms_b_to_a, "{d:?}");
+        let rms = symmetric_rms(&a, &fa, &b, &fb).unwrap();
+        assert!((rms - d.rms).abs() <= 1e-12 * d.rms, "{rms} against {}", d.rms);
+        let to = symmetric_rms_to((&a, &fa), &|_| None, (&b, &fb), &Target::new(&b, &fb).unwrap(), (f64::INFINITY, 1));
+        assert!((to.unwrap() - d.rms).abs() <= 1e-12 * d.rms);
     }
 }
