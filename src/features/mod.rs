@@ -17,6 +17,8 @@
 //!   features as the map's cones: a registered motion;
 //! - [`report`]: what the registration found;
 //! - [`follow`]: each frame's cut where the previous frame's ran;
+//! - [`frame_map`]: one frame mapped with four tracked features as its
+//!   cones;
 //! - [`handover`]: each piece of a capture going on where the last one
 //!   left off (its cones, its cut, its grid's turn);
 //! - [`segments`]: stretches of a capture registered each with its own
@@ -34,6 +36,7 @@ pub mod capture;
 pub mod detect;
 pub mod diagonals;
 pub mod follow;
+pub mod frame_map;
 pub mod handover;
 pub mod hks;
 pub mod jumps;
