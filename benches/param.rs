@@ -4,12 +4,14 @@
 //! which scores the area-correction passes by the grid's resampling error. Uses samba from ../shared/data when present
 //! (unpacked under target/), else the embedded default motion.
 //!
-//! Run: `cargo bench --bench param`
+//! Run: `cargo bench --bench param` (`-- surface-distance` for the
+//! resampling error's measure alone)
 #![allow(clippy::unwrap_used, clippy::expect_used)] // tests may stop on any failure
 
 use cgv::geometry_image::parameterize_for_grid;
 use cgv::grid::Grid;
 use cgv::mesh::{open_sequence, FrameSource, OpenOptions};
+use cgv::metrics::surface::{symmetric, symmetric_rms, symmetric_rms_to, Target};
 use cgv::param::{parameterize, ParamOptions};
 use cgv::resample::SampleMap;
 use criterion::{criterion_group, criterion_main, Criterion};
@@ -67,6 +69,27 @@ fn bench(c: &mut Criterion) {
         g.bench_function(format!("resample-frame/{name}/{n}"), |b| b.iter(|| map.apply_into(&frame, &mut out)));
     }
     g.bench_function(format!("read-obj-frame/{name}"), |b| b.iter(|| src.read_frame(1).expect("frame")));
+    // A frame's grid against the frame (its resampling error), as a
+    // capture's registration measures every frame several times: the
+    // full figure (both parry trees and the maxima), the RMS alone (both
+    // trees the fast-built Lbvh), and the RMS with the frame's tree built
+    // once (`symmetric_rms_to`, as the cone sets' scores share it).
+    for n in [128usize, 256] {
+        let grid = Grid::new(n).expect("grid");
+        let faces = grid.topology().faces;
+        let g_pos = SampleMap::build(grid, &topo.faces, &param).expect("locate").apply(&frame);
+        let (a, b) = ((&frame[..], &topo.faces[..]), (&g_pos[..], &faces[..]));
+        g.bench_function(format!("surface-distance/symmetric/{name}/{n}"), |bn| {
+            bn.iter(|| symmetric(a.0, a.1, b.0, b.1).expect("distance"))
+        });
+        g.bench_function(format!("surface-distance/rms/{name}/{n}"), |bn| {
+            bn.iter(|| symmetric_rms(a.0, a.1, b.0, b.1).expect("distance"))
+        });
+        let target = Target::new(a.0, a.1).expect("tree");
+        g.bench_function(format!("surface-distance/rms-to-built/{name}/{n}"), |bn| {
+            bn.iter(|| symmetric_rms_to(b, &|_| None, a, &target, (f64::INFINITY, 1)).expect("distance"))
+        });
+    }
     g.finish();
 }
 

@@ -31,7 +31,6 @@ use glam::Vec3;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
-
 /// The capture `frames` (named `label`) on `grid`, held in memory: each
 /// frame's grid positions, as a motion on the grid's own mesh, and the
 /// report ([`register_into`]).
