@@ -497,6 +497,18 @@ fn a_clip_whose_topology_changes_halfway_gets_two_segments() {
         f.faces.swap_remove(0);
     }
     assert_eq!(segment_starts(&frames), [0, 4]);
+    // `cgv info` lists the two and how each tracks.
+    let dir = common::temp_dir("unregistered-two-segments");
+    for (t, f) in frames.iter().enumerate() {
+        let topology = cgv::mesh::Topology { vertex_count: f.positions.len(), faces: f.faces.clone() };
+        cgv::mesh::obj::write_obj(&dir.join(format!("{t}.obj")), &f.positions, &topology).unwrap();
+    }
+    let info = cgv(&["info", dir.to_str().unwrap(), "--unregistered", "--json"]);
+    let report: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    assert_eq!(report["segments"], serde_json::json!([0, 4]), "{report}");
+    assert_eq!(report["segments_cones_seen"].as_array().map(Vec::len), Some(2), "{report}");
+    let text = String::from_utf8_lossy(&cgv(&["info", dir.to_str().unwrap(), "--unregistered"]).stdout).into_owned();
+    assert!(text.contains("frames    0-3 ") && text.contains("frames    4-7 "), "{text}");
     // Frames 3 and 6 lie within SEGMENT_FRAMES of the change at 4.
     assert_eq!(ranges(&frames, 3), [0..4, 4..8]);
     assert_eq!(ranges(&frames, 0), [0..4, 4..8]);
@@ -881,6 +893,7 @@ fn the_commands_make_report_and_code_a_capture() {
     assert!(report["cones_seen"].as_array().unwrap().iter().all(|x| x.as_f64() == Some(1.0)), "{report}");
     assert_eq!(report["cones_seen_overall"].as_f64(), Some(1.0), "{report}");
     assert_eq!(report["segments"], serde_json::json!([0]), "one topology: one segment");
+    assert_eq!(report["segments_cones_seen"], serde_json::json!([[1.0, 1.0, 1.0, 1.0]]), "{report}");
     let file = dir.join("capture.cgv");
     let plain = cgv(&["encode", capture_s, "--grid", "32", "-o", file.to_str().unwrap()]);
     assert!(!plain.status.success() && String::from_utf8_lossy(&plain.stderr).contains("--unregistered"));

@@ -177,6 +177,7 @@ fn unregistered_info(args: &Args) -> Result<()> {
             "cones_seen": seen,
             "cones_seen_overall": overall,
             "segments": starts,
+            "segments_cones_seen": segments.iter().map(|t| t.cones_seen()).collect::<Vec<_>>(),
             "frames_per_second": rate,
         });
         println!("{}", serde_json::to_string_pretty(&report)?);
@@ -193,15 +194,27 @@ fn unregistered_info(args: &Args) -> Result<()> {
         ),
     }
     println!("  features      {features_per_frame:.1} a frame (heat kernel signature maxima), {tracks} tracks");
-    let worst = if starts.len() > 1 { " (the worst segment's)" } else { "" };
+    let worst = if starts.len() > 1 { " (in each cone's worst segment)" } else { "" };
     println!(
         "  cones         the 4 longest tracks{}, seen in {:.0} % of their frames; each in {} of the frames{worst}",
         if starts.len() > 1 { " of each segment" } else { "" },
         100.0 * overall,
         seen.map(|x| format!("{:.0} %", 100.0 * x)).join(" / ")
     );
+    if starts.len() > 1 {
+        print_segments(&ranges, &segments);
+    }
     println!("  speed         {rate:.1} frames/s (features and tracking)");
     Ok(())
+}
+
+/// How each segment's cones track: which stretch tracks worst, for a
+/// `--segments` or `--frames` choice.
+fn print_segments(ranges: &[std::ops::Range<usize>], segments: &[cgv::features::track::Tracked]) {
+    for (r, t) in ranges.iter().zip(segments) {
+        let seen = t.cones_seen().map(|x| format!("{:.0}", 100.0 * x)).join(" / ");
+        println!("    frames {:>4}-{:<4}  cones seen in {seen} % of them", r.start, r.end - 1);
+    }
 }
 
 /// What `cgv info` says of the mesh a file gives back.
