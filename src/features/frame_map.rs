@@ -27,17 +27,17 @@ pub const AREA_PASSES: usize = 20;
 /// The carrier's map with `cones` and, if `trace` is given, its cut where
 /// the trace's ran and its missed cones where the trace had them (else the
 /// corner is where the paths leave furthest apart, [`follow::open_corner`],
-/// the paths shortest), the new map's trace and the cones it used. A
-/// carrier too coarse for
-/// the cones' paths to be cut apart is made finer, twice at most, as the
-/// encoder does (`crate::geometry_image`).
+/// the paths shortest), the new map's trace and which cone (its index in
+/// `cones`) the cut put on each side of the square. A carrier too coarse
+/// for the cones' paths to be cut apart is made finer, twice at most, as
+/// the encoder does (`crate::geometry_image`).
 fn map_with_cones(
     carrier: &mut Carrier,
     frame: &[Vec3],
     cones: [u32; 4],
     seen: [bool; 4],
     trace: Option<&CutTrace>,
-) -> Result<(Parameterization, CutTrace, [u32; 4])> {
+) -> Result<(Parameterization, CutTrace, [usize; 4])> {
     let mut tries = 0;
     loop {
         let positions = carrier.positions(frame);
@@ -72,7 +72,7 @@ fn map_with_cones(
                 }
                 let sides = param.cones.map(|v| cones.iter().position(|&c| c == v).unwrap_or(0));
                 let traced = CutTrace::of(&sig, param.corner, &paths, sides);
-                return Ok((param, traced, cones));
+                return Ok((param, traced, sides));
             }
         }
         tries += 1;
@@ -112,9 +112,8 @@ pub(super) fn map_on(
     let positions = carrier.positions(&frame.positions);
     let cones = at.map(|(p, _)| nearest(&positions, p).unwrap_or(0));
     let seen = one_cone_a_vertex(cones, at.map(|(_, seen)| seen));
-    let (param, trace, cones) = map_with_cones(&mut carrier, &frame.positions, cones, seen, trace)?;
+    let (param, trace, sides) = map_with_cones(&mut carrier, &frame.positions, cones, seen, trace)?;
     let map = SampleMap::on_carrier(grid, &carrier, &param)?;
-    let sides = param.cones.map(|v| cones.iter().position(|&c| c == v).unwrap_or(0));
     let places = carrier_places(&carrier, &param);
     Ok(Mapped { grid: map.apply(&frame.positions), places, sides, trace })
 }
