@@ -918,6 +918,14 @@ fn the_commands_make_report_and_code_a_capture() {
     // The grid's own line (the geometry image's floor) is no figure for a
     // capture: its grid is its own mesh.
     assert!(!String::from_utf8_lossy(&coded.stdout).contains("resamples the reference frame"));
+    // The time line counts the registration: its total is no less.
+    let stdout = String::from_utf8_lossy(&coded.stdout).to_string();
+    let time = stdout.lines().find(|l| l.contains("time: ")).unwrap_or_default();
+    let secs = |after: &str| -> f64 {
+        let rest = &time[time.find(after).map_or(time.len(), |i| i + after.len())..];
+        rest.split(' ').next().and_then(|x| x.parse().ok()).unwrap_or(f64::NAN)
+    };
+    assert!(secs("registration ") > 0.0 && secs("total ") >= secs("registration "), "{time}");
     let info = String::from_utf8_lossy(&cgv(&["info", file.to_str().unwrap()]).stdout).to_string();
     assert!(info.contains("segments      2, from frames 0, 4"), "{info}");
     // --json carries the registration's report, its floor included.

@@ -605,7 +605,7 @@ fn print_report(
                 );
             }
         }
-        print_rate(args, report, target);
+        print_rate(args, report, target, registration.map(|r| r.seconds));
     }
     Ok(())
 }
@@ -636,8 +636,14 @@ fn warn_budget(args: &Args, report: &cgv::codec::EncodeReport) {
 }
 
 /// `cgv encode`'s lines on the rate: the target's error, the budget's
-/// miss, the passes and times.
-fn print_rate(args: &Args, report: &cgv::codec::EncodeReport, target: Option<&cgv::codec::TargetReport>) {
+/// miss, the passes and times (with a capture's registration, `registering`
+/// seconds, which come before the coding and count in the total).
+fn print_rate(
+    args: &Args,
+    report: &cgv::codec::EncodeReport,
+    target: Option<&cgv::codec::TargetReport>,
+    registering: Option<f64>,
+) {
     if let Some(t) = target {
         let how = match t.vertex_residual {
             Some(p) => format!("QP {} and a {p:.4} % vertex residual, the coarsest of those tried within it", t.qp),
@@ -658,12 +664,13 @@ fn print_rate(args: &Args, report: &cgv::codec::EncodeReport, target: Option<&cg
         (n, Some(_)) => format!(" in {n} passes for the target"),
         (n, None) => format!(" in {n} passes for the budget"),
     };
+    let registration = registering.map_or(String::new(), |s| format!("registration {s:.2} s, "));
+    let total = report.seconds_total + registering.unwrap_or(0.0);
     println!(
-        "  time: parameterize {:.2} s, coding {:.2} s{passes}, total {:.2} s ({:.1} ms/frame)",
+        "  time: {registration}parameterize {:.2} s, coding {:.2} s{passes}, total {total:.2} s ({:.1} ms/frame)",
         report.seconds_parameterize,
         report.seconds_coding,
-        report.seconds_total,
-        1000.0 * report.seconds_total / report.frames as f64
+        1000.0 * total / report.frames as f64
     );
 }
 
