@@ -389,11 +389,7 @@ fn choose_map(
 /// own core; rayon keeps the order). Some cannot be cut apart (two cones
 /// whose paths must cross): they drop out, and the first such error is
 /// returned beside the others.
-fn start_racers<'a>(
-    carrier: &'a Carrier,
-    reference: &[Vec3],
-    opts: &ParamOptions,
-) -> (Vec<AreaPasses<'a>>, Option<Error>) {
+fn start_racers(carrier: &Carrier, reference: &[Vec3], opts: &ParamOptions) -> (Vec<AreaPasses>, Option<Error>) {
     let (topology, nv) = (&carrier.topology, carrier.topology.vertex_count);
     let pos: Vec<glam::DVec3> = reference.iter().map(|p| p.as_dvec3()).collect();
     let graph = cut::Graph::new(nv, &topology.faces, &pos);
@@ -426,11 +422,11 @@ fn start_racers<'a>(
 /// together instead of the third alone after the other two. They share
 /// nothing but the scoring target, read only, and each racer's passes run
 /// in their order, so the maps do not depend on the schedule.
-fn advance_all<'a>(
-    racers: Vec<AreaPasses<'a>>,
+fn advance_all(
+    racers: Vec<AreaPasses>,
     stop: usize,
     score: &(dyn Fn(&Parameterization, f64) -> Result<f64> + Sync),
-) -> Vec<Raced<'a>> {
+) -> Vec<Raced> {
     let mut all: Vec<Raced> = racers
         .into_iter()
         .map(|r| {
@@ -440,7 +436,7 @@ fn advance_all<'a>(
         .collect();
     let lanes = rayon::current_num_threads().max(1);
     loop {
-        let mut behind: Vec<&mut Raced<'a>> =
+        let mut behind: Vec<&mut Raced> =
             all.iter_mut().filter(|(e, r, _)| e.is_ok() && !r.stopped() && r.passes() < stop).collect();
         if behind.is_empty() {
             return all;
@@ -457,7 +453,7 @@ fn advance_all<'a>(
 
 /// A racer after [`advance_all`]: its passes' error, the racer, and its
 /// best score before them.
-type Raced<'a> = (Result<()>, AreaPasses<'a>, Option<f64>);
+type Raced = (Result<()>, AreaPasses, Option<f64>);
 
 /// Passes a racer runs at a time in [`advance_all`].
 const SEGMENT: usize = 10;

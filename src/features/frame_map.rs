@@ -12,8 +12,9 @@ use crate::error::Result;
 use crate::grid::Grid;
 use crate::mesh::carrier::Carrier;
 use crate::mesh::{Bounds, Topology};
+use crate::param::area::AreaPasses;
 use crate::param::cut::{corner_for, Graph};
-use crate::param::{parameterize, ParamOptions, Parameterization};
+use crate::param::{ParamOptions, Parameterization};
 use crate::resample::{carrier_places, SampleMap};
 use glam::{DVec3, Vec3};
 use std::path::Path;
@@ -24,59 +25,84 @@ use std::sync::Arc;
 /// after 20, `crate::param::SCORED_PASSES`).
 pub const AREA_PASSES: usize = 20;
 
-/// The carrier's map with `cones` and, if `trace` is given, its cut where
-/// the trace's ran and its missed cones where the trace had them (else the
-/// corner is where the paths leave furthest apart, [`follow::open_corner`],
-/// the paths shortest), the new map's trace and which cone (its index in
-/// `cones`) the cut put on each side of the square. A carrier too coarse
-/// for the cones' paths to be cut apart is made finer, twice at most, as
-/// the encoder does (`crate::geometry_image`).
-fn map_with_cones(
-    carrier: &mut Carrier,
+/// What one frame's map needs before its area passes: the carrier (made
+/// finer where the cones' paths could not be cut apart), the cut and
+/// conformal map with the passes still to run, the cut's trace and which
+/// cone (its index in the requested four) it put on each side of the
+/// square. A piece's frames are cut one after another (each cut follows
+/// the last), and their passes run side by side ([`finish_cut`]).
+pub(super) struct FrameCut {
+    carrier: Carrier,
+    passes: AreaPasses,
+    pub trace: CutTrace,
+    sides: [usize; 4],
+}
+
+/// One try at the carrier's map with `cones` and, if `trace` is given,
+/// its cut where the trace's ran and its missed cones where the trace had
+/// them (else the corner is where the paths leave furthest apart,
+/// [`follow::open_corner`], the paths shortest): the cut and the conformal
+/// map, the new cut's trace and the cones' sides.
+fn cut_once(
+    carrier: &Carrier,
     frame: &[Vec3],
     cones: [u32; 4],
     seen: [bool; 4],
     trace: Option<&CutTrace>,
-) -> Result<(Parameterization, CutTrace, [usize; 4])> {
+) -> Result<(AreaPasses, CutTrace, [usize; 4])> {
+    let positions = carrier.positions(frame);
+    let nv = carrier.topology.vertex_count;
+    let pos: Vec<DVec3> = positions.iter().map(|p| p.as_dvec3()).collect();
+    let graph = Graph::new(nv, &carrier.topology.faces, &pos);
+    let diagonal = Bounds::of(&positions).diagonal().max(f32::MIN_POSITIVE) as f64;
+    let cones = apart(&graph, trace.map_or(cones, |t| t.cones_in(&graph, cones, seen, diagonal)));
+    let sig = follow::signatures(&graph, cones, diagonal);
+    let corner = match trace.and_then(|t| t.corner_in(&sig, &cones)) {
+        Some(c) => c,
+        None => {
+            let normals = crate::mesh::vertex_normals(&positions, &carrier.topology.faces);
+            follow::open_corner(&graph, &pos, &normals, cones, diagonal)
+                .unwrap_or_else(|| corner_for(&graph, nv, &cones))
+        }
+    };
+    let opts = ParamOptions {
+        cones: Some((cones, corner)),
+        area_passes: AREA_PASSES,
+        cut_guide: trace.map(|t| Arc::new(t.guide(&sig))),
+        ..Default::default()
+    };
+    let passes = AreaPasses::start(&carrier.topology, &positions, &opts)?;
+    let param = passes.current();
+    let mut paths: [Vec<u32>; 4] = Default::default();
+    for (side, path) in param.cut_paths.iter().enumerate() {
+        let k = cones.iter().position(|&c| c == param.cones[side]).unwrap_or(side);
+        paths[k] = path.clone();
+    }
+    let sides = param.cones.map(|v| cones.iter().position(|&c| c == v).unwrap_or(0));
+    let traced = CutTrace::of(&sig, param.corner, &paths, sides);
+    Ok((passes, traced, sides))
+}
+
+/// `attempt` on the carrier, which a failure makes finer, twice at most,
+/// as the encoder does (`crate::geometry_image`): a carrier too coarse for
+/// the cones' paths to be cut apart.
+fn on_finer<T>(carrier: &mut Carrier, attempt: impl Fn(&Carrier) -> Result<T>) -> Result<T> {
     let mut tries = 0;
     loop {
-        let positions = carrier.positions(frame);
-        let nv = carrier.topology.vertex_count;
-        let pos: Vec<DVec3> = positions.iter().map(|p| p.as_dvec3()).collect();
-        let graph = Graph::new(nv, &carrier.topology.faces, &pos);
-        let diagonal = Bounds::of(&positions).diagonal().max(f32::MIN_POSITIVE) as f64;
-        let cones = apart(&graph, trace.map_or(cones, |t| t.cones_in(&graph, cones, seen, diagonal)));
-        let sig = follow::signatures(&graph, cones, diagonal);
-        let corner = match trace.and_then(|t| t.corner_in(&sig, &cones)) {
-            Some(c) => c,
-            None => {
-                let normals = crate::mesh::vertex_normals(&positions, &carrier.topology.faces);
-                follow::open_corner(&graph, &pos, &normals, cones, diagonal)
-                    .unwrap_or_else(|| corner_for(&graph, nv, &cones))
-            }
-        };
-        let opts = ParamOptions {
-            cones: Some((cones, corner)),
-            area_passes: AREA_PASSES,
-            cut_guide: trace.map(|t| Arc::new(t.guide(&sig))),
-            ..Default::default()
-        };
-        match parameterize(&carrier.topology, &positions, &opts) {
+        match attempt(carrier) {
             Err(_) if tries < 2 => carrier.subdivide(),
-            Err(e) => return Err(e),
-            Ok(param) => {
-                let mut paths: [Vec<u32>; 4] = Default::default();
-                for (side, path) in param.cut_paths.iter().enumerate() {
-                    let k = cones.iter().position(|&c| c == param.cones[side]).unwrap_or(side);
-                    paths[k] = path.clone();
-                }
-                let sides = param.cones.map(|v| cones.iter().position(|&c| c == v).unwrap_or(0));
-                let traced = CutTrace::of(&sig, param.corner, &paths, sides);
-                return Ok((param, traced, sides));
-            }
+            done => return done,
         }
         tries += 1;
     }
+}
+
+/// The frame's cones: the carrier's vertices nearest `at`, and whether
+/// each counts as seen there ([`one_cone_a_vertex`]).
+fn cones_on(carrier: &Carrier, frame: &CaptureFrame, at: &[(Vec3, bool); 4]) -> ([u32; 4], [bool; 4]) {
+    let positions = carrier.positions(&frame.positions);
+    let cones = at.map(|(p, _)| nearest(&positions, p).unwrap_or(0));
+    (cones, one_cone_a_vertex(cones, at.map(|(_, seen)| seen)))
 }
 
 /// One frame mapped with its cones nearest `at` (each place, and whether
@@ -101,7 +127,8 @@ pub(super) fn frame_carrier(label: &Path, frame: &CaptureFrame) -> Result<Carrie
     Carrier::build(label, &topology, &frame.positions)
 }
 
-/// [`map_frame`] on the frame's `carrier` ([`frame_carrier`]).
+/// [`map_frame`] on the frame's `carrier` ([`frame_carrier`]): a failure
+/// of the area passes, too, makes the carrier finer and tries again.
 pub(super) fn map_on(
     mut carrier: Carrier,
     frame: &CaptureFrame,
@@ -109,12 +136,47 @@ pub(super) fn map_on(
     trace: Option<&CutTrace>,
     grid: Grid,
 ) -> Result<Mapped> {
-    let positions = carrier.positions(&frame.positions);
-    let cones = at.map(|(p, _)| nearest(&positions, p).unwrap_or(0));
-    let seen = one_cone_a_vertex(cones, at.map(|(_, seen)| seen));
-    let (param, trace, sides) = map_with_cones(&mut carrier, &frame.positions, cones, seen, trace)?;
-    let map = SampleMap::on_carrier(grid, &carrier, &param)?;
-    let places = carrier_places(&carrier, &param);
+    let (cones, seen) = cones_on(&carrier, frame, at);
+    let (param, trace, sides) = on_finer(&mut carrier, |c| {
+        let (passes, trace, sides) = cut_once(c, &frame.positions, cones, seen, trace)?;
+        Ok((passes.finish(None)?, trace, sides))
+    })?;
+    mapped(&carrier, &param, frame, grid, trace, sides)
+}
+
+/// [`map_frame`]'s cut alone, its area passes left for [`finish_cut`]. A
+/// failure of those passes is not retried here: where [`finish_cut`]
+/// fails, [`map_frame`] maps the frame again from the start.
+pub(super) fn cut_frame(
+    label: &Path,
+    frame: &CaptureFrame,
+    at: &[(Vec3, bool); 4],
+    trace: Option<&CutTrace>,
+) -> Result<FrameCut> {
+    let mut carrier = frame_carrier(label, frame)?;
+    let (cones, seen) = cones_on(&carrier, frame, at);
+    let (passes, trace, sides) = on_finer(&mut carrier, |c| cut_once(c, &frame.positions, cones, seen, trace))?;
+    Ok(FrameCut { carrier, passes, trace, sides })
+}
+
+/// The frame's map from its cut ([`cut_frame`]): the same as [`map_frame`]'s
+/// where the passes succeed.
+pub(super) fn finish_cut(cut: FrameCut, frame: &CaptureFrame, grid: Grid) -> Result<Mapped> {
+    let param = cut.passes.finish(None)?;
+    mapped(&cut.carrier, &param, frame, grid, cut.trace, cut.sides)
+}
+
+/// The grid and the vertices' places of a frame's finished map.
+fn mapped(
+    carrier: &Carrier,
+    param: &Parameterization,
+    frame: &CaptureFrame,
+    grid: Grid,
+    trace: CutTrace,
+    sides: [usize; 4],
+) -> Result<Mapped> {
+    let map = SampleMap::on_carrier(grid, carrier, param)?;
+    let places = carrier_places(carrier, param);
     Ok(Mapped { grid: map.apply(&frame.positions), places, sides, trace })
 }
 

@@ -11,7 +11,7 @@
 
 use super::capture::{Capture, CaptureFrame};
 use super::follow::CutTrace;
-use super::frame_map::{frame_carrier, map_frame, map_on, Mapped};
+use super::frame_map::{cut_frame, finish_cut, frame_carrier, map_frame, map_on, FrameCut, Mapped};
 use super::handover::{self, Handover};
 pub use super::report::RegisterReport;
 use super::segments::segment_ranges;
@@ -255,12 +255,7 @@ fn register_piece(
     fits(label, frames, &tracked)?;
     let t1 = std::time::Instant::now();
     let diagonal = diagonal_of(frames);
-    let cones_at = |t: usize| {
-        tracked.cones.map(|k| {
-            let track = &tracked.tracks[k];
-            (place(track, &tracked.features, t).unwrap_or(Vec3::ZERO), track.seen[t].is_some())
-        })
-    };
+    let cones_at = cone_places(&tracked);
     let mut mapped = mapped_in_turn(label, frames, &cones_at, first_trace, grid)?;
     // The cut gives each cone its side by the order its path leaves the
     // corner in, which the trace mostly keeps (the square's first side is
@@ -298,6 +293,17 @@ fn register_piece(
     Ok((Registered { grid, meshes }, report, next))
 }
 
+/// Each frame's cones: the chosen tracks' places, and whether each track
+/// saw its feature there.
+fn cone_places(tracked: &Tracked) -> impl Fn(usize) -> [(Vec3, bool); 4] + Sync + '_ {
+    |t: usize| {
+        tracked.cones.map(|k| {
+            let track = &tracked.tracks[k];
+            (place(track, &tracked.features, t).unwrap_or(Vec3::ZERO), track.seen[t].is_some())
+        })
+    }
+}
+
 /// An error unless `tracked` holds the features of every one of
 /// `frames`, and there are some.
 fn fits(label: &Path, frames: &[CaptureFrame], tracked: &Tracked) -> Result<()> {
@@ -330,21 +336,53 @@ fn no_frames(label: &Path) -> Error {
 fn mapped_in_turn(
     label: &Path,
     frames: &[CaptureFrame],
-    cones_at: &dyn Fn(usize) -> [(Vec3, bool); 4],
+    cones_at: &(dyn Fn(usize) -> [(Vec3, bool); 4] + Sync),
     first_trace: Option<&CutTrace>,
     grid: Grid,
 ) -> Result<Vec<Mapped>> {
+    // One frame as the rule has it: a cut that cannot follow the last
+    // frame's (pcow's frames 30-60: "no path ... avoids the other cuts")
+    // is made afresh; a frame whose map then goes another way round is
+    // found later.
+    let one = |t: usize, trace: Option<&CutTrace>| match map_frame(label, &frames[t], &cones_at(t), trace, grid) {
+        Err(_) if trace.is_some() => map_frame(label, &frames[t], &cones_at(t), None, grid),
+        done => done,
+    };
+    // Only the cuts must go in turn (each follows the last), so a run of
+    // frames is cut one after another and its area passes, most of a
+    // map's time, run side by side, beside the next run's cuts. Where a
+    // cut or its passes fail, that frame is mapped by the rule above and
+    // the frames after it are cut again from there: the maps are those of
+    // frame after frame.
+    let run = (2 * rayon::current_num_threads()).max(2);
+    // Frames from `t` on cut in turn after `trace`, up to a run of them
+    // (fewer where a cut fails).
+    let cut_run = |t: usize, trace: Option<&CutTrace>| {
+        let mut cuts: Vec<FrameCut> = Vec::new();
+        for u in t..frames.len().min(t + run) {
+            let last = cuts.last().map(|c| &c.trace).or(trace);
+            let Ok(cut) = cut_frame(label, &frames[u], &cones_at(u), last) else { break };
+            cuts.push(cut);
+        }
+        cuts
+    };
     let mut mapped: Vec<Mapped> = Vec::with_capacity(frames.len());
-    for (t, frame) in frames.iter().enumerate() {
-        let trace = mapped.last().map(|m: &Mapped| &m.trace).or(first_trace);
-        // A cut that cannot follow the last frame's (pcow's frames 30-60:
-        // "no path ... avoids the other cuts") is made afresh; a frame
-        // whose map then goes another way round is found later.
-        let m = match map_frame(label, frame, &cones_at(t), trace, grid) {
-            Err(_) if trace.is_some() => map_frame(label, frame, &cones_at(t), None, grid)?,
-            done => done?,
-        };
-        mapped.push(m);
+    let mut cuts = cut_run(0, first_trace);
+    while mapped.len() < frames.len() {
+        let t = mapped.len();
+        let whole = cuts.len() == run;
+        let next_trace = cuts.last().map(|c| c.trace.clone());
+        let (done, next) = rayon::join(
+            || cuts.into_par_iter().enumerate().map(|(i, c)| finish_cut(c, &frames[t + i], grid)).collect::<Vec<_>>(),
+            || if whole { cut_run(t + run, next_trace.as_ref()) } else { Vec::new() },
+        );
+        mapped.extend(done.into_iter().map_while(Result::ok));
+        cuts = next;
+        if mapped.len() < frames.len() && mapped.len() < t + run {
+            let m = one(mapped.len(), mapped.last().map(|m: &Mapped| &m.trace).or(first_trace))?;
+            mapped.push(m);
+            cuts = cut_run(mapped.len(), mapped.last().map(|m| &m.trace));
+        }
     }
     Ok(mapped)
 }
@@ -622,5 +660,40 @@ mod tests {
         let (start, src, report, _) = piece(0, vec![p.clone(); 6]);
         let mut known = [(start, src, report, Some(vec![0.5; 6]))];
         assert_eq!(worst_resampling(&part, &mut known, grid).unwrap(), 0.5);
+    }
+
+    /// Maps made a run at a time (the cuts in turn, their area passes side
+    /// by side) are those made frame after frame; a frame that cannot be
+    /// mapped at all is the error it was.
+    #[test]
+    fn maps_made_in_runs_are_those_of_frame_after_frame() {
+        let src = crate::mesh::builtin::motion(7);
+        let mut frames: Vec<CaptureFrame> = src
+            .frames
+            .iter()
+            .enumerate()
+            .map(|(t, p)| {
+                let (positions, faces) =
+                    crate::mesh::unregister::remesh_frame(p, &src.topology.faces, 0.6 + 0.04 * t as f32, t as u64);
+                CaptureFrame { positions, faces }
+            })
+            .collect();
+        let label = Path::new("walk");
+        let tracked = super::super::tracking::track_capture(label, &frames).unwrap();
+        let at = cone_places(&tracked);
+        let grid = Grid::new(32).unwrap();
+        let in_runs = mapped_in_turn(label, &frames, &at, None, grid).unwrap();
+        let mut in_turn: Vec<Mapped> = Vec::new();
+        for (t, frame) in frames.iter().enumerate() {
+            let trace = in_turn.last().map(|m| &m.trace);
+            in_turn.push(map_frame(label, frame, &at(t), trace, grid).unwrap());
+        }
+        assert_eq!(in_runs.len(), frames.len());
+        for (a, b) in in_runs.iter().zip(&in_turn) {
+            assert_eq!((&a.grid, &a.places, a.sides), (&b.grid, &b.places, b.sides));
+        }
+        // A frame without faces: no cut, no map afresh either.
+        frames[5].faces.clear();
+        assert!(mapped_in_turn(label, &frames, &at, None, grid).is_err());
     }
 }

@@ -21,6 +21,7 @@ use super::{ParamOptions, Parameterization, Score, SCORED_PASSES, SCORE_GIVE_UP,
 use crate::error::{Error, Result};
 use crate::mesh::{Adjacency, Topology};
 use glam::{DVec2, DVec3, Vec3};
+use std::sync::Arc;
 
 /// What [`AreaPasses::start_with`] refuses: too few vertices, positions
 /// that do not match, an area correction out of range, a surface that is
@@ -49,8 +50,10 @@ fn check_input(topology: &Topology, positions: &[Vec3], opts: &ParamOptions) -> 
 
 /// A parameterization in progress: the conformal map, then as many area
 /// passes as [`advance`](Self::advance) has run.
-pub struct AreaPasses<'a> {
-    faces: &'a [[u32; 3]],
+pub struct AreaPasses {
+    /// The surface's faces (owned, so that a map in progress can be
+    /// handed on while its surface is kept elsewhere).
+    faces: Arc<[[u32; 3]]>,
     pos: Vec<DVec3>,
     /// The input's own faces (all of them, unless the surface is a
     /// carrier with faces of its own: see [`AreaPasses::start_with`]) and
@@ -59,7 +62,7 @@ pub struct AreaPasses<'a> {
     real_index: Vec<usize>,
     /// 3D area of each face.
     area3: Vec<f64>,
-    system: OrbifoldSystem<'a>,
+    system: OrbifoldSystem,
     /// The conformal map's half-edge weights (cotangent, symmetric) ...
     w0: Vec<f64>,
     /// ... and each vertex's factor on the weights into it after the
@@ -88,11 +91,11 @@ pub struct AreaPasses<'a> {
     early: Vec<(usize, Vec<DVec2>)>,
 }
 
-impl<'a> AreaPasses<'a> {
+impl AreaPasses {
     /// Cuts the surface, solves the conformal map (step 1) and readies the
     /// passes. Errors when the surface is not a closed genus-0 manifold, the
     /// options are out of range, or the cones cannot be cut apart.
-    pub fn start(topology: &'a Topology, positions: &[Vec3], opts: &ParamOptions) -> Result<AreaPasses<'a>> {
+    pub fn start(topology: &Topology, positions: &[Vec3], opts: &ParamOptions) -> Result<AreaPasses> {
         AreaPasses::start_with(topology, positions, None, opts)
     }
 
@@ -107,13 +110,14 @@ impl<'a> AreaPasses<'a> {
     /// resampling floors by -10 % to +17 % (face-poses, wolf at N = 128:
     /// surface or vertices better, the other worse), so they keep it.)
     pub fn start_with(
-        topology: &'a Topology,
+        topology: &Topology,
         positions: &[Vec3],
         real: Option<&[bool]>,
         opts: &ParamOptions,
-    ) -> Result<AreaPasses<'a>> {
+    ) -> Result<AreaPasses> {
         check_input(topology, positions, opts)?;
         let faces = &topology.faces;
+        let shared: Arc<[[u32; 3]]> = faces.as_slice().into();
         let nv = topology.vertex_count;
         let pos: Vec<DVec3> = positions.iter().map(|p| p.as_dvec3()).collect();
         let adj = Adjacency::build(faces);
@@ -131,7 +135,7 @@ impl<'a> AreaPasses<'a> {
         // the mirrored order is tried when the first one comes out reversed.
         for mirror in [false, true] {
             let cut = Cut::new(faces, &adj, &graph, cones, corner, mirror, guide.as_ref())?;
-            let mut system = OrbifoldSystem::new(faces, nv, &cut);
+            let mut system = OrbifoldSystem::new(Arc::clone(&shared), nv, &cut);
             let uv = system.solve_symmetric(&weights)?;
             let mut p = Parameterization {
                 cones: cut.cones,
@@ -154,7 +158,7 @@ impl<'a> AreaPasses<'a> {
             let ratios = distortion::area_ratios(&area3, |f| p.face_uv(faces, f));
             let summary = distortion::area_summary(&area3, &ratios, |f| p.face_uv(faces, f));
             return Ok(AreaPasses {
-                faces,
+                faces: shared,
                 pos,
                 real_faces,
                 real_index,
@@ -198,7 +202,13 @@ impl<'a> AreaPasses<'a> {
 
     /// Half-edge h's weight after the passes so far.
     fn weight(&self, h: usize) -> f64 {
-        self.w0[h] * self.c[crate::mesh::adjacency::target(self.faces, h as u32) as usize]
+        self.w0[h] * self.c[crate::mesh::adjacency::target(&self.faces, h as u32) as usize]
+    }
+
+    /// The map after the passes so far: its cut (cones, corner, paths) is
+    /// the finished map's.
+    pub fn current(&self) -> &Parameterization {
+        &self.p
     }
 
     /// Passes run so far.
@@ -226,7 +236,8 @@ impl<'a> AreaPasses<'a> {
         let opts = &self.p.options;
         let budget = if opts.area_correction > 0.0 { opts.area_passes } else { 0 };
         let eta = opts.area_correction;
-        let (faces, nv) = (self.faces, self.pos.len());
+        let (shared, nv) = (Arc::clone(&self.faces), self.pos.len());
+        let faces = &shared[..];
         while !self.done && self.p.area_passes < until {
             if self.p.area_passes >= budget {
                 return self.stop(score);
@@ -336,7 +347,7 @@ impl<'a> AreaPasses<'a> {
 
     /// The distortion of the real faces, with the folds of all faces.
     fn measure(&self, p: &Parameterization) -> distortion::Distortion {
-        let faces = self.faces;
+        let faces = &self.faces[..];
         let mut d = distortion::measure(&self.real_faces, &self.pos, |i| p.face_uv(faces, self.real_index[i]));
         let folded: Vec<usize> =
             (0..faces.len()).filter(|&f| distortion::signed_area(p.face_uv(faces, f)) <= 0.0).collect();

@@ -19,6 +19,7 @@ use crate::error::Result;
 use crate::mesh::adjacency::{origin, target, Adjacency, NONE};
 use crate::sparse::{Cholesky, Pattern};
 use glam::{DVec2, DVec3};
+use std::sync::Arc;
 
 /// Smallest edge weight, relative to the mean absolute cotangent weight.
 /// Negative cotangent weights (obtuse triangles) are clamped to it, which
@@ -66,8 +67,9 @@ pub fn cotangent_weights(faces: &[[u32; 3]], adj: &Adjacency, pos: &[DVec3]) -> 
 }
 
 /// The linear system of a map to the orbifold, for any positive weights.
-pub struct OrbifoldSystem<'a> {
-    faces: &'a [[u32; 3]],
+pub struct OrbifoldSystem {
+    /// Shared with the area passes that own the system.
+    faces: Arc<[[u32; 3]]>,
     /// The cut's cones (top, right, bottom, left), pinned at [`CONE_UV`].
     cones: [u32; 4],
     /// For half-edge h (i -> j): the isometry taking j's canonical position
@@ -81,8 +83,8 @@ pub struct OrbifoldSystem<'a> {
     pattern: Option<Pattern>,
 }
 
-impl<'a> OrbifoldSystem<'a> {
-    pub fn new(faces: &'a [[u32; 3]], nv: usize, cut: &Cut) -> Self {
+impl OrbifoldSystem {
+    pub fn new(faces: Arc<[[u32; 3]]>, nv: usize, cut: &Cut) -> Self {
         let mut index = vec![0u32; nv];
         let mut n = 0u32;
         for (v, slot) in index.iter_mut().enumerate() {
@@ -146,7 +148,7 @@ impl<'a> OrbifoldSystem<'a> {
         let mut entries = Vec::with_capacity(w0.len() + n);
         let mut rhs = vec![0.0; 2 * n];
         for (h, &w0h) in w0.iter().enumerate() {
-            let (i, j) = (origin(self.faces, h as u32), target(self.faces, h as u32));
+            let (i, j) = (origin(&self.faces, h as u32), target(&self.faces, h as u32));
             let ii = self.index[i as usize];
             if ii == u32::MAX {
                 continue;
@@ -223,7 +225,7 @@ mod tests {
         let mut entries = Vec::with_capacity(w.len() + n);
         let mut rhs = vec![0.0; 2 * n];
         for (h, &wh) in w.iter().enumerate() {
-            let (i, j) = (origin(system.faces, h as u32), target(system.faces, h as u32));
+            let (i, j) = (origin(&system.faces, h as u32), target(&system.faces, h as u32));
             let ii = system.index[i as usize];
             if ii == u32::MAX {
                 continue;
@@ -252,7 +254,7 @@ mod tests {
         let graph = Graph::new(nv, &faces, &pos);
         let (cones, corner) = cut::choose_cones(&graph, nv);
         let cut = Cut::new(&faces, &adj, &graph, cones, corner, false, None).unwrap();
-        let mut system = OrbifoldSystem::new(&faces, nv, &cut);
+        let mut system = OrbifoldSystem::new(faces.as_slice().into(), nv, &cut);
         let w0 = cotangent_weights(&faces, &adj, &pos);
         // Factors from 0.05 to 20, as many stretch passes leave them.
         let c: Vec<f64> = (0..nv).map(|v| (3.0 * (v as f64 * 0.7).sin()).exp()).collect();
