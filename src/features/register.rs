@@ -435,7 +435,7 @@ fn turned_to(
 }
 
 /// Frame `t` of a capture mapped again with its cut traced from a trace.
-type Remap<'a> = dyn Fn(usize, &CutTrace) -> Result<Mapped> + 'a;
+type Remap<'a> = dyn Fn(usize, &CutTrace) -> Result<Mapped> + Sync + 'a;
 
 /// Each frame whose cones' order round the corner differs from
 /// `reference`'s mapped again with its cut traced from the nearest
@@ -444,20 +444,22 @@ type Remap<'a> = dyn Fn(usize, &CutTrace) -> Result<Mapped> + 'a;
 fn remapped_to_agree(remap: &Remap, mapped: &mut [Mapped], reference: &[usize; 4]) -> Result<()> {
     let matches = |m: &Mapped| symmetry_between(&m.sides, reference).is_some();
     let good: Vec<usize> = (0..mapped.len()).filter(|&t| matches(&mapped[t])).collect();
-    for t in 0..mapped.len() {
-        if matches(&mapped[t]) {
-            continue;
-        }
-        let before = good.iter().rev().find(|&&g| g < t);
-        let after = good.iter().find(|&&g| g > t);
-        let tries = [1.0, RETRY_PULL].into_iter().flat_map(|pull| [before, after].map(|g| g.map(|&g| (g, pull))));
-        for (g, pull) in tries.flatten() {
+    let others: Vec<usize> = (0..mapped.len()).filter(|t| good.binary_search(t).is_err()).collect();
+    // Each frame tries the agreeing frames' traces only, which no try
+    // changes: the frames are mapped again side by side.
+    let again: Vec<Option<Mapped>> = others
+        .par_iter()
+        .map(|&t| {
+            let before = good.iter().rev().find(|&&g| g < t);
+            let after = good.iter().find(|&&g| g > t);
+            let tries = [1.0, RETRY_PULL].into_iter().flat_map(|pull| [before, after].map(|g| g.map(|&g| (g, pull))));
             // A trace this frame's cut cannot follow is a try that failed.
-            let Ok(again) = remap(t, &mapped[g].trace.pulled(pull)) else { continue };
-            if matches(&again) {
-                mapped[t] = again;
-                break;
-            }
+            tries.flatten().filter_map(|(g, pull)| remap(t, &mapped[g].trace.pulled(pull)).ok()).find(matches)
+        })
+        .collect();
+    for (t, m) in others.into_iter().zip(again) {
+        if let Some(m) = m {
+            mapped[t] = m;
         }
     }
     Ok(())
