@@ -72,7 +72,7 @@ impl GeometryImage {
         grid: Grid,
         opts: &ParamOptions,
     ) -> Result<GeometryImage> {
-        if topology.vertex_count == grid.len() && topology.faces == grid.topology().faces {
+        if topology.vertex_count == grid.len() && is_part_of(&topology.faces, &grid.topology().faces) {
             return GeometryImage::on_its_own_grid(label, topology, reference, grid, opts);
         }
         let t = std::time::Instant::now();
@@ -121,8 +121,9 @@ impl GeometryImage {
         }
     }
 
-    /// A motion already on `grid`'s own mesh (a registered capture,
-    /// `crate::features::register`, or a grid mesh of this size) is its own
+    /// A motion already on `grid`'s own mesh, or on part of it (a
+    /// registered capture, `crate::features::register`, whose faces over
+    /// holes are left out, or a grid mesh of this size) is its own
     /// geometry image: each sample its vertex, no map to find and nothing
     /// lost to resampling. The parameterization reported is the grid's own
     /// layout (each vertex at its sample, the cones at the sides' middles);
@@ -537,6 +538,13 @@ pub const OFFSET_STEP: f32 = 4e-5;
 /// among them is skipped): enough to see a motion's range, few enough to
 /// cost a small part of an encode.
 pub const FIT_FRAMES: usize = 16;
+
+/// Whether every face of `faces` is one of `grid`'s, in the same order
+/// (the grid's mesh with some faces left out).
+fn is_part_of(faces: &[[u32; 3]], grid: &[[u32; 3]]) -> bool {
+    let mut rest = grid.iter();
+    faces.iter().all(|f| rest.any(|g| g == f))
+}
 
 /// Each input vertex's offset from its place on the reference frame's grid
 /// `reference_grid` (format version 7), quantized as a file carries it;

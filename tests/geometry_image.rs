@@ -319,3 +319,40 @@ fn passes_run_in_segments_give_the_same_map_as_at_once() {
     let (a, b) = (whole.finish(None).unwrap(), pieces.finish(None).unwrap());
     assert_eq!((a.area_passes, &a.uv), (b.area_passes, &b.uv));
 }
+
+/// A motion on part of the grid's own mesh (a registered open capture,
+/// its faces over holes left out) is its own geometry image, as the whole
+/// grid mesh is: nothing mapped, each sample its own place; faces that are
+/// not the grid's, or not in its order, are mapped as any mesh.
+#[test]
+fn part_of_the_grid_mesh_is_its_own_image() {
+    use cgv::geometry_image::GeometryImage;
+    use cgv::resample::sample_place;
+    let grid = Grid::new(16).unwrap();
+    let whole = grid.topology();
+    // The grid on a bumpy sheet (the positions do not matter to the test).
+    let positions: Vec<glam::Vec3> = (0..grid.len())
+        .map(|s| glam::Vec3::new((s % 16) as f32, (s / 16) as f32, ((s * 5) % 3) as f32 * 0.1))
+        .collect();
+    let part: Vec<[u32; 3]> =
+        whole.faces.iter().copied().enumerate().filter(|(k, _)| k % 7 != 3).map(|(_, f)| f).collect();
+    let topology = Topology { vertex_count: grid.len(), faces: part.clone() };
+    let label = std::path::Path::new("part");
+    let image = GeometryImage::build(label, &topology, &positions, grid, &ParamOptions::default()).unwrap();
+    let own: Vec<[u32; 2]> = (0..grid.len() as u32).map(|s| sample_place(grid, s)).collect();
+    assert_eq!((image.places, image.param.area_passes), (own, 0));
+    let mut reordered = part;
+    reordered.swap(0, 1);
+    assert!(!is_own(&GeometryImage::build(
+        label,
+        &Topology { faces: reordered, ..topology },
+        &positions,
+        grid,
+        &ParamOptions::default()
+    )));
+}
+
+/// Whether an image (or the error building it) is a grid mesh's own.
+fn is_own(image: &cgv::error::Result<cgv::geometry_image::GeometryImage>) -> bool {
+    image.as_ref().is_ok_and(|i| i.param.corner_iso.is_empty() && i.param.score == Some(0.0))
+}

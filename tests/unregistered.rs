@@ -1229,3 +1229,47 @@ fn print_jitter_regions(truth: &InMemory, grid_frames: &[Vec<Vec3>], cones: &[Ve
         show(&by_cone)
     );
 }
+
+/// An open capture (the wolf: three open parts) comes back without the
+/// grid faces over its holes and between its parts: the registration
+/// leaves them out, the file carries the grid mesh without them, and what
+/// decodes has as many faces; its grid then lies no further from each
+/// frame's own mesh than with them. A closed capture keeps every face.
+#[test]
+fn an_open_capture_comes_back_without_the_faces_over_its_holes() {
+    let dir = common::temp_dir("unregistered-open");
+    let wolf = common::real_sequence("wolf");
+    let capture = dir.join("capture");
+    let out = cgv(&["unregister", wolf.to_str().unwrap(), "--frames", "0..3", "-o", capture.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let frames =
+        cgv::features::capture::read_capture(&capture, None, cgv::features::capture::CaptureLimit::NONE).unwrap();
+    let grid = Grid::new(32).unwrap();
+    let (registered, report) =
+        register(&capture, 30.0, &frames, grid, longest_segment(0.0, 30.0), &mut |_, _, _| {}).unwrap();
+    let all = grid.topology().faces;
+    let kept = &registered.grid.topology.faces;
+    assert!(report.lid_faces > 0 && kept.len() + report.lid_faces == all.len(), "{report:?}");
+    let on = |faces: &[[u32; 3]], t: usize| {
+        let f = &frames[t];
+        cgv::metrics::surface::symmetric_rms(&f.positions, &f.faces, &registered.grid.frames[t], faces).unwrap()
+    };
+    for t in 0..frames.len() {
+        assert!(on(kept, t) <= on(&all, t) * 1.001, "frame {t}: {} against {}", on(kept, t), on(&all, t));
+    }
+    let file = dir.join("wolf.cgv");
+    let args = ["encode", capture.to_str().unwrap(), "--unregistered", "--grid", "32", "-o", file.to_str().unwrap()];
+    let coded = cgv(&args);
+    assert!(coded.status.success(), "{}", String::from_utf8_lossy(&coded.stderr));
+    assert!(String::from_utf8_lossy(&coded.stderr).contains("grid faces over the capture's holes left out"));
+    let objs = dir.join("decoded");
+    let decoded = cgv(&["decode", file.to_str().unwrap(), "-o", objs.to_str().unwrap()]);
+    assert!(decoded.status.success(), "{}", String::from_utf8_lossy(&decoded.stderr));
+    let first = &cgv::mesh::obj::frame_files(&objs).unwrap()[0];
+    let (_, faces) = cgv::mesh::obj::read_obj(first).unwrap();
+    assert_eq!(faces.len(), kept.len());
+    // The walk is closed: nothing left out.
+    let walk: Vec<CaptureFrame> = remeshed(&cgv::mesh::builtin::motion(3), 3);
+    let (closed, report) = register(Path::new("walk"), 30.0, &walk, grid, 60, &mut |_, _, _| {}).unwrap();
+    assert_eq!((report.lid_faces, closed.grid.topology.faces.len()), (0, all.len()));
+}

@@ -177,7 +177,7 @@ fn mapped(
 ) -> Result<Mapped> {
     let map = SampleMap::on_carrier(grid, carrier, param)?;
     let places = carrier_places(carrier, param);
-    Ok(Mapped { grid: map.apply(&frame.positions), places, sides, trace })
+    Ok(Mapped { grid: map.apply(&frame.positions), places, sides, trace, on_input: map.on_input })
 }
 
 /// `seen` with a cone that shares its vertex with another counted as
@@ -219,6 +219,9 @@ pub(super) struct Mapped {
     pub places: Vec<[u32; 2]>,
     pub sides: [usize; 4],
     pub trace: CutTrace,
+    /// Whether each sample lies on the frame's own faces (not on a lid
+    /// over a hole, nor a tube between parts: [`super::lids`]).
+    pub on_input: Vec<bool>,
 }
 
 /// The vertex of `positions` nearest `p`.

@@ -13,6 +13,8 @@
 //! - [`jumps`]: frames whose grid jumps, found by its speed;
 //! - [`outliers`]: frames whose grid lies far from their own mesh,
 //!   rebuilt from their neighbours;
+//! - [`lids`]: the grid faces over a capture's holes, left out of the
+//!   grid mesh it comes back as;
 //! - [`register`]: every frame mapped onto the grid with four tracked
 //!   features as the map's cones: a registered motion;
 //! - [`report`]: what the registration found;
@@ -40,6 +42,7 @@ pub mod frame_map;
 pub mod handover;
 pub mod hks;
 pub mod jumps;
+pub mod lids;
 pub mod nearest;
 pub mod outliers;
 pub mod register;

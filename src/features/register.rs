@@ -17,11 +17,11 @@ pub use super::report::RegisterReport;
 use super::segments::segment_ranges;
 use super::store::FrameStore;
 pub use super::store::Registered;
-use super::symmetry::{apply_symmetry, symmetry_between, turn_place, IDENTITY};
+use super::symmetry::{apply_symmetry, symmetry_between, turn_place, Symmetry, IDENTITY};
 pub use super::track::Tracked;
 use super::track::{place, Track};
 use super::tracking::track_capture;
-use super::{diagonals, jumps, outliers, segments, smooth};
+use super::{diagonals, jumps, lids, outliers, segments, smooth};
 use crate::error::{Error, Result};
 use crate::grid::Grid;
 use crate::mesh::carrier::Carrier;
@@ -100,6 +100,12 @@ pub fn register_into(
     }
     let mut report = all.ok_or_else(|| Error::Argument(format!("{}: a capture without frames", label.display())))?;
     report.rebuilt_frames = outliers::rebuilt(grid, capture, &starts, store, &mut errors)?;
+    let kept = lids::kept_faces(grid, &report.lid_votes, report.frames);
+    report.lid_faces = grid.topology().faces.len() - kept.len();
+    if report.lid_faces > 0 {
+        errors = lids::errors_on(capture, store, &kept)?;
+        store.set_faces(kept);
+    }
     let relative: Vec<f64> = errors.iter().zip(&diagonals).map(|(e, d)| e / d.max(f64::MIN_POSITIVE)).collect();
     report.resampling_mean = relative.iter().sum::<f64>() / relative.len().max(1) as f64;
     report.resampling_worst = relative.iter().copied().fold(0.0, f64::max);
@@ -274,9 +280,14 @@ fn register_piece(
     // way round (not one still jumping, to be bridged, or unmatched).
     let steady = |t: &usize| !jumping.contains(t) && symmetry_between(&mapped[*t].sides, &reference).is_some();
     let last_trace = (0..mapped.len()).rev().find(steady).map(|t| mapped[t].trace.clone());
+    let on_input: Vec<Vec<bool>> = mapped
+        .iter()
+        .map(|m| apply_symmetry(grid, &m.on_input, symmetry_between(&m.sides, &reference).unwrap_or(IDENTITY)))
+        .collect();
     let (mut positions, mut places, turned, unmatched) = turned_back(grid, mapped, &reference);
     let smoothed = bridged_and_smoothed(grid, frames, &jumping, &mut positions, &mut places)?;
-    turned_to(grid, frames, handover, &mut positions, &mut places)?;
+    let turn = turned_to(grid, frames, handover, &mut positions, &mut places)?;
+    let on_input: Vec<Vec<bool>> = on_input.iter().map(|o| apply_symmetry(grid, o, turn)).collect();
     let report = RegisterReport {
         frames: frames.len(),
         turned_frames: turned,
@@ -284,6 +295,7 @@ fn register_piece(
         bridged_frames: jumping.len(),
         smoothed_frames: smoothed,
         seconds_maps: t1.elapsed().as_secs_f64(),
+        lid_votes: lids::votes(grid, &on_input),
         ..RegisterReport::of_tracking(&tracked)
     };
     let last_grid = positions.last().cloned().unwrap_or_default();
@@ -411,27 +423,27 @@ fn chosen_cones<'h>(
 /// Every frame's grid and places of a piece turned so that the grid's
 /// diagonals lie the better way ([`diagonals::better_turns`]), by the one
 /// of those two turns that puts its first grid nearest the last piece's
-/// last ([`handover::nearest_turn`]).
+/// last ([`handover::nearest_turn`]). Returns the turn.
 fn turned_to(
     grid: Grid,
     frames: &[CaptureFrame],
     handover: Option<&Handover>,
     positions: &mut [Vec<Vec3>],
     places: &mut [Vec<[u32; 2]>],
-) -> Result<()> {
+) -> Result<Symmetry> {
     let turns = diagonals::better_turns(grid, frames, positions)?;
     let m = match (handover, positions.first()) {
         (Some(h), Some(first)) => handover::nearest_turn(grid, &h.grid, first, &turns),
         _ => turns[0],
     };
     if m == IDENTITY {
-        return Ok(());
+        return Ok(m);
     }
     for (g, p) in positions.iter_mut().zip(places.iter_mut()) {
         *g = apply_symmetry(grid, g, m);
         p.iter_mut().for_each(|q| *q = turn_place(*q, m));
     }
-    Ok(())
+    Ok(m)
 }
 
 /// Frame `t` of a capture mapped again with its cut traced from a trace.

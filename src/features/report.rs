@@ -38,6 +38,13 @@ pub struct RegisterReport {
     /// under which no coding of its grid goes.
     pub resampling_mean: f64,
     pub resampling_worst: f64,
+    /// Grid faces over the capture's holes ([`super::lids`]), left out of
+    /// the grid mesh it comes back as (and of the floor above).
+    pub lid_faces: usize,
+    /// For each grid face, the frames in which it lies over a hole
+    /// ([`super::lids::votes`]).
+    #[serde(skip)]
+    pub lid_votes: Vec<u32>,
     /// The kept pieces' features and maps; a segment that failed its
     /// checks had its halves registered too, which `seconds` counts.
     pub seconds_features: f64,
@@ -96,6 +103,7 @@ impl RegisterReport {
         self.smoothed_frames += next.smoothed_frames;
         self.seconds_features += next.seconds_features;
         self.seconds_maps += next.seconds_maps;
+        self.lid_votes = super::lids::added(&self.lid_votes, &next.lid_votes);
         self.segments.push(start as u32);
     }
 }

@@ -31,6 +31,9 @@ pub trait FrameStore {
     /// Frame `t`'s grid and its vertices' places replaced (as many places
     /// as the frame has vertices).
     fn replace(&mut self, t: usize, grid: Vec<Vec3>, places: Vec<[u32; 2]>) -> Result<()>;
+    /// The faces of the grid mesh the capture comes back as: the grid's,
+    /// less those over its holes ([`super::lids`]).
+    fn set_faces(&mut self, faces: Vec<[u32; 3]>);
 }
 
 /// A registered capture held in memory: its frames on the grid (a motion
@@ -67,6 +70,10 @@ impl FrameStore for Registered {
         let (g, m) = self.grid.frames.get_mut(t).zip(self.meshes.get_mut(t)).ok_or_else(|| past_end(t, len))?;
         (*g, m.places) = (grid, places);
         Ok(())
+    }
+
+    fn set_faces(&mut self, faces: Vec<[u32; 3]>) {
+        self.grid.topology.faces = faces;
     }
 }
 
@@ -209,6 +216,10 @@ impl FrameStore for Spilled {
         bytes.clear();
         places.iter().for_each(|p| put_words(&mut bytes, *p));
         self.write_at(at + 12 * self.samples as u64 + 8 + 12 * (nv as u64 + nf as u64), &bytes)
+    }
+
+    fn set_faces(&mut self, faces: Vec<[u32; 3]>) {
+        self.topology.faces = faces;
     }
 }
 

@@ -7,7 +7,6 @@
 
 use crate::grid::Grid;
 use crate::resample::quantized_place;
-use glam::Vec3;
 
 /// A symmetry of the square (and of the grid: the sides' middles, where
 /// the cones sit, go to sides' middles) as an integer 2 x 2 matrix.
@@ -36,8 +35,9 @@ pub fn symmetry_between(sides: &[usize; 4], reference: &[usize; 4]) -> Option<Sy
     })
 }
 
-/// Grid frame `g` moved by the symmetry `m`: sample p goes to m p.
-pub fn apply_symmetry(grid: Grid, g: &[Vec3], m: Symmetry) -> Vec<Vec3> {
+/// Grid frame `g` (a value a sample) moved by the symmetry `m`: sample p
+/// goes to m p.
+pub fn apply_symmetry<T: Copy>(grid: Grid, g: &[T], m: Symmetry) -> Vec<T> {
     let n = grid.n as i32;
     let mut out = g.to_vec();
     for (s, &p) in g.iter().enumerate() {
@@ -60,6 +60,7 @@ pub fn turn_place(q: [u32; 2], m: Symmetry) -> [u32; 2] {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Vec3;
 
     /// Each symmetry of the square is found from where it moves the cones,
     /// and four quarter turns of a grid frame give it back.

@@ -390,6 +390,9 @@ fn encode_one(args: &Args) -> Result<()> {
     let (src, registration) = match args.unregistered {
         true => {
             let (src, report) = registered(args)?;
+            // An open capture's grid mesh without the faces over its holes
+            // is the mesh the file carries (each sample its own place).
+            request.base.source_mesh = report.lid_faces > 0 && !args.no_source_mesh && !request.base.frame_meshes;
             let segments = &mut request.base.segments;
             segments.extend(&report.segments);
             segments.sort_unstable();
@@ -483,6 +486,12 @@ fn registered(args: &Args) -> Result<(Box<dyn cgv::mesh::FrameSource>, RegisterR
         r.seconds_features,
         r.seconds_maps
     );
+    if r.lid_faces > 0 {
+        eprintln!(
+            "  {} grid faces over the capture's holes left out of the grid mesh (their samples off the frames' own meshes)",
+            r.lid_faces
+        );
+    }
     if !r.segments.is_empty() {
         eprintln!(
             "segments (each its own tracks and map) start at frames 0, {} (every {longest} frames and where the topology changes)",
