@@ -9,8 +9,8 @@
 //!
 //! Each frame's map says which samples lie on the frame's own faces
 //! ([`crate::resample::SampleMap::on_input`]). A grid face whose samples
-//! are all off them in most frames is over a hole, decided once for the
-//! capture, since a file has one grid mesh.
+//! are all off them in most of a piece's frames is over a hole there, and
+//! one over a hole in every piece is left out: a file has one grid mesh.
 
 use super::capture::Capture;
 use super::outliers::resampling_error;
@@ -19,23 +19,29 @@ use crate::error::Result;
 use crate::grid::Grid;
 use rayon::prelude::*;
 
-/// For each face of `grid`, in how many of the frames (`on_input`: each
-/// frame's samples, whether each lies on the frame's own faces) its three
-/// samples lie off them. (A face with one or two samples off, at a hole's
-/// rim, stays: leaving those out too left face-poses' capture 0.474 % of
-/// the diagonal from its frames, keeping them 0.465 %.)
-pub fn votes(grid: Grid, on_input: &[Vec<bool>]) -> Vec<u32> {
+/// For one piece of a capture (one map), 1 for each face of `grid` that
+/// lies over a hole in more than half of its frames (`on_input`: each
+/// frame's samples, whether each lies on the frame's own faces), 0 for the
+/// others; no frames, no list. A face lies over a hole where its three
+/// samples lie off the frame's faces. (A face with one or two samples off,
+/// at a hole's rim, stays: leaving those out too left face-poses' capture
+/// 0.474 % of the diagonal from its frames, keeping them 0.465 %.)
+pub fn over_holes(grid: Grid, on_input: &[Vec<bool>]) -> Vec<u32> {
+    if on_input.is_empty() {
+        return Vec::new();
+    }
     let faces = grid.topology().faces;
-    let mut votes = vec![0u32; faces.len()];
+    let mut frames = vec![0usize; faces.len()];
     for frame in on_input.iter().filter(|o| !o.iter().all(|&x| x)) {
-        for (v, f) in votes.iter_mut().zip(&faces) {
-            *v += f.iter().all(|&s| !frame.get(s as usize).copied().unwrap_or(true)) as u32;
+        let off = |s: &u32| !frame.get(*s as usize).copied().unwrap_or(true);
+        for (n, f) in frames.iter_mut().zip(&faces) {
+            *n += f.iter().all(off) as usize;
         }
     }
-    votes
+    frames.iter().map(|&n| (2 * n > on_input.len()) as u32).collect()
 }
 
-/// Two pieces' [`votes`] added up (an empty list counts no frame).
+/// Two pieces' [`over_holes`] added up (an empty list counts nothing).
 pub fn added(a: &[u32], b: &[u32]) -> Vec<u32> {
     match (a.is_empty(), b.is_empty()) {
         (true, _) => b.to_vec(),
@@ -44,11 +50,13 @@ pub fn added(a: &[u32], b: &[u32]) -> Vec<u32> {
     }
 }
 
-/// The faces of `grid` to keep: all but those over a hole ([`votes`]) in
-/// more than half of the capture's `frames`.
-pub fn kept_faces(grid: Grid, votes: &[u32], frames: usize) -> Vec<[u32; 3]> {
+/// The faces of `grid` to keep: all but those over a hole in every one of
+/// the capture's `pieces` ([`over_holes`], added up). Each piece has a map
+/// of its own, which may put a hole elsewhere on the grid; a face over a
+/// hole in one piece may be on the surface in another's frames.
+pub fn kept_faces(grid: Grid, votes: &[u32], pieces: u32) -> Vec<[u32; 3]> {
     let faces = grid.topology().faces;
-    let over = |f: usize| 2 * votes.get(f).copied().unwrap_or(0) as usize > frames;
+    let over = |f: usize| pieces > 0 && votes.get(f).copied().unwrap_or(0) >= pieces;
     (0..faces.len()).filter(|&f| !over(f)).map(|f| faces[f]).collect()
 }
 
@@ -72,29 +80,35 @@ pub fn errors_on(capture: &dyn Capture, store: &dyn FrameStore, faces: &[[u32; 3
 mod tests {
     use super::*;
 
-    /// A face whose samples are off the frame's faces in most frames goes;
-    /// one off in half of them or fewer stays; a closed capture keeps all.
+    /// A face whose samples are off the frame's faces in most of a
+    /// piece's frames is over a hole there; one over a hole in every piece
+    /// goes, one over a hole in some pieces only stays; a closed capture
+    /// keeps all.
     #[test]
-    fn faces_over_a_hole_in_most_frames_are_left_out() {
+    fn faces_over_a_hole_in_every_piece_are_left_out() {
         let grid = Grid::new(4).unwrap();
         let faces = grid.topology().faces;
         // The middle quad's four samples off.
         let middle = [5u32, 6, 9, 10];
         let hole: Vec<bool> = (0..16).map(|s| !middle.contains(&s)).collect();
         let closed = vec![true; 16];
-        let three = votes(grid, &[hole.clone(), hole.clone(), closed.clone()]);
         let inside = |f: &[u32; 3]| f.iter().all(|s| middle.contains(s));
-        for (v, f) in three.iter().zip(&faces) {
-            assert_eq!(*v, if inside(f) { 2 } else { 0 }, "{f:?}");
-        }
         assert_eq!(faces.iter().filter(|f| inside(f)).count(), 2);
-        let kept = kept_faces(grid, &three, 3);
+        let two_of_three = over_holes(grid, &[hole.clone(), hole.clone(), closed.clone()]);
+        for (v, f) in two_of_three.iter().zip(&faces) {
+            assert_eq!(*v, inside(f) as u32, "{f:?}");
+        }
+        let kept = kept_faces(grid, &two_of_three, 1);
         assert_eq!(kept, faces.iter().copied().filter(|f| !inside(f)).collect::<Vec<_>>());
-        assert!(kept.len() < faces.len());
-        // Pieces add up; over a hole in two frames of four, a face stays.
-        let four = added(&three, &votes(grid, std::slice::from_ref(&closed)));
-        assert_eq!(kept_faces(grid, &four, 4), faces);
-        assert_eq!(added(&[], &three), three);
-        assert_eq!(kept_faces(grid, &votes(grid, &[closed]), 1), faces);
+        // Over a hole in half the frames: not over one.
+        let half = over_holes(grid, &[hole.clone(), closed.clone()]);
+        assert!(half.iter().all(|&v| v == 0));
+        // Pieces add up: over a hole in one piece of two, every face stays.
+        assert_eq!(kept_faces(grid, &added(&two_of_three, &half), 2), faces);
+        assert_eq!(kept_faces(grid, &added(&two_of_three, &two_of_three), 2), kept);
+        assert_eq!(added(&[], &half), half);
+        assert!(over_holes(grid, &[]).is_empty());
+        assert_eq!(kept_faces(grid, &over_holes(grid, &[closed]), 1), faces);
+        assert_eq!(kept_faces(grid, &[], 0), faces);
     }
 }

@@ -100,7 +100,7 @@ pub fn register_into(
     }
     let mut report = all.ok_or_else(|| Error::Argument(format!("{}: a capture without frames", label.display())))?;
     report.rebuilt_frames = outliers::rebuilt(grid, capture, &starts, store, &mut errors)?;
-    let kept = lids::kept_faces(grid, &report.lid_votes, report.frames);
+    let kept = lids::kept_faces(grid, &report.lid_votes, report.lid_pieces);
     report.lid_faces = grid.topology().faces.len() - kept.len();
     if report.lid_faces > 0 {
         errors = lids::errors_on(capture, store, &kept)?;
@@ -280,9 +280,13 @@ fn register_piece(
     // way round (not one still jumping, to be bridged, or unmatched).
     let steady = |t: &usize| !jumping.contains(t) && symmetry_between(&mapped[*t].sides, &reference).is_some();
     let last_trace = (0..mapped.len()).rev().find(steady).map(|t| mapped[t].trace.clone());
-    let on_input: Vec<Vec<bool>> = mapped
-        .iter()
-        .map(|m| apply_symmetry(grid, &m.on_input, symmetry_between(&m.sides, &reference).unwrap_or(IDENTITY)))
+    // Which samples lie on each frame's own faces, as its grid is turned;
+    // a frame bridged from its neighbours, or that no turn matches, has a
+    // grid its map does not describe and says nothing.
+    let on_input: Vec<Vec<bool>> = (0..mapped.len())
+        .filter(steady)
+        .filter_map(|t| symmetry_between(&mapped[t].sides, &reference).map(|s| (t, s)))
+        .map(|(t, s)| apply_symmetry(grid, &mapped[t].on_input, s))
         .collect();
     let (mut positions, mut places, turned, unmatched) = turned_back(grid, mapped, &reference);
     let smoothed = bridged_and_smoothed(grid, frames, &jumping, &mut positions, &mut places)?;
@@ -295,7 +299,8 @@ fn register_piece(
         bridged_frames: jumping.len(),
         smoothed_frames: smoothed,
         seconds_maps: t1.elapsed().as_secs_f64(),
-        lid_votes: lids::votes(grid, &on_input),
+        lid_votes: lids::over_holes(grid, &on_input),
+        lid_pieces: 1,
         ..RegisterReport::of_tracking(&tracked)
     };
     let last_grid = positions.last().cloned().unwrap_or_default();
@@ -366,7 +371,9 @@ fn mapped_in_turn(
     // cut or its passes fail, that frame is mapped by the rule above and
     // the frames after it are cut again from there: the maps are those of
     // frame after frame.
-    let run = (2 * rayon::current_num_threads()).max(2);
+    // Each cut holds its carrier and factored system until its passes
+    // end: at most two runs of them at once.
+    let run = (2 * rayon::current_num_threads()).clamp(2, RUN_MOST);
     // Frames from `t` on cut in turn after `trace`, up to a run of them
     // (fewer where a cut fails).
     let cut_run = |t: usize, trace: Option<&CutTrace>| {
@@ -566,6 +573,9 @@ fn turned_back(grid: Grid, mapped: Vec<Mapped>, reference: &[usize; 4]) -> Turne
 
 /// [`turned_back`]'s grids, places, turned and unmatched frames.
 type Turned = (Vec<Vec<Vec3>>, Vec<Vec<[u32; 2]>>, usize, usize);
+
+/// Most frames [`mapped_in_turn`] cuts ahead of their area passes.
+const RUN_MOST: usize = 8;
 
 /// How much harder a frame mapped again pulls its cut to the trace.
 const RETRY_PULL: f64 = 3.0;

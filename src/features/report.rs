@@ -41,10 +41,12 @@ pub struct RegisterReport {
     /// Grid faces over the capture's holes ([`super::lids`]), left out of
     /// the grid mesh it comes back as (and of the floor above).
     pub lid_faces: usize,
-    /// For each grid face, the frames in which it lies over a hole
-    /// ([`super::lids::votes`]).
+    /// For each grid face, the pieces (each its own map) in which it lies
+    /// over a hole ([`super::lids::over_holes`]), of `lid_pieces`.
     #[serde(skip)]
     pub lid_votes: Vec<u32>,
+    #[serde(skip)]
+    pub lid_pieces: u32,
     /// The kept pieces' features and maps; a segment that failed its
     /// checks had its halves registered too, which `seconds` counts.
     pub seconds_features: f64,
@@ -104,6 +106,7 @@ impl RegisterReport {
         self.seconds_features += next.seconds_features;
         self.seconds_maps += next.seconds_maps;
         self.lid_votes = super::lids::added(&self.lid_votes, &next.lid_votes);
+        self.lid_pieces += next.lid_pieces;
         self.segments.push(start as u32);
     }
 }
