@@ -24,8 +24,9 @@ use rayon::prelude::*;
 /// frame's samples, whether each lies on the frame's own faces), 0 for the
 /// others; no frames, no list. A face lies over a hole where its three
 /// samples lie off the frame's faces. (A face with one or two samples off,
-/// at a hole's rim, stays: leaving those out too left face-poses' capture
-/// 0.474 % of the diagonal from its frames, keeping them 0.465 %.)
+/// at a hole's rim, stays: with the faces counted over all frames at once,
+/// leaving those out too left face-poses' capture 0.474 % of the diagonal
+/// from its frames, keeping them 0.465 %.)
 pub fn over_holes(grid: Grid, on_input: &[Vec<bool>]) -> Vec<u32> {
     if on_input.is_empty() {
         return Vec::new();

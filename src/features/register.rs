@@ -284,7 +284,7 @@ fn register_piece(
     // a frame bridged from its neighbours, or that no turn matches, has a
     // grid its map does not describe and says nothing.
     let on_input: Vec<Vec<bool>> = (0..mapped.len())
-        .filter(steady)
+        .filter(|t| !jumping.contains(t))
         .filter_map(|t| symmetry_between(&mapped[t].sides, &reference).map(|s| (t, s)))
         .map(|(t, s)| apply_symmetry(grid, &mapped[t].on_input, s))
         .collect();
