@@ -57,6 +57,19 @@ pub struct RegisterReport {
     /// changed there, or the last segment reached its longest
     /// ([`super::segments::segment_ranges`]).
     pub segments: Vec<u32>,
+    /// Each segment's tracking (its own cones), in order: where
+    /// [`RegisterReport::cones_seen`] says how bad the worst stretch is,
+    /// this says which.
+    pub segments_tracking: Vec<SegmentTracking>,
+}
+
+/// One segment's tracking: its first frame (in the capture), its frames,
+/// and the share of them each of its cones' tracks was seen in.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
+pub struct SegmentTracking {
+    pub start: usize,
+    pub frames: usize,
+    pub cones_seen: [f64; 4],
 }
 
 impl RegisterReport {
@@ -71,6 +84,11 @@ impl RegisterReport {
             cones_seen: tracked.cones_seen(),
             cones_seen_overall: tracked.cones_seen_overall(),
             seconds_features: tracked.seconds,
+            segments_tracking: vec![SegmentTracking {
+                start: 0,
+                frames: tracked.features.len(),
+                cones_seen: tracked.cones_seen(),
+            }],
             ..Default::default()
         }
     }
@@ -108,6 +126,8 @@ impl RegisterReport {
         self.lid_votes = super::lids::added(&self.lid_votes, &next.lid_votes);
         self.lid_pieces += next.lid_pieces;
         self.segments.push(start as u32);
+        let moved = next.segments_tracking.iter().map(|t| SegmentTracking { start: start + t.start, ..t.clone() });
+        self.segments_tracking.extend(moved);
     }
 }
 
@@ -121,6 +141,7 @@ mod tests {
         let part = |frames, seen: [f64; 4]| RegisterReport {
             frames,
             cones_seen: seen,
+            segments_tracking: vec![SegmentTracking { start: 0, frames, cones_seen: seen }],
             cones_seen_overall: seen.iter().sum::<f64>() / 4.0,
             ..Default::default()
         };
@@ -128,5 +149,8 @@ mod tests {
         assert_eq!((all.frames, all.segments.clone()), (40, vec![30]));
         assert_eq!(all.cones_seen, [1.0, 1.0, 0.5, 0.5]);
         assert!((all.cones_seen_overall - 37.5 / 40.0).abs() < 1e-12, "{all:?}");
+        let starts: Vec<(usize, usize)> = all.segments_tracking.iter().map(|t| (t.start, t.frames)).collect();
+        assert_eq!(starts, [(0, 30), (30, 10)]);
+        assert_eq!(all.segments_tracking[1].cones_seen, [1.0, 1.0, 0.5, 0.5]);
     }
 }

@@ -497,6 +497,10 @@ fn registered(args: &Args) -> Result<(Box<dyn cgv::mesh::FrameSource>, RegisterR
             "segments (each its own tracks and map) start at frames 0, {} (every {longest} frames and where the topology changes)",
             join(&r.segments)
         );
+        for t in &r.segments_tracking {
+            let seen = t.cones_seen.map(|x| format!("{:.0}", 100.0 * x)).join(" / ");
+            eprintln!("    frames {:>4}-{:<4}  cones seen in {seen} % of them", t.start, t.start + t.frames - 1);
+        }
     }
     Ok((Box::new(store), r))
 }
