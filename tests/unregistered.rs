@@ -1258,8 +1258,14 @@ fn an_open_capture_comes_back_without_the_faces_over_its_holes() {
         let f = &frames[t];
         cgv::metrics::surface::symmetric_rms(&f.positions, &f.faces, &registered.grid.frames[t], faces).unwrap()
     };
-    for t in 0..frames.len() {
+    for (t, f) in frames.iter().enumerate() {
         assert!(on(kept, t) <= on(&all, t) * 1.001, "frame {t}: {} against {}", on(kept, t), on(&all, t));
+        // The kept faces' samples lie on the frame's own mesh (those at a
+        // hole's rim too: moved onto it).
+        let own = cgv::metrics::surface::Target::new(&f.positions, &f.faces).unwrap();
+        let diagonal = Bounds::of(&f.positions).diagonal() as f64;
+        let off = kept.iter().flatten().map(|&s| own.distance(registered.grid.frames[t][s as usize]));
+        assert!(off.fold(0.0, f64::max) < 1e-5 * diagonal, "frame {t}");
     }
     let file = dir.join("wolf.cgv");
     let args = ["encode", capture.to_str().unwrap(), "--unregistered", "--grid", "32", "-o", file.to_str().unwrap()];

@@ -103,7 +103,7 @@ pub fn register_into(
     let kept = lids::kept_faces(grid, &report.lid_votes, report.lid_pieces);
     report.lid_faces = grid.topology().faces.len() - kept.len();
     if report.lid_faces > 0 {
-        errors = lids::errors_on(capture, store, &kept)?;
+        errors = lids::onto_own_meshes(capture, store, &kept)?;
         store.set_faces(kept);
     }
     let relative: Vec<f64> = errors.iter().zip(&diagonals).map(|(e, d)| e / d.max(f64::MIN_POSITIVE)).collect();

@@ -31,6 +31,8 @@ pub trait FrameStore {
     /// Frame `t`'s grid and its vertices' places replaced (as many places
     /// as the frame has vertices).
     fn replace(&mut self, t: usize, grid: Vec<Vec3>, places: Vec<[u32; 2]>) -> Result<()>;
+    /// Frame `t`'s grid replaced, its vertices' places kept.
+    fn replace_grid(&mut self, t: usize, grid: Vec<Vec3>) -> Result<()>;
     /// The faces of the grid mesh the capture comes back as: the grid's,
     /// less those over its holes ([`super::lids`]).
     fn set_faces(&mut self, faces: Vec<[u32; 3]>);
@@ -69,6 +71,11 @@ impl FrameStore for Registered {
         let len = self.len();
         let (g, m) = self.grid.frames.get_mut(t).zip(self.meshes.get_mut(t)).ok_or_else(|| past_end(t, len))?;
         (*g, m.places) = (grid, places);
+        Ok(())
+    }
+    fn replace_grid(&mut self, t: usize, grid: Vec<Vec3>) -> Result<()> {
+        let len = self.len();
+        *self.grid.frames.get_mut(t).ok_or_else(|| past_end(t, len))? = grid;
         Ok(())
     }
 
@@ -201,21 +208,31 @@ impl FrameStore for Spilled {
     }
     fn replace(&mut self, t: usize, grid: Vec<Vec3>, places: Vec<[u32; 2]>) -> Result<()> {
         let (at, nv, nf) = self.record(t)?;
-        if grid.len() != self.samples || places.len() != nv as usize {
+        if places.len() != nv as usize {
             return Err(Error::Argument(format!(
-                "{}: frame {t} rewritten with {} samples and {} places (it has {} and {nv})",
+                "{}: frame {t} rewritten with {} places (it has {nv} vertices)",
+                self.label.display(),
+                places.len()
+            )));
+        }
+        self.replace_grid(t, grid)?;
+        let mut bytes = Vec::with_capacity(8 * places.len());
+        places.iter().for_each(|p| put_words(&mut bytes, *p));
+        self.write_at(at + 12 * self.samples as u64 + 8 + 12 * (nv as u64 + nf as u64), &bytes)
+    }
+    fn replace_grid(&mut self, t: usize, grid: Vec<Vec3>) -> Result<()> {
+        let (at, _, _) = self.record(t)?;
+        if grid.len() != self.samples {
+            return Err(Error::Argument(format!(
+                "{}: frame {t} rewritten with {} samples (it has {})",
                 self.label.display(),
                 grid.len(),
-                places.len(),
                 self.samples
             )));
         }
         let mut bytes = Vec::with_capacity(12 * self.samples);
         put_vec3s(&mut bytes, &grid);
-        self.write_at(at, &bytes)?;
-        bytes.clear();
-        places.iter().for_each(|p| put_words(&mut bytes, *p));
-        self.write_at(at + 12 * self.samples as u64 + 8 + 12 * (nv as u64 + nf as u64), &bytes)
+        self.write_at(at, &bytes)
     }
 
     fn set_faces(&mut self, faces: Vec<[u32; 3]>) {
