@@ -136,7 +136,7 @@ impl GeometryImage {
         opts: &ParamOptions,
     ) -> Result<GeometryImage> {
         let carrier = Carrier::build_with(label, topology, reference, 0)?;
-        let map = SampleMap::identity(grid);
+        let map = SampleMap::identity_on(grid, &topology.faces);
         let places: Vec<[u32; 2]> = (0..grid.len() as u32).map(|s| crate::resample::sample_place(grid, s)).collect();
         let n = grid.n as u32;
         let at = |k: usize| (k as f64 + 0.5) * 2.0 / grid.n as f64 - 1.0;

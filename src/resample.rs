@@ -118,12 +118,34 @@ impl SampleMap {
         }
     }
 
+    /// [`identity`](Self::identity) for an input that is part of the
+    /// grid's mesh (`faces`, a subset of the grid's in its order: an open
+    /// capture's grid without the faces over its holes): only those faces,
+    /// and the samples they use, lie on the input, so the encoder's error
+    /// figures leave the rest out.
+    pub fn identity_on(grid: Grid, faces: &[[u32; 3]]) -> SampleMap {
+        let mut map = SampleMap::identity(grid);
+        let all = grid.topology().faces;
+        if faces.len() == all.len() {
+            return map;
+        }
+        let mut kept = faces.iter().peekable();
+        map.face_on_input = all.iter().map(|f| kept.next_if(|g| *g == f).is_some()).collect();
+        map.on_input = vec![false; grid.len()];
+        for &s in faces.iter().flatten() {
+            if let Some(on) = map.on_input.get_mut(s as usize) {
+                *on = true;
+            }
+        }
+        map
+    }
+
     /// The grid mesh's triangles whose three samples lie on the input's
     /// faces: the decoded surface that the surface-error metrics compare
     /// with the input (all of them for a closed genus-0 input).
     pub fn surface_faces(&self) -> Vec<[u32; 3]> {
         let faces = self.grid.topology().faces;
-        if self.on_input.iter().all(|&x| x) {
+        if self.on_input.iter().all(|&x| x) && self.face_on_input.iter().all(|&x| x) {
             return faces;
         }
         let on = |k: usize| self.face_on_input.get(k).copied().unwrap_or(true);

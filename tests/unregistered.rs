@@ -1272,6 +1272,11 @@ fn an_open_capture_comes_back_without_the_faces_over_its_holes() {
     let coded = cgv(&args);
     assert!(coded.status.success(), "{}", String::from_utf8_lossy(&coded.stderr));
     assert!(String::from_utf8_lossy(&coded.stderr).contains("grid faces over the capture's holes left out"));
+    // A target error is met on the grid's kept faces, and says that the
+    // grid lies off the capture's own meshes by the registration's floor.
+    let aimed = cgv(&[&args[..], &["--target-error", "1"]].concat());
+    let said = String::from_utf8_lossy(&aimed.stdout).into_owned();
+    assert!(aimed.status.success() && said.contains("against the registered grid; the grid lies"), "{said}");
     let objs = dir.join("decoded");
     let decoded = cgv(&["decode", file.to_str().unwrap(), "-o", objs.to_str().unwrap()]);
     assert!(decoded.status.success(), "{}", String::from_utf8_lossy(&decoded.stderr));

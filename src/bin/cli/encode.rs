@@ -618,7 +618,7 @@ fn print_report(
                 );
             }
         }
-        print_rate(args, report, target, registration.map(|r| r.seconds));
+        print_rate(args, report, target, registration);
     }
     Ok(())
 }
@@ -649,13 +649,13 @@ fn warn_budget(args: &Args, report: &cgv::codec::EncodeReport) {
 }
 
 /// `cgv encode`'s lines on the rate: the target's error, the budget's
-/// miss, the passes and times (with a capture's registration, `registering`
-/// seconds, which come before the coding and count in the total).
+/// miss, the passes and times (with a capture's `registration`, whose
+/// seconds come before the coding and count in the total).
 fn print_rate(
     args: &Args,
     report: &cgv::codec::EncodeReport,
     target: Option<&cgv::codec::TargetReport>,
-    registering: Option<f64>,
+    registration: Option<&RegisterReport>,
 ) {
     if let Some(t) = target {
         let how = match t.vertex_residual {
@@ -668,6 +668,15 @@ fn print_rate(
             args.target_error.unwrap_or(0.0),
             t.frames_measured,
         );
+        // A capture's file is measured against its registered grid, which
+        // lies off the capture's own meshes by the registration's floor.
+        if let Some(r) = registration {
+            println!(
+                "  (against the registered grid; the grid lies {:.4} % from the capture's own meshes on average, \
+                 which the coding's error adds to)",
+                100.0 * r.resampling_mean
+            );
+        }
     }
     if let Some(miss) = report.budget_miss {
         println!("  budget: {:+.2} % from {} kbit/s", 100.0 * miss, args.kbps.unwrap_or_default());
@@ -677,8 +686,9 @@ fn print_rate(
         (n, Some(_)) => format!(" in {n} passes for the target"),
         (n, None) => format!(" in {n} passes for the budget"),
     };
-    let registration = registering.map_or(String::new(), |s| format!("registration {s:.2} s, "));
-    let total = report.seconds_total + registering.unwrap_or(0.0);
+    let registering = registration.map_or(0.0, |r| r.seconds);
+    let registration = registration.map_or(String::new(), |r| format!("registration {:.2} s, ", r.seconds));
+    let total = report.seconds_total + registering;
     println!(
         "  time: {registration}parameterize {:.2} s, coding {:.2} s{passes}, total {total:.2} s ({:.1} ms/frame)",
         report.seconds_parameterize,
