@@ -93,12 +93,12 @@ where
 #[inline]
 /// Common code for upper and lower triangular solvers
 ///
-/// cgv patch (see `PATCH.md` at the crate's root): the loop over rows is
-/// outside and each solved row is applied to the rows below it whole, where
-/// upstream slices one column of `b` per element. The same operations run in
-/// the same order per element (the results are identical); LOBPCG's
-/// orthonormalization solves with `b = V^T` of n columns (one per vertex),
-/// where that slicing cost more than the arithmetic.
+/// cgv patch (see `PATCH.md` at the crate's root): each column of `b` is
+/// solved in a small contiguous buffer, where upstream sliced `b` once per
+/// element. The same operations run in the same order per element (the
+/// results are identical); LOBPCG's orthonormalization solves with
+/// `b = V^T` of n columns (one per vertex), where that slicing cost more
+/// than the arithmetic.
 fn solve_triangular_system_common<A: NdFloat, I: Iterator<Item = usize>>(
     a: &ArrayBase<impl Data<Elem = A>, Ix2>,
     b: &mut ArrayBase<impl DataMut<Elem = A>, Ix2>,
@@ -114,15 +114,24 @@ fn solve_triangular_system_common<A: NdFloat, I: Iterator<Item = usize>>(
     }
 
     let order: Vec<usize> = row_iter_fn(rows).collect();
-    for (at, &i) in order.iter().enumerate() {
-        let diag = diag_fn(i);
-        b.row_mut(i).mapv_inplace(|x| x / diag);
-        let solved = b.row(i).to_owned();
-        for &j in &order[at + 1..] {
-            let coeff = a[(j, i)];
-            b.row_mut(j)
-                .zip_mut_with(&solved, |x, &s| *x = *x + (-s * coeff));
+    let diags: Vec<A> = order.iter().map(|&i| diag_fn(i)).collect();
+    // Each row's eliminations: the rows after it, with their coefficients.
+    let below: Vec<Vec<(usize, A)>> = order
+        .iter()
+        .enumerate()
+        .map(|(at, &i)| order[at + 1..].iter().map(|&j| (j, a[(j, i)])).collect())
+        .collect();
+    let mut x = vec![A::zero(); rows];
+    for mut col in b.columns_mut() {
+        x.iter_mut().zip(col.iter()).for_each(|(x, c)| *x = *c);
+        for (at, &i) in order.iter().enumerate() {
+            let solved = x[i] / diags[at];
+            x[i] = solved;
+            for &(j, coeff) in &below[at] {
+                x[j] = x[j] + (-solved * coeff);
+            }
         }
+        col.iter_mut().zip(&x).for_each(|(c, x)| *c = *x);
     }
 
     Ok(())
