@@ -1277,6 +1277,8 @@ fn an_open_capture_comes_back_without_the_faces_over_its_holes() {
     let aimed = cgv(&[&args[..], &["--target-error", "1"]].concat());
     let said = String::from_utf8_lossy(&aimed.stdout).into_owned();
     assert!(aimed.status.success() && said.contains("against the registered grid; the grid lies"), "{said}");
+    let reached = said.split("surface RMS ").nth(1).and_then(|r| r.split(' ').next()?.parse::<f64>().ok());
+    assert!(reached.is_some_and(|e| e <= 1.0), "{said}");
     let objs = dir.join("decoded");
     let decoded = cgv(&["decode", file.to_str().unwrap(), "-o", objs.to_str().unwrap()]);
     assert!(decoded.status.success(), "{}", String::from_utf8_lossy(&decoded.stderr));

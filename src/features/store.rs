@@ -75,7 +75,16 @@ impl FrameStore for Registered {
     }
     fn replace_grid(&mut self, t: usize, grid: Vec<Vec3>) -> Result<()> {
         let len = self.len();
-        *self.grid.frames.get_mut(t).ok_or_else(|| past_end(t, len))? = grid;
+        let g = self.grid.frames.get_mut(t).ok_or_else(|| past_end(t, len))?;
+        if g.len() != grid.len() {
+            let label = self.grid.label.display();
+            return Err(Error::Argument(format!(
+                "{label}: frame {t} rewritten with {} samples (it has {})",
+                grid.len(),
+                g.len()
+            )));
+        }
+        *g = grid;
         Ok(())
     }
 

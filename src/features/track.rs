@@ -131,8 +131,10 @@ pub fn track(frames: &[Vec<Feature>], centers: &[Vec3], diagonal: f32) -> Vec<Tr
 
 /// `tracks` with each gap of at most [`GAP`] frames between two sightings
 /// filled where a frame has a free weak maximum (one no track holds)
-/// within [`WEAK_STEP`] of the place between them: the nearest is taken,
-/// the longest tracks first. The matching above predicts from the last
+/// within [`WEAK_STEP`] of the place between them ([`place`], frame by
+/// frame, a frame just filled counting as a sighting): the nearest is
+/// taken, the longest tracks first. A filled frame is seen like any
+/// other: a cone's place there is that maximum's. The matching above predicts from the last
 /// sighting alone, and a head that swings leaves its damped prediction
 /// further behind than that (whole pcow's segment 60-89 lost its head for
 /// three frames so, with weak maxima by the place between its sightings).

@@ -115,11 +115,12 @@ fn solve_triangular_system_common<A: NdFloat, I: Iterator<Item = usize>>(
 
     let order: Vec<usize> = row_iter_fn(rows).collect();
     let diags: Vec<A> = order.iter().map(|&i| diag_fn(i)).collect();
-    // Each row's eliminations: the rows after it, with their coefficients.
-    let below: Vec<Vec<(usize, A)>> = order
+    // Each row's coefficients in the rows after it (`order[at + 1..]`): no
+    // more than `a` itself holds.
+    let below: Vec<Vec<A>> = order
         .iter()
         .enumerate()
-        .map(|(at, &i)| order[at + 1..].iter().map(|&j| (j, a[(j, i)])).collect())
+        .map(|(at, &i)| order[at + 1..].iter().map(|&j| a[(j, i)]).collect())
         .collect();
     let mut x = vec![A::zero(); rows];
     for mut col in b.columns_mut() {
@@ -127,7 +128,7 @@ fn solve_triangular_system_common<A: NdFloat, I: Iterator<Item = usize>>(
         for (at, &i) in order.iter().enumerate() {
             let solved = x[i] / diags[at];
             x[i] = solved;
-            for &(j, coeff) in &below[at] {
+            for (&j, &coeff) in order[at + 1..].iter().zip(&below[at]) {
                 x[j] = x[j] + (-solved * coeff);
             }
         }
