@@ -339,6 +339,19 @@ mod tests {
         assert_eq!((&mesh.positions, &mesh.places), (&frames[1].1.positions, &m.places));
         assert_eq!(spill.frame_mesh(2).unwrap().unwrap().as_ref(), &frames[2].1);
         assert!(spill.replace(1, g.clone(), vec![[0, 0]; 3]).is_err(), "places of another frame's size");
+        // A grid alone replaced: its places kept, the next frame untouched.
+        let (g2, _) = frame(8, 3);
+        spill.replace_grid(0, g2.clone()).unwrap();
+        assert_eq!(spill.read_frame(0).unwrap(), g2);
+        assert_eq!(spill.frame_mesh(0).unwrap().unwrap().as_ref(), &frames[0].1);
+        assert_eq!(spill.read_frame(1).unwrap(), g);
+        assert!(spill.replace_grid(0, g2[..15].to_vec()).is_err(), "a grid of another size");
+        assert!(spill.replace_grid(3, g2.clone()).is_err(), "a frame past the end");
+        let mut held = Registered::empty(Path::new("walk"), 30.0, grid);
+        held.push(frames[0].0.clone(), frames[0].1.clone()).unwrap();
+        assert!(held.replace_grid(0, g2[..15].to_vec()).is_err() && held.replace_grid(1, g2.clone()).is_err());
+        held.replace_grid(0, g2.clone()).unwrap();
+        assert_eq!((held.grid(0).unwrap().as_ref(), &held.meshes[0]), (&g2[..], &frames[0].1));
         assert!(spill.push(g[..15].to_vec(), m).is_err(), "a grid of another size");
         assert!(spill.read_frame(3).is_err());
         assert_eq!(spill.frame_count(), 3);
