@@ -131,12 +131,7 @@ impl SampleMap {
         }
         let mut kept = faces.iter().peekable();
         map.face_on_input = all.iter().map(|f| kept.next_if(|g| *g == f).is_some()).collect();
-        map.on_input = vec![false; grid.len()];
-        for &s in faces.iter().flatten() {
-            if let Some(on) = map.on_input.get_mut(s as usize) {
-                *on = true;
-            }
-        }
+        map.on_input = crate::mesh::topology::used_by(faces, grid.len());
         map
     }
 

@@ -17,6 +17,7 @@ use super::outliers::resampling_error;
 use super::store::FrameStore;
 use crate::error::Result;
 use crate::grid::Grid;
+use crate::mesh::topology::used_by;
 use crate::metrics::surface::Target;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -74,12 +75,7 @@ pub fn kept_faces(grid: Grid, votes: &[u32], pieces: u32) -> Vec<[u32; 3]> {
 /// the mesh already and barely move.
 pub fn onto_own_meshes(capture: &dyn Capture, store: &mut dyn FrameStore, faces: &[[u32; 3]]) -> Result<Vec<f64>> {
     let n = capture.len();
-    let mut used = vec![false; store.grid(0).map_or(0, |g| g.len())];
-    for &v in faces.iter().flatten() {
-        if let Some(u) = used.get_mut(v as usize) {
-            *u = true;
-        }
-    }
+    let used = used_by(faces, store.grid(0).map_or(0, |g| g.len()));
     let run = (4 * rayon::current_num_threads()).max(1);
     let mut errors = Vec::with_capacity(n);
     for a in (0..n).step_by(run) {

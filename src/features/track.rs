@@ -134,10 +134,11 @@ pub fn track(frames: &[Vec<Feature>], centers: &[Vec3], diagonal: f32) -> Vec<Tr
 /// within [`WEAK_STEP`] of the place between them ([`place`], frame by
 /// frame, a frame just filled counting as a sighting): the nearest is
 /// taken, the longest tracks first. A filled frame is seen like any
-/// other: a cone's place there is that maximum's. The matching above predicts from the last
-/// sighting alone, and a head that swings leaves its damped prediction
-/// further behind than that (whole pcow's segment 60-89 lost its head for
-/// three frames so, with weak maxima by the place between its sightings).
+/// other: a cone's place there is that maximum's. The matching above
+/// predicts from the last sighting alone, and a head that swings leaves
+/// its damped prediction further behind than that (whole pcow's segment
+/// 60-89 lost its head for three frames so, with weak maxima by the place
+/// between its sightings).
 fn filled(mut tracks: Vec<Track>, frames: &[Vec<Feature>], diagonal: f32) -> Vec<Track> {
     let mut held: Vec<Vec<bool>> = frames.iter().map(|f| vec![false; f.len()]).collect();
     for (t, i) in tracks.iter().flat_map(|tr| tr.seen.iter().enumerate().filter_map(|(t, s)| Some((t, (*s)?)))) {

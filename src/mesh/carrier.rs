@@ -330,8 +330,7 @@ impl Carrier {
 
     /// Renumbers the carrier vertices so that every one is used by a face.
     fn drop_unused(&mut self) {
-        let mut used = vec![false; self.topology.vertex_count];
-        self.topology.faces.iter().flatten().for_each(|&v| used[v as usize] = true);
+        let used = super::topology::used_by(&self.topology.faces, self.topology.vertex_count);
         let mut new_index = vec![NONE; used.len()];
         let mut ext = Vec::with_capacity(used.len());
         for (v, _) in used.iter().enumerate().filter(|(_, &u)| u) {

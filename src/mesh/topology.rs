@@ -359,6 +359,18 @@ pub fn without_fins(faces: &[[u32; 3]]) -> Vec<[u32; 3]> {
     faces.iter().zip(over).filter(|(_, o)| !o).map(|(f, _)| *f).collect()
 }
 
+/// Whether each of `n` vertices is used by one of `faces` (an index at
+/// or past `n` is ignored).
+pub fn used_by(faces: &[[u32; 3]], n: usize) -> Vec<bool> {
+    let mut used = vec![false; n];
+    for &v in faces.iter().flatten() {
+        if let Some(u) = used.get_mut(v as usize) {
+            *u = true;
+        }
+    }
+    used
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

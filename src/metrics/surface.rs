@@ -91,12 +91,7 @@ impl Nearest for Lbvh {
 pub fn one_sided(positions: &[Vec3], faces: &[[u32; 3]], target: &Target) -> (f64, f64) {
     use rayon::prelude::*;
     let (rms, max) = face_rms(positions, faces, target, &|_| None, (f64::INFINITY, 1)).unwrap_or((f64::INFINITY, 0.0));
-    let mut used = vec![false; positions.len()];
-    for &v in faces.iter().flatten() {
-        if let Some(u) = used.get_mut(v as usize) {
-            *u = true;
-        }
-    }
+    let used = crate::mesh::topology::used_by(faces, positions.len());
     let max = (positions, &used[..])
         .into_par_iter()
         .filter(|(_, &u)| u)
