@@ -935,11 +935,13 @@ fn the_commands_make_report_and_code_a_capture() {
     let registration = &report["registration"];
     // (Its segments are those it found: none; frame 4's was asked for.)
     assert_eq!((registration["frames"].as_u64(), &registration["segments"]), (Some(8), &serde_json::json!([])));
-    // ... and how each tracked: here the one, from frame 0, of all 8 frames.
-    let tracking = &registration["segments_tracking"];
+    // ... and how each tracked and lies from its meshes: here the one, from
+    // frame 0, of all 8 frames, whose floor is the whole one's.
+    let tracking = &registration["per_segment"];
     assert_eq!((&tracking[0]["start"], &tracking[0]["frames"]), (&serde_json::json!(0), &serde_json::json!(8)));
     assert_eq!(tracking.as_array().map(Vec::len), Some(1), "{registration}");
     assert!(registration["resampling_mean"].as_f64().is_some_and(|e| e > 0.0 && e < 0.05), "{registration}");
+    assert_eq!(tracking[0]["resampling_worst"], registration["resampling_worst"], "{registration}");
     // The whole registration's time holds its kept pieces' features and maps.
     let secs = |k: &str| registration[k].as_f64().unwrap_or(f64::NAN);
     assert!(secs("seconds") >= secs("seconds_features") + secs("seconds_maps") - 1e-3, "{registration}");

@@ -107,8 +107,7 @@ pub fn register_into(
         store.set_faces(kept);
     }
     let relative: Vec<f64> = errors.iter().zip(&diagonals).map(|(e, d)| e / d.max(f64::MIN_POSITIVE)).collect();
-    report.resampling_mean = relative.iter().sum::<f64>() / relative.len().max(1) as f64;
-    report.resampling_worst = relative.iter().copied().fold(0.0, f64::max);
+    report.set_floors(&relative);
     report.seconds = t0.elapsed().as_secs_f64();
     Ok(report)
 }
@@ -292,7 +291,7 @@ fn register_piece(
     let smoothed = bridged_and_smoothed(grid, frames, &jumping, &mut positions, &mut places)?;
     let turn = turned_to(grid, frames, handover, &mut positions, &mut places)?;
     let on_input: Vec<Vec<bool>> = on_input.iter().map(|o| apply_symmetry(grid, o, turn)).collect();
-    let report = RegisterReport {
+    let mut report = RegisterReport {
         frames: frames.len(),
         turned_frames: turned,
         unmatched_frames: unmatched,
@@ -303,6 +302,9 @@ fn register_piece(
         lid_pieces: 1,
         ..RegisterReport::of_tracking(&tracked)
     };
+    for s in &mut report.per_segment {
+        (s.unmatched_frames, s.bridged_frames) = (unmatched, jumping.len());
+    }
     let last_grid = positions.last().cloned().unwrap_or_default();
     let next = Handover::of(&tracked, last_trace, last_grid);
     let meshes = frames.iter().zip(places).map(|(f, places)| FrameMesh { places, ..f.mesh() }).collect();

@@ -57,19 +57,26 @@ pub struct RegisterReport {
     /// changed there, or the last segment reached its longest
     /// ([`super::segments::segment_ranges`]).
     pub segments: Vec<u32>,
-    /// Each segment's tracking (its own cones), in order: where
-    /// [`RegisterReport::cones_seen`] says how bad the worst stretch is,
-    /// this says which.
-    pub segments_tracking: Vec<SegmentTracking>,
+    /// Each segment's (each piece's, a split segment's halves apart)
+    /// tracking and floor, in order: where [`RegisterReport::cones_seen`]
+    /// and `resampling_worst` say how bad the worst stretch is, this says
+    /// which.
+    pub per_segment: Vec<SegmentReport>,
 }
 
-/// One segment's tracking: its first frame (in the capture), its frames,
-/// and the share of them each of its cones' tracks was seen in.
+/// One segment's part of the report: its first frame (in the capture),
+/// its frames, the share of them each of its cones' tracks was seen in,
+/// the frames its map could not describe, and its grid's floor (as
+/// [`RegisterReport::resampling_mean`], over its frames).
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
-pub struct SegmentTracking {
+pub struct SegmentReport {
     pub start: usize,
     pub frames: usize,
     pub cones_seen: [f64; 4],
+    pub unmatched_frames: usize,
+    pub bridged_frames: usize,
+    pub resampling_mean: f64,
+    pub resampling_worst: f64,
 }
 
 impl RegisterReport {
@@ -84,10 +91,10 @@ impl RegisterReport {
             cones_seen: tracked.cones_seen(),
             cones_seen_overall: tracked.cones_seen_overall(),
             seconds_features: tracked.seconds,
-            segments_tracking: vec![SegmentTracking {
-                start: 0,
+            per_segment: vec![SegmentReport {
                 frames: tracked.features.len(),
                 cones_seen: tracked.cones_seen(),
+                ..Default::default()
             }],
             ..Default::default()
         }
@@ -126,9 +133,25 @@ impl RegisterReport {
         self.lid_votes = super::lids::added(&self.lid_votes, &next.lid_votes);
         self.lid_pieces += next.lid_pieces;
         self.segments.push(start as u32);
-        let moved = next.segments_tracking.iter().map(|t| SegmentTracking { start: start + t.start, ..t.clone() });
-        self.segments_tracking.extend(moved);
+        let moved = next.per_segment.iter().map(|t| SegmentReport { start: start + t.start, ..t.clone() });
+        self.per_segment.extend(moved);
     }
+
+    /// The frames' floors `relative` (each frame's resampling error over
+    /// its diagonal, in capture order) read into the whole report and each
+    /// segment's.
+    pub(super) fn set_floors(&mut self, relative: &[f64]) {
+        let (mean, worst) = mean_and_worst(relative);
+        (self.resampling_mean, self.resampling_worst) = (mean, worst);
+        for s in &mut self.per_segment {
+            let own = relative.get(s.start..(s.start + s.frames).min(relative.len())).unwrap_or(&[]);
+            (s.resampling_mean, s.resampling_worst) = mean_and_worst(own);
+        }
+    }
+}
+
+fn mean_and_worst(x: &[f64]) -> (f64, f64) {
+    (x.iter().sum::<f64>() / x.len().max(1) as f64, x.iter().copied().fold(0.0, f64::max))
 }
 
 #[cfg(test)]
@@ -141,7 +164,7 @@ mod tests {
         let part = |frames, seen: [f64; 4]| RegisterReport {
             frames,
             cones_seen: seen,
-            segments_tracking: vec![SegmentTracking { start: 0, frames, cones_seen: seen }],
+            per_segment: vec![SegmentReport { frames, cones_seen: seen, unmatched_frames: 1, ..Default::default() }],
             cones_seen_overall: seen.iter().sum::<f64>() / 4.0,
             ..Default::default()
         };
@@ -149,8 +172,24 @@ mod tests {
         assert_eq!((all.frames, all.segments.clone()), (40, vec![30]));
         assert_eq!(all.cones_seen, [1.0, 1.0, 0.5, 0.5]);
         assert!((all.cones_seen_overall - 37.5 / 40.0).abs() < 1e-12, "{all:?}");
-        let starts: Vec<(usize, usize)> = all.segments_tracking.iter().map(|t| (t.start, t.frames)).collect();
+        let starts: Vec<(usize, usize)> = all.per_segment.iter().map(|t| (t.start, t.frames)).collect();
         assert_eq!(starts, [(0, 30), (30, 10)]);
-        assert_eq!(all.segments_tracking[1].cones_seen, [1.0, 1.0, 0.5, 0.5]);
+        assert_eq!(all.per_segment[1].cones_seen, [1.0, 1.0, 0.5, 0.5]);
+        assert_eq!(all.per_segment.iter().map(|t| t.unmatched_frames).collect::<Vec<_>>(), [1, 1]);
+    }
+
+    /// Each segment's floor is read over its own frames.
+    #[test]
+    fn each_segments_floor_is_its_own_frames() {
+        let part = |frames| RegisterReport {
+            frames,
+            per_segment: vec![SegmentReport { frames, ..Default::default() }],
+            ..Default::default()
+        };
+        let mut all = RegisterReport::joined(&[0, 2], [part(2), part(3)]);
+        all.set_floors(&[1.0, 3.0, 0.5, 0.5, 8.0]);
+        assert_eq!((all.resampling_mean, all.resampling_worst), (2.6, 8.0));
+        let floors: Vec<(f64, f64)> = all.per_segment.iter().map(|s| (s.resampling_mean, s.resampling_worst)).collect();
+        assert_eq!(floors, [(2.0, 3.0), (3.0, 8.0)]);
     }
 }

@@ -497,9 +497,17 @@ fn registered(args: &Args) -> Result<(Box<dyn cgv::mesh::FrameSource>, RegisterR
             "segments (each its own tracks and map) start at frames 0, {} (every {longest} frames and where the topology changes)",
             join(&r.segments)
         );
-        for t in &r.segments_tracking {
+        for t in &r.per_segment {
             let seen = t.cones_seen.map(|x| format!("{:.0}", 100.0 * x)).join(" / ");
-            eprintln!("    frames {:>4}-{:<4}  cones seen in {seen} % of them", t.start, t.start + t.frames - 1);
+            eprintln!(
+                "    frames {:>4}-{:<4}  cones seen in {seen} % of them; {} unmatched, {} bridged; grid {:.4} % off (worst {:.4} %)",
+                t.start,
+                t.start + t.frames - 1,
+                t.unmatched_frames,
+                t.bridged_frames,
+                100.0 * t.resampling_mean,
+                100.0 * t.resampling_worst
+            );
         }
     }
     Ok((Box::new(store), r))
