@@ -14,7 +14,7 @@ use cgv::features::segments::{longest_segment, segment_ranges, segment_starts};
 use cgv::features::symmetry::{apply_symmetry, TURNS};
 use cgv::features::tracking::{track_capture, track_features};
 use cgv::grid::Grid;
-use cgv::mesh::unregister::{keep_for, remesh_frame};
+use cgv::mesh::unregister::{keep_for, remesh_frame, Remesh};
 use cgv::mesh::{Bounds, FrameSource, InMemory};
 use glam::Vec3;
 use std::path::Path;
@@ -539,6 +539,52 @@ fn a_clip_whose_topology_changes_halfway_gets_two_segments() {
     assert_eq!(from7.next_frame().unwrap().0, all[7]);
 }
 
+/// A capture in registered runs (a vendor's "stabilized segments": frames
+/// that share one mesh, their vertices moving with the body) maps each run
+/// once, as a registered motion is mapped: a segment of its own, its
+/// features carried by their vertices, every frame's samples where the
+/// first frame's map put them, so the grid does not swim on the body.
+#[test]
+fn a_capture_in_registered_runs_maps_each_run_once() {
+    let walk = cgv::mesh::builtin::motion(9);
+    let faces = &walk.topology().faces;
+    // Frames 0-2 each their own mesh, 3-8 one run of frame 3's mesh.
+    let mut frames = remeshed(&walk, 3);
+    let run = Remesh::of(&walk.read_frame(3).unwrap(), faces, 0.6, 3);
+    for t in 3..9 {
+        frames.push(CaptureFrame { positions: run.positions(&walk.read_frame(t).unwrap()), faces: run.faces.clone() });
+    }
+    assert_eq!(ranges(&frames, 60), [0..3, 3..9]);
+    let tracked = track_capture(Path::new("walk"), &frames[3..]).unwrap();
+    assert!(tracked.tracks.iter().all(|k| k.frames_seen() == 6), "carried features are seen in every frame");
+    let grid = Grid::new(32).unwrap();
+    let (registered, report) = register(Path::new("walk"), 30.0, &frames, grid, 60, &mut |_, _, _| {}).unwrap();
+    assert_eq!((&report.segments[..], report.shared_mesh_frames), (&[3][..], 6), "{report:?}");
+    assert_eq!((report.per_segment[1].cones_seen, report.per_segment[1].unmatched_frames), ([1.0; 4], 0));
+    let places = |t: usize| &registered.meshes[t].places;
+    assert!((4..9).all(|t| places(t) == places(3)), "one map serves the run");
+    assert!(places(1) != places(0), "frames each their own mesh are mapped each on its own");
+    // Where the samples sit on the body, against the run's first frame.
+    let swum = swim(&walk, &registered.grid, &report.segments);
+    let own = {
+        let each = remeshed_from(&walk, 9, 0);
+        let (alone, r) = register(Path::new("walk"), 30.0, &each[3..], grid, 60, &mut |_, _, _| {}).unwrap();
+        assert_eq!(r.shared_mesh_frames, 0);
+        let moved: Vec<_> = (3..9).map(|t| walk.read_frame(t).unwrap()).collect();
+        let topology = walk.topology().clone();
+        swim(&InMemory { label: "walk".into(), fps: 30.0, topology, frames: moved }, &alone.grid, &[])
+    };
+    eprintln!("swim, one map a run: {:?}; each frame its own: {own:?}", &swum[3..]);
+    let worst = |s: &[f32]| s.iter().copied().fold(0.0, f32::max);
+    assert!(worst(&swum[3..]) < 0.25 * worst(&own), "{swum:?} against {own:?}");
+    let opts = EncodeOptions { grid: 32, source_mesh: false, segments: report.segments.clone(), ..Default::default() };
+    let (bytes, _) = encode(&registered, &opts, &mut |_, _, _| {}).unwrap();
+    let mut dec = FileDecoder::new(cgv::format::read(&bytes).unwrap(), cgv::solve::SolverKind::Predictive).unwrap();
+    let all: Vec<Vec<Vec3>> = (0..9).map(|_| dec.next_frame().unwrap().0).collect();
+    let truth = surface_rms(&walk, grid, &all);
+    assert!(truth.iter().all(|&e| e < 0.02), "{truth:?}");
+}
+
 /// `src` coded with `opts` (a point at frame 4) as format version
 /// `version`, decoded from frame 0; frames 4 on decode alike from frame 4.
 fn decoded_from_both_points(src: &dyn FrameSource, opts: &EncodeOptions, version: u16) -> Vec<Vec<Vec3>> {
@@ -625,6 +671,21 @@ fn unregistered_against_registered() {
             .frames
             .iter()
             .map(|f| CaptureFrame { positions: f.clone(), faces: truth.topology.faces.clone() })
+            .collect()
+    } else if let Some(k) = std::env::var("CGV_STABLE").ok().and_then(|s| s.parse::<usize>().ok()) {
+        // CGV_STABLE=K: runs of K frames that share one mesh (a vendor's
+        // stabilized segments), each its first frame simplified.
+        let faces = &truth.topology.faces;
+        let mut run = None;
+        (0..frames)
+            .map(|t| {
+                let f = truth.read_frame(t).unwrap();
+                if t % k.max(1) == 0 {
+                    run = Some(Remesh::of(&f, faces, keep_for(start + t, 0.5, 0.8, 5), (start + t) as u64));
+                }
+                let r = run.as_ref().unwrap();
+                CaptureFrame { positions: r.positions(&f), faces: r.faces.clone() }
+            })
             .collect()
     } else {
         remeshed_from(&truth, frames, start)
@@ -975,6 +1036,37 @@ fn the_commands_make_report_and_code_a_capture() {
     assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("folder") && !bad.exists());
     let out = cgv(&["encode", "builtin:walk", "--mesh", "frames", "-o", bad.to_str().unwrap()]);
     assert!(!out.status.success() && String::from_utf8_lossy(&out.stderr).contains("--unregistered") && !bad.exists());
+}
+
+/// `cgv unregister --stable` makes a capture in registered runs, which
+/// `cgv info` lists and `cgv encode` maps a run at a time.
+#[test]
+fn a_capture_in_stable_runs_from_the_commands() {
+    let dir = common::temp_dir("unregistered-stable");
+    let capture = dir.join("capture");
+    let capture_s = capture.to_str().unwrap();
+    let zero = cgv(&["unregister", "builtin:walk", "--frames", "0..8", "--stable", "0", "-o", capture_s]);
+    assert!(!zero.status.success() && String::from_utf8_lossy(&zero.stderr).contains("--stable") && !capture.exists());
+    let out = cgv(&["unregister", "builtin:walk", "--frames", "0..8", "--stable", "4", "-o", capture_s]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let frames =
+        cgv::features::capture::read_capture(&capture, None, cgv::features::capture::CaptureLimit::NONE).unwrap();
+    assert!(
+        frames[1].shares_mesh(&frames[3]) && frames[4].shares_mesh(&frames[7]) && !frames[3].shares_mesh(&frames[4])
+    );
+    let info = cgv(&["info", capture_s, "--unregistered", "--json"]);
+    let report: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    assert_eq!(
+        (&report["segments"], &report["registered_runs"]),
+        (&serde_json::json!([0, 4]), &serde_json::json!([[0, 4], [4, 8]]))
+    );
+    assert_eq!(report["cones_seen_overall"].as_f64(), Some(1.0), "{report}");
+    let text = String::from_utf8_lossy(&cgv(&["info", capture_s, "--unregistered"]).stdout).into_owned();
+    assert!(text.contains("frames 0-3, 4-7 share one mesh"), "{text}");
+    let file = dir.join("capture.cgv");
+    let coded = cgv(&["encode", capture_s, "--unregistered", "--grid", "32", "-o", file.to_str().unwrap()]);
+    let err = String::from_utf8_lossy(&coded.stderr);
+    assert!(coded.status.success() && err.contains("8 frames share one mesh"), "{err}");
 }
 
 /// A capture of GLB frames reads as the same capture in OBJ: each frame's

@@ -39,6 +39,21 @@ impl CaptureFrame {
             Vec3::ZERO
         }
     }
+
+    /// Whether `other` is this frame's mesh moved: as many vertices and
+    /// the same faces, so that each vertex is one point of the body in
+    /// both (a registered stretch of a capture: a vendor's "stabilized
+    /// segment").
+    pub fn shares_mesh(&self, other: &CaptureFrame) -> bool {
+        self.positions.len() == other.positions.len() && self.faces == other.faces
+    }
+}
+
+/// Whether `frames`, at least two, all share the first one's mesh
+/// ([`CaptureFrame::shares_mesh`]): a registered run, which one map serves
+/// as it serves a registered motion.
+pub fn is_registered_run(frames: &[CaptureFrame]) -> bool {
+    frames.len() >= 2 && frames[1..].iter().all(|f| f.shares_mesh(&frames[0]))
 }
 
 /// How much reading a capture may hold: a segment's frames are held at
@@ -182,5 +197,19 @@ mod tests {
         };
         assert!(frame.center().distance(p(1.0, 1.0)) < 1e-6, "{}", frame.center());
         assert_eq!(CaptureFrame { positions: vec![], faces: vec![] }.center(), Vec3::ZERO);
+    }
+
+    /// A run is registered where every frame has the first's vertices (in
+    /// number) and faces, wherever its vertices moved.
+    #[test]
+    fn a_run_is_registered_where_its_frames_share_one_mesh() {
+        let tri = |z: f32, faces| CaptureFrame { positions: vec![Vec3::ZERO, Vec3::X, Vec3::new(0.0, 1.0, z)], faces };
+        let a = tri(0.0, vec![[0, 1, 2]]);
+        assert!(is_registered_run(&[a.clone(), tri(0.5, vec![[0, 1, 2]]), tri(2.0, vec![[0, 1, 2]])]));
+        assert!(!is_registered_run(std::slice::from_ref(&a)), "one frame is no run");
+        assert!(!is_registered_run(&[a.clone(), tri(0.0, vec![[0, 2, 1]])]), "other faces");
+        let mut more = a.clone();
+        more.positions.push(Vec3::ONE);
+        assert!(!is_registered_run(&[a, more]), "another vertex");
     }
 }

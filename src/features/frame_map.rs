@@ -136,12 +136,51 @@ pub(super) fn map_on(
     trace: Option<&CutTrace>,
     grid: Grid,
 ) -> Result<Mapped> {
-    let (cones, seen) = cones_on(&carrier, frame, at);
-    let (param, trace, sides) = on_finer(&mut carrier, |c| {
+    let (param, trace, sides) = finished(&mut carrier, frame, at, trace)?;
+    mapped(&carrier, &param, frame, grid, trace, sides)
+}
+
+/// The frame's map on its `carrier` (made finer where it must be) with its
+/// cones nearest `at`, its cut following `trace`, its area passes run: the
+/// map, its cut's trace and the cones' sides.
+fn finished(
+    carrier: &mut Carrier,
+    frame: &CaptureFrame,
+    at: &[(Vec3, bool); 4],
+    trace: Option<&CutTrace>,
+) -> Result<(Parameterization, CutTrace, [usize; 4])> {
+    let (cones, seen) = cones_on(carrier, frame, at);
+    on_finer(carrier, |c| {
         let (passes, trace, sides) = cut_once(c, &frame.positions, cones, seen, trace)?;
         Ok((passes.finish(None)?, trace, sides))
-    })?;
-    mapped(&carrier, &param, frame, grid, trace, sides)
+    })
+}
+
+/// A registered run's frames ([`super::capture::is_registered_run`])
+/// mapped once, as a registered motion is (`crate::geometry_image`): the
+/// first frame mapped as [`map_frame`] maps it, and every frame's grid
+/// that map's samples on the frame's own positions, so that a sample is
+/// one point of the body in every frame.
+pub(super) fn map_run(
+    label: &Path,
+    frames: &[CaptureFrame],
+    at: &[(Vec3, bool); 4],
+    trace: Option<&CutTrace>,
+    grid: Grid,
+) -> Result<Vec<Mapped>> {
+    let Some(first) = frames.first() else { return Ok(Vec::new()) };
+    let mut carrier = frame_carrier(label, first)?;
+    let (param, trace, sides) = finished(&mut carrier, first, at, trace)?;
+    let map = SampleMap::on_carrier(grid, &carrier, &param)?;
+    let places = carrier_places(&carrier, &param);
+    let one = |f: &CaptureFrame| Mapped {
+        grid: map.apply(&f.positions),
+        places: places.clone(),
+        sides,
+        trace: trace.clone(),
+        on_input: map.on_input.clone(),
+    };
+    Ok(frames.iter().map(one).collect())
 }
 
 /// [`map_frame`]'s cut alone, its area passes left for [`finish_cut`]. A

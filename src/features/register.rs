@@ -9,9 +9,9 @@
 //! a registered animation of the capture, which the codec codes as any
 //! other motion.
 
-use super::capture::{Capture, CaptureFrame};
+use super::capture::{is_registered_run, Capture, CaptureFrame};
 use super::follow::CutTrace;
-use super::frame_map::{cut_frame, finish_cut, frame_carrier, map_frame, map_on, FrameCut, Mapped};
+use super::frame_map::{cut_frame, finish_cut, frame_carrier, map_frame, map_on, map_run, FrameCut, Mapped};
 use super::handover::{self, Handover};
 pub use super::report::RegisterReport;
 use super::segments::segment_ranges;
@@ -131,6 +131,12 @@ fn registered_parts(
     grid: Grid,
     handover: Option<&Handover>,
 ) -> Result<(Vec<Piece>, Handover)> {
+    if is_registered_run(part) {
+        let (src, report, next) = register_run(label, fps, part, grid, handover)?;
+        let mut whole = vec![(0, src, report, None)];
+        measure_pieces(part, &mut whole, grid)?;
+        return Ok((whole, next));
+    }
     let mut tracked = track_capture(label, part)?;
     // Mapping a long segment that is split anyway took most of whole
     // pcow's registration (385 s; its kept pieces' features and maps,
@@ -307,9 +313,58 @@ fn register_piece(
     }
     let last_grid = positions.last().cloned().unwrap_or_default();
     let next = Handover::of(&tracked, last_trace, last_grid);
+    Ok((registered(label, fps, grid, frames, positions, places), report, next))
+}
+
+/// A piece's frames registered: each frame's grid `positions` as a motion
+/// on the grid's mesh, and its own mesh with its vertices' `places`.
+fn registered(
+    label: &Path,
+    fps: f32,
+    grid: Grid,
+    frames: &[CaptureFrame],
+    positions: Vec<Vec<Vec3>>,
+    places: Vec<Vec<[u32; 2]>>,
+) -> Registered {
     let meshes = frames.iter().zip(places).map(|(f, places)| FrameMesh { places, ..f.mesh() }).collect();
     let grid = InMemory { label: PathBuf::from(label), fps, topology: grid.topology(), frames: positions };
-    Ok((Registered { grid, meshes }, report, next))
+    Registered { grid, meshes }
+}
+
+/// A registered run ([`is_registered_run`]: frames that share one mesh)
+/// registered as one piece with one map ([`map_run`]), as a registered
+/// motion is: its features carried by their vertices ([`track_capture`]),
+/// its cones chosen or going on from the last piece's `handover`, its grid
+/// turned as any piece's ([`turned_to`]). One map does not jump or swim,
+/// so nothing is bridged, smoothed or turned back.
+fn register_run(
+    label: &Path,
+    fps: f32,
+    frames: &[CaptureFrame],
+    grid: Grid,
+    handover: Option<&Handover>,
+) -> Result<(Registered, RegisterReport, Handover)> {
+    let mut tracked = track_capture(label, frames)?;
+    fits(label, frames, &tracked)?;
+    let first_trace;
+    (tracked.cones, first_trace) = chosen_cones(label, frames, &tracked, (grid, diagonal_of(frames)), handover)?;
+    let t1 = std::time::Instant::now();
+    let mapped = map_run(label, frames, &cone_places(&tracked)(0), first_trace, grid)?;
+    let trace = mapped.first().map(|m| m.trace.clone());
+    let on_input = mapped.first().map(|m| m.on_input.clone()).unwrap_or_default();
+    let (mut positions, mut places): (Vec<_>, Vec<_>) = mapped.into_iter().map(|m| (m.grid, m.places)).unzip();
+    let turn = turned_to(grid, frames, handover, &mut positions, &mut places)?;
+    let on_input = vec![apply_symmetry(grid, &on_input, turn); frames.len()];
+    let report = RegisterReport {
+        frames: frames.len(),
+        shared_mesh_frames: frames.len(),
+        seconds_maps: t1.elapsed().as_secs_f64(),
+        lid_votes: lids::over_holes(grid, &on_input),
+        lid_pieces: 1,
+        ..RegisterReport::of_tracking(&tracked)
+    };
+    let next = Handover::of(&tracked, trace, positions.last().cloned().unwrap_or_default());
+    Ok((registered(label, fps, grid, frames, positions, places), report, next))
 }
 
 /// Each frame's cones: the chosen tracks' places, and whether each track

@@ -29,6 +29,10 @@ pub struct RegisterReport {
     pub bridged_frames: usize,
     /// Frames whose grid was smoothed in time ([`super::smooth`]).
     pub smoothed_frames: usize,
+    /// Frames of registered runs (each sharing one mesh with its
+    /// neighbours: [`super::capture::is_registered_run`]), each run mapped
+    /// once ([`super::frame_map::map_run`]) rather than frame by frame.
+    pub shared_mesh_frames: usize,
     /// Frames whose grid lay far from their own mesh, rebuilt from their
     /// neighbours ([`super::outliers`]).
     pub rebuilt_frames: usize,
@@ -128,6 +132,7 @@ impl RegisterReport {
         self.unmatched_frames += next.unmatched_frames;
         self.bridged_frames += next.bridged_frames;
         self.smoothed_frames += next.smoothed_frames;
+        self.shared_mesh_frames += next.shared_mesh_frames;
         self.seconds_features += next.seconds_features;
         self.seconds_maps += next.seconds_maps;
         self.lid_votes = super::lids::added(&self.lid_votes, &next.lid_votes);

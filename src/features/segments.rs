@@ -68,10 +68,15 @@ pub fn segment_ranges(
     let (n, batch) = (capture.len(), 4 * rayon::current_num_threads());
     let mut classes = Vec::with_capacity(n);
     for a in (0..n).step_by(batch.max(1)) {
-        classes.extend(capture.frames(a..n.min(a + batch))?.par_iter().map(class).collect::<Vec<_>>());
+        let frames = capture.frames(a..n.min(a + batch))?;
+        classes.extend(frames.par_iter().map(|f| (class(f), mesh_key(f))).collect::<Vec<_>>());
         progress("reading", classes.len(), n);
     }
-    let changes = starts_of(&classes);
+    let (classes, keys): (Vec<Class>, Vec<MeshKey>) = classes.into_iter().unzip();
+    let mut changes = starts_of(&classes);
+    changes.extend(run_starts(&keys));
+    changes.sort_unstable();
+    changes.dedup();
     let near_change = |t: usize| changes.iter().any(|&c| c.abs_diff(t) < SEGMENT_FRAMES);
     let mut starts = changes.clone();
     if longest > 0 {
@@ -80,6 +85,41 @@ pub fn segment_ranges(
     }
     let ends = starts.iter().skip(1).copied().chain([n]);
     Ok(starts.iter().zip(ends).map(|(&a, b)| a..b).collect())
+}
+
+/// A frame's mesh, as far as telling whether the next frame shares it
+/// goes: its vertex count and a hash of its faces (a collision costs
+/// nothing but a segment start: [`super::capture::is_registered_run`]
+/// decides).
+type MeshKey = (usize, u64);
+
+fn mesh_key(f: &CaptureFrame) -> MeshKey {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    f.faces.hash(&mut h);
+    (f.positions.len(), h.finish())
+}
+
+/// Where registered runs start and end: frames that share one mesh for at
+/// least [`SEGMENT_FRAMES`] frames (`keys`, [`mesh_key`]) are a segment
+/// of their own, which one map serves, and the frame after one starts the
+/// next.
+fn run_starts(keys: &[MeshKey]) -> Vec<usize> {
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    for (t, k) in keys.iter().enumerate() {
+        match runs.last_mut() {
+            Some((a, end)) if keys[*a] == *k => *end = t + 1,
+            _ => runs.push((t, t + 1)),
+        }
+    }
+    let registered = |r: &(usize, usize)| r.1 - r.0 >= SEGMENT_FRAMES;
+    let mut starts = Vec::new();
+    for w in runs.windows(2) {
+        if registered(&w[0]) || registered(&w[1]) {
+            starts.push(w[1].0);
+        }
+    }
+    starts
 }
 
 /// Frames a new topology must last to start a segment.
@@ -174,6 +214,19 @@ mod tests {
         let (part, grids, grid) = case(23, Some(5));
         assert_eq!(split_at(&part, &grids, grid).ok(), Some((None, None)), "too short");
         assert!(swims(&[1.0, 1.0, 1.0, 1.0, 9.0]) && !swims(&[1.0, 1.5, 0.6]) && !swims(&[]));
+    }
+
+    /// A registered run (frames that share one mesh) is a segment of its
+    /// own; frames each their own mesh, or sharing one for fewer than
+    /// three frames, start none.
+    #[test]
+    fn a_registered_run_is_a_segment_of_its_own() {
+        let k = |m: u64| (10, m);
+        assert_eq!(run_starts(&[k(1), k(2), k(3), k(4)]), Vec::<usize>::new());
+        assert_eq!(run_starts(&[k(1), k(2), k(2), k(3)]), Vec::<usize>::new(), "two frames are no run");
+        assert_eq!(run_starts(&[k(1), k(2), k(2), k(2), k(2), k(3), k(4)]), vec![1, 5]);
+        assert_eq!(run_starts(&[k(7), k(7), k(7), k(8), k(8), k(8)]), vec![3]);
+        assert_eq!(run_starts(&[k(7), k(7), k(7), (11, 7)]), vec![3], "another vertex count");
     }
 
     /// A segment is split before it is mapped where fewer than four

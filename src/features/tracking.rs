@@ -5,7 +5,7 @@
 //! matched between adjacent frames, [`super::track`]), and the four tracks
 //! the maps take as their cones at first.
 
-use super::capture::CaptureFrame;
+use super::capture::{is_registered_run, CaptureFrame};
 use super::detect::{features_near, Feature};
 use super::track::{track, Track, Tracked};
 use crate::error::{Error, Result};
@@ -19,12 +19,39 @@ pub fn track_capture(label: &Path, frames: &[CaptureFrame]) -> Result<Tracked> {
     if frames.is_empty() {
         return Err(Error::Argument(format!("{}: a capture without frames", label.display())));
     }
+    if is_registered_run(frames) {
+        return carried_features(label, frames);
+    }
     let t0 = std::time::Instant::now();
     let features = features_in_runs(frames)?;
     let centers: Vec<Vec3> = frames.par_iter().map(CaptureFrame::center).collect();
     let mut tracked = track_features(label, features, &centers, Bounds::of(&frames[0].positions).diagonal())?;
     tracked.seconds = t0.elapsed().as_secs_f64();
     Ok(tracked)
+}
+
+/// The features of a registered run ([`is_registered_run`]), found on its
+/// first frame and carried to every frame by the vertex each lies on,
+/// which is one point of the body in all of them: each a track seen in
+/// every frame, with nothing to match (the paper tracks features because
+/// a capture's frames share no vertices; these do).
+fn carried_features(label: &Path, frames: &[CaptureFrame]) -> Result<Tracked> {
+    let t0 = std::time::Instant::now();
+    let mut found = features_near(&frames[0].faces, &frames[0].positions, None)?.0;
+    // A weak maximum stands in for a track's lost feature; here none is lost.
+    found.retain(|f| !f.weak);
+    // (Every frame has the first's vertices: `is_registered_run`.)
+    let at = |f: &CaptureFrame, x: &Feature| Feature {
+        position: f.positions.get(x.vertex as usize).copied().unwrap_or(x.position),
+        ..x.clone()
+    };
+    let features: Vec<Vec<Feature>> = frames.iter().map(|f| found.iter().map(|x| at(f, x)).collect()).collect();
+    let tracks: Vec<Track> = (0..found.len() as u32).map(|i| Track { seen: vec![Some(i); frames.len()] }).collect();
+    let cones = cone_tracks(&tracks).ok_or_else(|| {
+        Error::Argument(format!("{}: fewer than four features on the first frame of a registered run", label.display()))
+    })?;
+    let centers = frames.par_iter().map(CaptureFrame::center).collect();
+    Ok(Tracked { features, centers, tracks, cones, seconds: t0.elapsed().as_secs_f64() })
 }
 
 /// Frames in a run of [`features_in_runs`]: a fixed length, so that the

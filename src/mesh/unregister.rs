@@ -12,24 +12,45 @@ use meshopt::{SimplifyOptions, VertexDataAdapter};
 /// simplifier keeps a subset of the vertices where they were, so the
 /// frame's surface stays within its error of the original.
 pub fn remesh_frame(positions: &[Vec3], faces: &[[u32; 3]], keep: f32, seed: u64) -> (Vec<Vec3>, Vec<[u32; 3]>) {
-    let indices: Vec<u32> = faces.iter().flatten().copied().collect();
-    let bytes: Vec<u8> = positions.iter().flat_map(|p| p.to_array()).flat_map(f32::to_le_bytes).collect();
-    let target = ((indices.len() as f32 * keep.clamp(0.01, 1.0)) as usize / 3 * 3).max(3);
-    let simplified = match VertexDataAdapter::new(&bytes, 12, 0) {
-        Ok(adapter) => meshopt::simplify(&indices, &adapter, target, 1.0, SimplifyOptions::LockBorder, None),
-        Err(_) => indices,
-    };
-    // The vertices the faces use, in a shuffled order.
-    let mut used: Vec<u32> = simplified.clone();
-    used.sort_unstable();
-    used.dedup();
-    shuffle(&mut used, seed);
-    let mut new_index = vec![u32::MAX; positions.len()];
-    for (k, &v) in used.iter().enumerate() {
-        new_index[v as usize] = k as u32;
+    let remesh = Remesh::of(positions, faces, keep, seed);
+    (remesh.positions(positions), remesh.faces)
+}
+
+/// One frame's simplification, which other frames of the motion may share
+/// (a registered run of a capture: a vendor's "stabilized segment").
+pub struct Remesh {
+    /// The motion's vertices kept, in the new mesh's (shuffled) order.
+    used: Vec<u32>,
+    pub faces: Vec<[u32; 3]>,
+}
+
+impl Remesh {
+    /// [`remesh_frame`]'s simplification of the frame `positions`.
+    pub fn of(positions: &[Vec3], faces: &[[u32; 3]], keep: f32, seed: u64) -> Remesh {
+        let indices: Vec<u32> = faces.iter().flatten().copied().collect();
+        let bytes: Vec<u8> = positions.iter().flat_map(|p| p.to_array()).flat_map(f32::to_le_bytes).collect();
+        let target = ((indices.len() as f32 * keep.clamp(0.01, 1.0)) as usize / 3 * 3).max(3);
+        let simplified = match VertexDataAdapter::new(&bytes, 12, 0) {
+            Ok(adapter) => meshopt::simplify(&indices, &adapter, target, 1.0, SimplifyOptions::LockBorder, None),
+            Err(_) => indices,
+        };
+        // The vertices the faces use, in a shuffled order.
+        let mut used: Vec<u32> = simplified.clone();
+        used.sort_unstable();
+        used.dedup();
+        shuffle(&mut used, seed);
+        let mut new_index = vec![u32::MAX; positions.len()];
+        for (k, &v) in used.iter().enumerate() {
+            new_index[v as usize] = k as u32;
+        }
+        let faces = simplified.chunks_exact(3).map(|f| [f[0], f[1], f[2]].map(|v| new_index[v as usize])).collect();
+        Remesh { used, faces }
     }
-    let faces = simplified.chunks_exact(3).map(|f| [f[0], f[1], f[2]].map(|v| new_index[v as usize])).collect();
-    (used.iter().map(|&v| positions[v as usize]).collect(), faces)
+
+    /// The kept vertices' places in a frame `positions` of the motion.
+    pub fn positions(&self, positions: &[Vec3]) -> Vec<Vec3> {
+        self.used.iter().map(|&v| positions.get(v as usize).copied().unwrap_or_default()).collect()
+    }
 }
 
 /// The fraction of faces frame `frame` keeps, between `lo` and `hi`,
@@ -73,5 +94,11 @@ mod tests {
         let (r, _) = remesh_frame(&p, &f, 0.5, 2);
         assert_ne!(q, r);
         assert!((0..10).map(|t| keep_for(t, 0.4, 0.8, 7)).all(|k| (0.4..=0.8).contains(&k)));
+        // One simplification shared by another frame: its faces, and the
+        // same vertices at that frame's places.
+        let remesh = Remesh::of(&p, &f, 0.5, 1);
+        assert_eq!((remesh.positions(&p), &remesh.faces), (q.clone(), &g));
+        let moved: Vec<Vec3> = p.iter().map(|x| *x + Vec3::X).collect();
+        assert!(remesh.positions(&moved).iter().zip(&q).all(|(a, b)| *a == *b + Vec3::X));
     }
 }

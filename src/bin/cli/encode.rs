@@ -486,6 +486,13 @@ fn registered(args: &Args) -> Result<(Box<dyn cgv::mesh::FrameSource>, RegisterR
         r.seconds_features,
         r.seconds_maps
     );
+    if r.shared_mesh_frames > 0 {
+        eprintln!(
+            "  {} frames share one mesh with their neighbours (registered runs): their features carried by their vertices, \
+             one map a run, as a registered motion's",
+            r.shared_mesh_frames
+        );
+    }
     if r.lid_faces > 0 {
         eprintln!(
             "  {} grid faces over the capture's holes left out of the grid mesh (their samples off the frames' own meshes)",
@@ -494,7 +501,7 @@ fn registered(args: &Args) -> Result<(Box<dyn cgv::mesh::FrameSource>, RegisterR
     }
     if !r.segments.is_empty() {
         eprintln!(
-            "segments (each its own tracks and map) start at frames 0, {} (every {longest} frames and where the topology changes)",
+            "segments (each its own tracks and map) start at frames 0, {} (every {longest} frames, where the topology changes and where a registered run starts or ends)",
             join(&r.segments)
         );
         for t in &r.per_segment {

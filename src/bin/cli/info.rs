@@ -132,7 +132,6 @@ fn unregistered_info(args: &Args) -> Result<()> {
     use cgv::features::capture::{Capture, CaptureFiles, CaptureLimit};
     use cgv::features::report::RegisterReport;
     use cgv::features::segments::{longest_segment, segment_ranges};
-    use cgv::features::tracking::track_capture;
     let dir = std::path::Path::new(&args.input.input);
     let limit = CaptureLimit { bytes: args.memory_limit.saturating_mul(1 << 20), grid_samples: None };
     let capture = CaptureFiles::open(dir, args.input.frames, limit)?;
@@ -145,20 +144,8 @@ fn unregistered_info(args: &Args) -> Result<()> {
     let starts: Vec<usize> = ranges.iter().map(|r| r.start).collect();
     pb.reset();
     pb.set_message("tracking");
-    let (mut lo, mut hi) = (usize::MAX, 0);
-    let segments: Vec<_> = ranges
-        .iter()
-        .map(|r| {
-            let frames = capture.frames(r.clone())?;
-            let sizes = frames.iter().map(|f| f.positions.len());
-            (lo, hi) = (lo.min(sizes.clone().min().unwrap_or(lo)), hi.max(sizes.max().unwrap_or(0)));
-            let tracked = track_capture(dir, &frames).with_context(|| format!("the segment of frames {r:?}"));
-            pb.set_position(r.end as u64);
-            tracked
-        })
-        .collect::<Result<_>>()?;
+    let (segments, (lo, hi), runs) = tracked_segments(dir, &capture, &ranges, &pb)?;
     pb.finish_and_clear();
-    let lo = lo.min(hi);
     let frames = capture.len();
     // The segments' tracking joined as the registration's report joins it.
     let all = RegisterReport::joined(&starts, segments.iter().map(RegisterReport::of_tracking));
@@ -178,6 +165,7 @@ fn unregistered_info(args: &Args) -> Result<()> {
             "cones_seen_overall": overall,
             "segments": starts,
             "segments_cones_seen": segments.iter().map(|t| t.cones_seen()).collect::<Vec<_>>(),
+            "registered_runs": runs.iter().map(|r| [r.start, r.end]).collect::<Vec<_>>(),
             "frames_per_second": rate,
         });
         println!("{}", serde_json::to_string_pretty(&report)?);
@@ -189,9 +177,15 @@ fn unregistered_info(args: &Args) -> Result<()> {
     match starts.len() {
         1 => println!("  segments      1 (the topology never changes, at most {longest} frames)"),
         n => println!(
-            "  segments      {n}, from frames {} (every {longest} frames and where the topology changes; each its own map)",
+            "  segments      {n}, from frames {} (every {longest} frames, where the topology changes and where a registered run starts or ends; each its own map)",
             starts.iter().map(usize::to_string).collect::<Vec<_>>().join(", ")
         ),
+    }
+    if !runs.is_empty() {
+        let each = runs.iter().map(|r| format!("{}-{}", r.start, r.end - 1)).collect::<Vec<_>>().join(", ");
+        println!(
+            "  registered    frames {each} share one mesh (their features carried by their vertices, one map a run)"
+        );
     }
     println!("  features      {features_per_frame:.1} a frame (heat kernel signature maxima), {tracks} tracks");
     let worst = if starts.len() > 1 { " (in each cone's worst segment)" } else { "" };
@@ -206,6 +200,35 @@ fn unregistered_info(args: &Args) -> Result<()> {
     }
     println!("  speed         {rate:.1} frames/s (features and tracking)");
     Ok(())
+}
+
+/// A capture's segments (`ranges`) and what tracking them found.
+type Tracking = (Vec<cgv::features::track::Tracked>, (usize, usize), Vec<std::ops::Range<usize>>);
+
+/// Each segment (`ranges`) of `capture` tracked as `encode` tracks it, the
+/// fewest and most vertices a frame has, and which segments are registered
+/// runs (frames that share one mesh).
+fn tracked_segments(
+    dir: &std::path::Path,
+    capture: &cgv::features::capture::CaptureFiles,
+    ranges: &[std::ops::Range<usize>],
+    pb: &indicatif::ProgressBar,
+) -> Result<Tracking> {
+    use cgv::features::capture::{is_registered_run, Capture};
+    let (mut lo, mut hi, mut runs) = (usize::MAX, 0, Vec::new());
+    let mut segments = Vec::with_capacity(ranges.len());
+    for r in ranges {
+        let frames = capture.frames(r.clone())?;
+        let sizes = frames.iter().map(|f| f.positions.len());
+        (lo, hi) = (lo.min(sizes.clone().min().unwrap_or(lo)), hi.max(sizes.max().unwrap_or(0)));
+        if is_registered_run(&frames) {
+            runs.push(r.clone());
+        }
+        let tracked = cgv::features::tracking::track_capture(dir, &frames);
+        segments.push(tracked.with_context(|| format!("the segment of frames {r:?}"))?);
+        pb.set_position(r.end as u64);
+    }
+    Ok((segments, (lo.min(hi), hi), runs))
 }
 
 /// How each segment's cones track: which stretch tracks worst, for a

@@ -1,11 +1,11 @@
 //! `cgv unregister`: a registered motion made into a capture without
 //! correspondence (every frame simplified on its own to a different size,
-//! its vertices shuffled): test data for `--unregistered`, whose truth is
-//! the input.
+//! its vertices shuffled; or, with `--stable`, in runs of frames that share
+//! one mesh): test data for `--unregistered`, whose truth is the input.
 
 use super::InputArgs;
 use anyhow::{bail, Context, Result};
-use cgv::mesh::unregister::{keep_for, remesh_frame};
+use cgv::mesh::unregister::{keep_for, Remesh};
 use std::path::PathBuf;
 
 #[derive(clap::Args)]
@@ -24,6 +24,12 @@ pub struct Args {
     /// The draw and the vertex shuffle: the same seed makes the same folder.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Frames that share one mesh: each run of this many frames keeps its
+    /// first frame's simplification, its vertices moving with the motion
+    /// (a capture in "stabilized segments", as volumetric-video vendors
+    /// ship them). 1: every frame its own mesh.
+    #[arg(long, default_value_t = 1, value_name = "FRAMES", value_parser = clap::value_parser!(u32).range(1..))]
+    stable: u32,
 }
 
 pub fn run(args: Args) -> Result<()> {
@@ -43,11 +49,18 @@ pub fn run(args: Args) -> Result<()> {
     let faces = &src.topology().faces;
     let pb = super::progress(src.frame_count(), "remeshing each frame", false);
     let (mut lo, mut hi) = (usize::MAX, 0);
+    let mut remesh: Option<Remesh> = None;
     for t in 0..src.frame_count() {
-        let keep = keep_for(t, args.keep_min, args.keep_max, args.seed);
-        let (p, f) = remesh_frame(&src.read_frame(t)?, faces, keep, args.seed.wrapping_add(t as u64));
+        let frame = src.read_frame(t)?;
+        // A run's first frame draws its own simplification; the rest share it.
+        if t % args.stable as usize == 0 || remesh.is_none() {
+            let keep = keep_for(t, args.keep_min, args.keep_max, args.seed);
+            remesh = Some(Remesh::of(&frame, faces, keep, args.seed.wrapping_add(t as u64)));
+        }
+        let Some(r) = remesh.as_ref() else { continue };
+        let p = r.positions(&frame);
         (lo, hi) = (lo.min(p.len()), hi.max(p.len()));
-        let topology = cgv::mesh::Topology { vertex_count: p.len(), faces: f };
+        let topology = cgv::mesh::Topology { vertex_count: p.len(), faces: r.faces.clone() };
         cgv::mesh::obj::write_obj(&partial.path().join(format!("{t}.obj")), &p, &topology)?;
         pb.inc(1);
     }
