@@ -555,11 +555,12 @@ fn a_capture_in_registered_runs_maps_each_run_once() {
         frames.push(CaptureFrame { positions: run.positions(&walk.read_frame(t).unwrap()), faces: run.faces.clone() });
     }
     assert_eq!(ranges(&frames, 60), [0..3, 3..9]);
+    assert_eq!(ranges(&frames, 4), [0..3, 3..9], "a run is not cut at the longest segment");
     let tracked = track_capture(Path::new("walk"), &frames[3..]).unwrap();
     assert!(tracked.tracks.iter().all(|k| k.frames_seen() == 6), "carried features are seen in every frame");
     let grid = Grid::new(32).unwrap();
     let (registered, report) = register(Path::new("walk"), 30.0, &frames, grid, 60, &mut |_, _, _| {}).unwrap();
-    assert_eq!((&report.segments[..], report.shared_mesh_frames), (&[3][..], 6), "{report:?}");
+    assert_eq!((&report.segments[..], &report.registered_runs[..]), (&[3][..], &[[3, 9]][..]), "{report:?}");
     assert_eq!((report.per_segment[1].cones_seen, report.per_segment[1].unmatched_frames), ([1.0; 4], 0));
     let places = |t: usize| &registered.meshes[t].places;
     assert!((4..9).all(|t| places(t) == places(3)), "one map serves the run");
@@ -569,7 +570,7 @@ fn a_capture_in_registered_runs_maps_each_run_once() {
     let own = {
         let each = remeshed_from(&walk, 9, 0);
         let (alone, r) = register(Path::new("walk"), 30.0, &each[3..], grid, 60, &mut |_, _, _| {}).unwrap();
-        assert_eq!(r.shared_mesh_frames, 0);
+        assert!(r.registered_runs.is_empty());
         let moved: Vec<_> = (3..9).map(|t| walk.read_frame(t).unwrap()).collect();
         let topology = walk.topology().clone();
         swim(&InMemory { label: "walk".into(), fps: 30.0, topology, frames: moved }, &alone.grid, &[])
@@ -579,6 +580,12 @@ fn a_capture_in_registered_runs_maps_each_run_once() {
     assert!(worst(&swum[3..]) < 0.25 * worst(&own), "{swum:?} against {own:?}");
     let opts = EncodeOptions { grid: 32, source_mesh: false, segments: report.segments.clone(), ..Default::default() };
     let (bytes, _) = encode(&registered, &opts, &mut |_, _, _| {}).unwrap();
+    // A registered run's samples are not slid: a file of runs alone slid
+    // is the one not slid.
+    let runs = vec![(0, 3), (3, 9)];
+    let slid = |registered_runs| EncodeOptions { slide: true, registered_runs, ..opts.clone() };
+    assert_eq!(encode(&registered, &slid(runs), &mut |_, _, _| {}).unwrap().0, bytes);
+    assert_ne!(encode(&registered, &slid(vec![(3, 9)]), &mut |_, _, _| {}).unwrap().0, bytes);
     let mut dec = FileDecoder::new(cgv::format::read(&bytes).unwrap(), cgv::solve::SolverKind::Predictive).unwrap();
     let all: Vec<Vec<Vec3>> = (0..9).map(|_| dec.next_frame().unwrap().0).collect();
     let truth = surface_rms(&walk, grid, &all);

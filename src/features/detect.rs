@@ -117,7 +117,7 @@ fn one_rings(faces: &[[u32; 3]], n: usize) -> Vec<Vec<u32>> {
     rings
 }
 
-fn surface_area(faces: &[[u32; 3]], p: &[Vec3]) -> f32 {
+pub(super) fn surface_area(faces: &[[u32; 3]], p: &[Vec3]) -> f32 {
     faces
         .iter()
         .map(|f| {

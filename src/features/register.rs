@@ -357,7 +357,7 @@ fn register_run(
     let on_input = vec![apply_symmetry(grid, &on_input, turn); frames.len()];
     let report = RegisterReport {
         frames: frames.len(),
-        shared_mesh_frames: frames.len(),
+        registered_runs: vec![[0, frames.len()]],
         seconds_maps: t1.elapsed().as_secs_f64(),
         lid_votes: lids::over_holes(grid, &on_input),
         lid_pieces: 1,

@@ -29,10 +29,10 @@ pub struct RegisterReport {
     pub bridged_frames: usize,
     /// Frames whose grid was smoothed in time ([`super::smooth`]).
     pub smoothed_frames: usize,
-    /// Frames of registered runs (each sharing one mesh with its
-    /// neighbours: [`super::capture::is_registered_run`]), each run mapped
-    /// once ([`super::frame_map::map_run`]) rather than frame by frame.
-    pub shared_mesh_frames: usize,
+    /// The registered runs' frames `[a, b)` (frames that share one mesh:
+    /// [`super::capture::is_registered_run`]), each run mapped once
+    /// ([`super::frame_map::map_run`]) rather than frame by frame.
+    pub registered_runs: Vec<[usize; 2]>,
     /// Frames whose grid lay far from their own mesh, rebuilt from their
     /// neighbours ([`super::outliers`]).
     pub rebuilt_frames: usize,
@@ -132,7 +132,7 @@ impl RegisterReport {
         self.unmatched_frames += next.unmatched_frames;
         self.bridged_frames += next.bridged_frames;
         self.smoothed_frames += next.smoothed_frames;
-        self.shared_mesh_frames += next.shared_mesh_frames;
+        self.registered_runs.extend(next.registered_runs.iter().map(|[a, b]| [start + a, start + b]));
         self.seconds_features += next.seconds_features;
         self.seconds_maps += next.seconds_maps;
         self.lid_votes = super::lids::added(&self.lid_votes, &next.lid_votes);
@@ -140,6 +140,11 @@ impl RegisterReport {
         self.segments.push(start as u32);
         let moved = next.per_segment.iter().map(|t| SegmentReport { start: start + t.start, ..t.clone() });
         self.per_segment.extend(moved);
+    }
+
+    /// Frames in registered runs ([`RegisterReport::registered_runs`]).
+    pub fn shared_mesh_frames(&self) -> usize {
+        self.registered_runs.iter().map(|[a, b]| b - a).sum()
     }
 
     /// The frames' floors `relative` (each frame's resampling error over

@@ -51,9 +51,10 @@ fn starts_of(classes: &[Class]) -> Vec<usize> {
 }
 
 /// The frames of each segment of `capture`, in order: one starts where
-/// the topology changes ([`segment_starts`]) and at every multiple of
-/// `longest` frames (0: no limit) that is not within [`SEGMENT_FRAMES`]
-/// of such a change. A long capture's features come and go (pcow's 204
+/// the topology changes ([`segment_starts`]), where a registered run
+/// starts or ends ([`run_starts`]) and at every multiple of `longest`
+/// frames (0: no limit) that is not within [`SEGMENT_FRAMES`] of such a
+/// change nor inside a run. A long capture's features come and go (pcow's 204
 /// frames as one segment: its cones' tracks seen in 100 / 73 / 40 / 33 %
 /// of them, 29 frames that no turn of the grid matches), so a capture is
 /// tracked and mapped a stretch at a time; at multiples of the encoder's
@@ -78,9 +79,13 @@ pub fn segment_ranges(
     changes.sort_unstable();
     changes.dedup();
     let near_change = |t: usize| changes.iter().any(|&c| c.abs_diff(t) < SEGMENT_FRAMES);
+    // A registered run is not cut at `longest`: its features are carried,
+    // not tracked, and one map serves it whole, as a registered motion's.
+    let runs = registered_runs(&keys);
+    let in_run = |t: usize| runs.iter().any(|&(a, b)| a < t && t < b);
     let mut starts = changes.clone();
     if longest > 0 {
-        starts.extend((longest..n).step_by(longest).filter(|&t| !near_change(t)));
+        starts.extend((longest..n).step_by(longest).filter(|&t| !near_change(t) && !in_run(t)));
         starts.sort_unstable();
     }
     let ends = starts.iter().skip(1).copied().chain([n]);
@@ -100,11 +105,10 @@ fn mesh_key(f: &CaptureFrame) -> MeshKey {
     (f.positions.len(), h.finish())
 }
 
-/// Where registered runs start and end: frames that share one mesh for at
-/// least [`SEGMENT_FRAMES`] frames (`keys`, [`mesh_key`]) are a segment
-/// of their own, which one map serves, and the frame after one starts the
-/// next.
-fn run_starts(keys: &[MeshKey]) -> Vec<usize> {
+/// The registered runs among frames of meshes `keys` ([`mesh_key`]): each
+/// stretch `[a, b)` of at least [`SEGMENT_FRAMES`] frames that share one
+/// mesh.
+fn registered_runs(keys: &[MeshKey]) -> Vec<(usize, usize)> {
     let mut runs: Vec<(usize, usize)> = Vec::new();
     for (t, k) in keys.iter().enumerate() {
         match runs.last_mut() {
@@ -112,13 +116,17 @@ fn run_starts(keys: &[MeshKey]) -> Vec<usize> {
             _ => runs.push((t, t + 1)),
         }
     }
-    let registered = |r: &(usize, usize)| r.1 - r.0 >= SEGMENT_FRAMES;
-    let mut starts = Vec::new();
-    for w in runs.windows(2) {
-        if registered(&w[0]) || registered(&w[1]) {
-            starts.push(w[1].0);
-        }
-    }
+    runs.retain(|(a, b)| b - a >= SEGMENT_FRAMES);
+    runs
+}
+
+/// Where registered runs ([`registered_runs`]) start and end: each is a
+/// segment of its own, which one map serves, and the frame after one
+/// starts the next.
+fn run_starts(keys: &[MeshKey]) -> Vec<usize> {
+    let mut starts: Vec<usize> = registered_runs(keys).into_iter().flat_map(|(a, b)| [a, b]).collect();
+    starts.retain(|&t| t > 0 && t < keys.len());
+    starts.dedup();
     starts
 }
 
@@ -227,6 +235,7 @@ mod tests {
         assert_eq!(run_starts(&[k(1), k(2), k(2), k(2), k(2), k(3), k(4)]), vec![1, 5]);
         assert_eq!(run_starts(&[k(7), k(7), k(7), k(8), k(8), k(8)]), vec![3]);
         assert_eq!(run_starts(&[k(7), k(7), k(7), (11, 7)]), vec![3], "another vertex count");
+        assert_eq!(registered_runs(&[k(1), k(2), k(2), k(2), k(2), k(3), k(4)]), [(1, 5)]);
     }
 
     /// A segment is split before it is mapped where fewer than four

@@ -393,6 +393,8 @@ fn encode_one(args: &Args) -> Result<()> {
             // An open capture's grid mesh without the faces over its holes
             // is the mesh the file carries (each sample its own place).
             request.base.source_mesh = report.lid_faces > 0 && !args.no_source_mesh && !request.base.frame_meshes;
+            // A registered run's samples carry its correspondence: not slid.
+            request.base.registered_runs = report.registered_runs.iter().map(|&[a, b]| (a as u32, b as u32)).collect();
             let segments = &mut request.base.segments;
             segments.extend(&report.segments);
             segments.sort_unstable();
@@ -486,11 +488,11 @@ fn registered(args: &Args) -> Result<(Box<dyn cgv::mesh::FrameSource>, RegisterR
         r.seconds_features,
         r.seconds_maps
     );
-    if r.shared_mesh_frames > 0 {
+    if !r.registered_runs.is_empty() {
         eprintln!(
             "  {} frames share one mesh with their neighbours (registered runs): their features carried by their vertices, \
              one map a run, as a registered motion's",
-            r.shared_mesh_frames
+            r.shared_mesh_frames()
         );
     }
     if r.lid_faces > 0 {

@@ -344,7 +344,7 @@ fn frame_mesh_unit(
 ) -> Result<Vec<u8>> {
     // Slid samples lie elsewhere on the surface than the grid coded: the
     // frame's own vertices are then placed on what the decoder has.
-    let g = decoded.as_deref().filter(|_| opts.slide).unwrap_or(registered);
+    let g = decoded.as_deref().filter(|_| opts.slides(f)).unwrap_or(registered);
     let mesh = src.frame_mesh(f)?.ok_or_else(|| {
         Error::Argument(format!(
             "{}: frame meshes asked for, but frame {f} has no mesh of its own (only a registered capture, \

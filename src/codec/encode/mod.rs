@@ -168,6 +168,13 @@ pub struct EncodeOptions {
     /// grid as it is), and only a source with every frame's own mesh
     /// ([`FrameSource::frame_mesh`]): another is refused at its first frame.
     pub slide: bool,
+    /// Frames `a..b` whose grid follows the body exactly (a capture's
+    /// registered runs, frames that share one mesh, mapped once:
+    /// `crate::features::capture::is_registered_run`), which `slide` leaves
+    /// where they are: their places carry the correspondence. Slid, samba's
+    /// 24-frame clip in runs of 12 frames took 1.6x the bits for the same
+    /// error (docs/RESULTS.md).
+    pub registered_runs: Vec<(u32, u32)>,
 }
 
 impl Default for EncodeOptions {
@@ -198,11 +205,18 @@ impl Default for EncodeOptions {
             coarse_weights: None,
             vertex_residual: None,
             slide: false,
+            registered_runs: Vec::new(),
         }
     }
 }
 
 impl EncodeOptions {
+    /// Whether frame `fi`'s samples slide ([`EncodeOptions::slide`], not
+    /// in a registered run).
+    pub fn slides(&self, fi: usize) -> bool {
+        self.slide && !self.registered_runs.iter().any(|&(a, b)| (a as usize..b as usize).contains(&fi))
+    }
+
     /// Checks every option against what the codec can do, before any work:
     /// each problem gets one error that names the option.
     pub fn validate(&self) -> Result<()> {

@@ -56,7 +56,7 @@ impl Surface {
     /// Frame `fi`'s own mesh, prepared, where `opts` slide the samples;
     /// an error where they do and `src` has no mesh of the frame's own.
     pub fn of_frame(src: &dyn FrameSource, opts: &EncodeOptions, fi: usize) -> Result<Option<Surface>> {
-        if !opts.slide {
+        if !opts.slides(fi) {
             return Ok(None);
         }
         let mesh = src.frame_mesh(fi)?.ok_or_else(|| {
