@@ -555,7 +555,7 @@ fn a_capture_in_registered_runs_maps_each_run_once() {
         frames.push(CaptureFrame { positions: run.positions(&walk.read_frame(t).unwrap()), faces: run.faces.clone() });
     }
     assert_eq!(ranges(&frames, 60), [0..3, 3..9]);
-    assert_eq!(ranges(&frames, 4), [0..3, 3..9], "a run is not cut at the longest segment");
+    assert_eq!(ranges(&frames, 4), [0..3, 3..8, 8..9]);
     let tracked = track_capture(Path::new("walk"), &frames[3..]).unwrap();
     assert!(tracked.tracks.iter().all(|k| k.frames_seen() == 6), "carried features are seen in every frame");
     let grid = Grid::new(32).unwrap();
@@ -564,6 +564,10 @@ fn a_capture_in_registered_runs_maps_each_run_once() {
     assert_eq!((report.per_segment[1].cones_seen, report.per_segment[1].unmatched_frames), ([1.0; 4], 0));
     let places = |t: usize| &registered.meshes[t].places;
     assert!((4..9).all(|t| places(t) == places(3)), "one map serves the run");
+    // Cut at the longest segment (4 frames), the run goes on with its map.
+    let (cut, cut_report) = register(Path::new("walk"), 30.0, &frames, grid, 4, &mut |_, _, _| {}).unwrap();
+    assert_eq!((&cut_report.segments[..], &cut_report.registered_runs[..]), (&[3, 8][..], &[[3, 9]][..]));
+    assert!((3..9).all(|t| cut.grid.frames[t] == registered.grid.frames[t] && cut.meshes[t].places == *places(3)));
     assert!(places(1) != places(0), "frames each their own mesh are mapped each on its own");
     // Where the samples sit on the body, against the run's first frame.
     let swum = swim(&walk, &registered.grid, &report.segments);

@@ -156,31 +156,23 @@ fn finished(
     })
 }
 
-/// A registered run's frames ([`super::capture::is_registered_run`])
-/// mapped once, as a registered motion is (`crate::geometry_image`): the
-/// first frame mapped as [`map_frame`] maps it, and every frame's grid
-/// that map's samples on the frame's own positions, so that a sample is
-/// one point of the body in every frame.
+/// A registered run's map ([`super::capture::is_registered_run`]), as a
+/// registered motion is mapped once (`crate::geometry_image`): its `first`
+/// frame mapped as [`map_frame`] maps it, the map's samples then read on
+/// every frame's own positions ([`SampleMap::apply`]), so that a sample is
+/// one point of the body in every frame. Returns the map, the vertices'
+/// places and the cut's trace.
 pub(super) fn map_run(
     label: &Path,
-    frames: &[CaptureFrame],
+    first: &CaptureFrame,
     at: &[(Vec3, bool); 4],
     trace: Option<&CutTrace>,
     grid: Grid,
-) -> Result<Vec<Mapped>> {
-    let Some(first) = frames.first() else { return Ok(Vec::new()) };
+) -> Result<(SampleMap, Vec<[u32; 2]>, CutTrace)> {
     let mut carrier = frame_carrier(label, first)?;
-    let (param, trace, sides) = finished(&mut carrier, first, at, trace)?;
+    let (param, trace, _) = finished(&mut carrier, first, at, trace)?;
     let map = SampleMap::on_carrier(grid, &carrier, &param)?;
-    let places = carrier_places(&carrier, &param);
-    let one = |f: &CaptureFrame| Mapped {
-        grid: map.apply(&f.positions),
-        places: places.clone(),
-        sides,
-        trace: trace.clone(),
-        on_input: map.on_input.clone(),
-    };
-    Ok(frames.iter().map(one).collect())
+    Ok((map, carrier_places(&carrier, &param), trace))
 }
 
 /// [`map_frame`]'s cut alone, its area passes left for [`finish_cut`]. A

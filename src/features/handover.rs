@@ -12,11 +12,14 @@
 //! by piece: its grid moved 31-41 % of the diagonal at each segment's
 //! start) leaves those weights wrong on one side of the start or the other.
 
+use super::capture::CaptureFrame;
 use super::follow::CutTrace;
 use super::symmetry::{apply_symmetry, Symmetry, TURNS};
 use super::track::{place, Tracked};
 use crate::grid::Grid;
+use crate::resample::SampleMap;
 use glam::Vec3;
+use std::sync::Arc;
 
 /// What the next piece starts from: where the last piece's cones would be
 /// one frame on on the body (each moved on by its last step, less the
@@ -28,6 +31,38 @@ pub struct Handover {
     pub cones: [Vec3; 4],
     pub trace: Option<CutTrace>,
     pub grid: Vec<Vec3>,
+    /// Where the last piece was a registered run: its one map, for a next
+    /// piece that goes on with the same mesh.
+    pub run: Option<RunMap>,
+}
+
+/// A registered run's one map ([`super::frame_map::map_run`]), handed on
+/// so that a run longer than a segment (cut at the encoder's
+/// random-access interval, so that a segment's frames fit in memory) is
+/// one map throughout, as a registered motion's: the run's mesh, the map,
+/// the turn its grid was given, the vertices' places and which samples lie
+/// on the frame's own faces (both turned), and the cones' vertices.
+#[derive(Debug, Clone)]
+pub struct RunMap {
+    pub faces: Vec<[u32; 3]>,
+    pub vertex_count: usize,
+    pub map: Arc<SampleMap>,
+    pub turn: Symmetry,
+    pub places: Vec<[u32; 2]>,
+    pub on_input: Vec<bool>,
+    pub cones: [u32; 4],
+}
+
+impl RunMap {
+    /// Whether `frame` has the run's mesh ([`CaptureFrame::shares_mesh`]).
+    pub fn goes_on_in(&self, frame: &CaptureFrame) -> bool {
+        frame.positions.len() == self.vertex_count && frame.faces == self.faces
+    }
+
+    /// The grid of a frame of the run (its positions `frame`), turned.
+    pub fn grid_of(&self, grid: Grid, frame: &[Vec3]) -> Vec<Vec3> {
+        apply_symmetry(grid, &self.map.apply(frame), self.turn)
+    }
 }
 
 impl Handover {
@@ -43,7 +78,7 @@ impl Handover {
                 (p, _) => p.unwrap_or(Vec3::ZERO),
             }
         };
-        Handover { cones: tracked.cones.map(ahead), trace, grid }
+        Handover { cones: tracked.cones.map(ahead), trace, grid, run: None }
     }
 }
 

@@ -35,6 +35,7 @@
 //!   the better way across a piece's frames.
 
 pub mod capture;
+pub mod cones;
 pub mod detect;
 pub mod diagonals;
 pub mod follow;

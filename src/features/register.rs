@@ -10,9 +10,10 @@
 //! other motion.
 
 use super::capture::{is_registered_run, Capture, CaptureFrame};
+use super::cones::chosen_cones;
 use super::follow::CutTrace;
-use super::frame_map::{cut_frame, finish_cut, frame_carrier, map_frame, map_on, map_run, FrameCut, Mapped};
-use super::handover::{self, Handover};
+use super::frame_map::{cut_frame, finish_cut, map_frame, map_run, FrameCut, Mapped};
+use super::handover::{self, Handover, RunMap};
 pub use super::report::RegisterReport;
 use super::segments::segment_ranges;
 use super::store::FrameStore;
@@ -24,9 +25,7 @@ use super::tracking::track_capture;
 use super::{diagonals, jumps, lids, outliers, segments, smooth};
 use crate::error::{Error, Result};
 use crate::grid::Grid;
-use crate::mesh::carrier::Carrier;
 use crate::mesh::{Bounds, FrameMesh, InMemory};
-use crate::metrics::surface::{symmetric_rms_to, Target};
 use glam::Vec3;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
@@ -131,7 +130,7 @@ fn registered_parts(
     grid: Grid,
     handover: Option<&Handover>,
 ) -> Result<(Vec<Piece>, Handover)> {
-    if is_registered_run(part) {
+    if is_registered_run(part) || going_on(part, handover).is_some() {
         let (src, report, next) = register_run(label, fps, part, grid, handover)?;
         let mut whole = vec![(0, src, report, None)];
         measure_pieces(part, &mut whole, grid)?;
@@ -332,11 +331,12 @@ fn registered(
 }
 
 /// A registered run ([`is_registered_run`]: frames that share one mesh)
-/// registered as one piece with one map ([`map_run`]), as a registered
-/// motion is: its features carried by their vertices ([`track_capture`]),
-/// its cones chosen or going on from the last piece's `handover`, its grid
-/// turned as any piece's ([`turned_to`]). One map does not jump or swim,
-/// so nothing is bridged, smoothed or turned back.
+/// registered as one piece with one map, as a registered motion is: the
+/// last piece's map where this piece goes on with its run (a run cut at
+/// the longest segment; its cones carried, [`carried_cones`]), else a map
+/// made on its first frame ([`new_run_map`]; its features carried by
+/// their vertices, [`track_capture`]). One map does not jump or swim, so nothing is
+/// bridged, smoothed or turned back.
 fn register_run(
     label: &Path,
     fps: f32,
@@ -344,27 +344,86 @@ fn register_run(
     grid: Grid,
     handover: Option<&Handover>,
 ) -> Result<(Registered, RegisterReport, Handover)> {
-    let mut tracked = track_capture(label, frames)?;
-    fits(label, frames, &tracked)?;
-    let first_trace;
-    (tracked.cones, first_trace) = chosen_cones(label, frames, &tracked, (grid, diagonal_of(frames)), handover)?;
     let t1 = std::time::Instant::now();
-    let mapped = map_run(label, frames, &cone_places(&tracked)(0), first_trace, grid)?;
-    let trace = mapped.first().map(|m| m.trace.clone());
-    let on_input = mapped.first().map(|m| m.on_input.clone()).unwrap_or_default();
-    let (mut positions, mut places): (Vec<_>, Vec<_>) = mapped.into_iter().map(|m| (m.grid, m.places)).unzip();
-    let turn = turned_to(grid, frames, handover, &mut positions, &mut places)?;
-    let on_input = vec![apply_symmetry(grid, &on_input, turn); frames.len()];
+    let (run, trace, tracked) = match going_on(frames, handover) {
+        Some(run) => (run.clone(), handover.and_then(|h| h.trace.clone()), carried_cones(frames, run.cones)),
+        None => {
+            let mut tracked = track_capture(label, frames)?;
+            fits(label, frames, &tracked)?;
+            let (run, trace) = new_run_map(label, frames, &mut tracked, grid, handover)?;
+            (run, trace, tracked)
+        }
+    };
+    let positions: Vec<Vec<Vec3>> = frames.par_iter().map(|f| run.grid_of(grid, &f.positions)).collect();
+    let places = vec![run.places.clone(); frames.len()];
     let report = RegisterReport {
         frames: frames.len(),
         registered_runs: vec![[0, frames.len()]],
         seconds_maps: t1.elapsed().as_secs_f64(),
-        lid_votes: lids::over_holes(grid, &on_input),
+        lid_votes: lids::over_holes(grid, &vec![run.on_input.clone(); frames.len()]),
         lid_pieces: 1,
         ..RegisterReport::of_tracking(&tracked)
     };
-    let next = Handover::of(&tracked, trace, positions.last().cloned().unwrap_or_default());
+    let mut next = Handover::of(&tracked, trace, positions.last().cloned().unwrap_or_default());
+    next.run = Some(run);
     Ok((registered(label, fps, grid, frames, positions, places), report, next))
+}
+
+/// The last piece's run map ([`Handover::run`]) where every frame of
+/// `frames` has the run's mesh: this piece goes on with the run.
+fn going_on<'h>(frames: &[CaptureFrame], handover: Option<&'h Handover>) -> Option<&'h RunMap> {
+    handover.and_then(|h| h.run.as_ref()).filter(|r| !frames.is_empty() && frames.iter().all(|f| r.goes_on_in(f)))
+}
+
+/// A run's map made on its first frame ([`map_run`]) with its cones
+/// chosen or going on from the last piece's `handover`
+/// ([`chosen_cones`], which sets `tracked`'s), turned as any piece's grid
+/// is ([`turned_to`]); and its cut's trace.
+fn new_run_map(
+    label: &Path,
+    frames: &[CaptureFrame],
+    tracked: &mut Tracked,
+    grid: Grid,
+    handover: Option<&Handover>,
+) -> Result<(RunMap, Option<CutTrace>)> {
+    let first_trace;
+    (tracked.cones, first_trace) = chosen_cones(label, frames, tracked, (grid, diagonal_of(frames)), handover)?;
+    let (map, places, trace) = map_run(label, &frames[0], &cone_places(tracked)(0), first_trace, grid)?;
+    let mut positions: Vec<Vec<Vec3>> = frames.par_iter().map(|f| map.apply(&f.positions)).collect();
+    let mut places = [places];
+    let turn = turned_to(grid, frames, handover, &mut positions, &mut places)?;
+    let [places] = places;
+    let vertex = |k: usize| tracked.tracks[k].seen[0].map_or(0, |i| tracked.features[0][i as usize].vertex);
+    let run = RunMap {
+        faces: frames[0].faces.clone(),
+        vertex_count: frames[0].positions.len(),
+        on_input: apply_symmetry(grid, &map.on_input, turn),
+        map: std::sync::Arc::new(map),
+        turn,
+        places,
+        cones: tracked.cones.map(vertex),
+    };
+    Ok((run, Some(trace)))
+}
+
+/// A registered run's cones at vertices `cones` carried through `frames`
+/// (which share the run's mesh) as its only features: a piece that goes on
+/// with the last piece's map needs no features of its own, only its cones
+/// for the report and for the next piece to go on from.
+fn carried_cones(frames: &[CaptureFrame], cones: [u32; 4]) -> Tracked {
+    let at = |f: &CaptureFrame, v: u32| super::detect::Feature {
+        vertex: v,
+        position: f.positions.get(v as usize).copied().unwrap_or_default(),
+        descriptor: Default::default(),
+        weak: false,
+    };
+    Tracked {
+        features: frames.iter().map(|f| cones.iter().map(|&v| at(f, v)).collect()).collect(),
+        centers: frames.iter().map(CaptureFrame::center).collect(),
+        tracks: (0..4).map(|k| Track { seen: vec![Some(k); frames.len()] }).collect(),
+        cones: [0, 1, 2, 3],
+        seconds: 0.0,
+    }
 }
 
 /// Each frame's cones: the chosen tracks' places, and whether each track
@@ -461,27 +520,6 @@ fn mapped_in_turn(
         }
     }
     Ok(mapped)
-}
-
-/// A piece's cones: the last piece's where their tracks go on (with its
-/// last cut, to trace the first frame's from), else the best set
-/// ([`best_cones`]).
-fn chosen_cones<'h>(
-    label: &Path,
-    frames: &[CaptureFrame],
-    tracked: &Tracked,
-    (grid, diagonal): (Grid, f32),
-    handover: Option<&'h Handover>,
-) -> Result<([usize; 4], Option<&'h CutTrace>)> {
-    let long = may_be_cones(&tracked.tracks);
-    let going_on = handover.and_then(|h| {
-        let cones = handover::continuing_cones(tracked, &h.cones, |k| long.contains(&k), diagonal);
-        cones.map(|c| (c, h.trace.as_ref()))
-    });
-    match going_on {
-        Some(found) => Ok(found),
-        None => Ok((best_cones(label, frames, tracked, grid)?, None)),
-    }
 }
 
 /// Every frame's grid and places of a piece turned so that the grid's
@@ -636,80 +674,6 @@ const RUN_MOST: usize = 8;
 
 /// How much harder a frame mapped again pulls its cut to the trace.
 const RETRY_PULL: f64 = 3.0;
-
-/// Tracks seen in at least this share of the frames the longest one is
-/// seen in may be cones.
-const CONE_SEEN: f64 = 0.9;
-/// Most sets of four tracks [`best_cones`] tries.
-const CONE_SETS: usize = 15;
-
-/// Frames of a capture [`best_cones`] maps with each set: its first, last
-/// and two between.
-const SCORED_FRAMES: usize = 4;
-
-/// The tracks seen in at least [`CONE_SEEN`] of the frames the longest
-/// one is seen in: those that may be cones.
-fn may_be_cones(tracks: &[Track]) -> Vec<usize> {
-    let longest = tracks.iter().map(Track::frames_seen).max().unwrap_or(0) as f64;
-    (0..tracks.len()).filter(|&k| tracks[k].frames_seen() as f64 >= CONE_SEEN * longest).collect()
-}
-
-/// Of the sets of four long tracks, the one whose maps resample
-/// [`SCORED_FRAMES`] frames best (their grids' mean surface RMS against
-/// the frames), as the encoder races cone placements
-/// (`crate::geometry_image`): where they sit decides how much of the grid
-/// each limb gets. The first frame alone chose sets that resampled the
-/// rest 1.5-2x worse (horse-gallop 0.156 % against 0.102 for another set).
-/// Scored the better way round ([`diagonals`]), whole pcow's frames
-/// 118-119 took cones 0.5-0.7 % off (0.07-0.09 % as it is): not done.
-fn best_cones(label: &Path, frames: &[CaptureFrame], tracked: &Tracked, grid: Grid) -> Result<[usize; 4]> {
-    let long = may_be_cones(&tracked.tracks);
-    let mut sets: Vec<[usize; 4]> = Vec::new();
-    for a in 0..long.len() {
-        for b in a + 1..long.len() {
-            for c in b + 1..long.len() {
-                for d in c + 1..long.len() {
-                    sets.push([long[a], long[b], long[c], long[d]]);
-                }
-            }
-        }
-    }
-    if sets.len() <= 1 {
-        return Ok(tracked.cones);
-    }
-    sets.truncate(CONE_SETS);
-    let last = frames.len() - 1;
-    let mut scored_frames: Vec<usize> = (0..SCORED_FRAMES).map(|i| i * last / (SCORED_FRAMES - 1)).collect();
-    scored_frames.dedup();
-    // Each scored frame's carrier and query tree, built once for every
-    // set's map of it.
-    let built: Vec<Option<(Carrier, Target)>> = scored_frames
-        .par_iter()
-        .map(|&t| {
-            Some((frame_carrier(label, &frames[t]).ok()?, Target::new(&frames[t].positions, &frames[t].faces).ok()?))
-        })
-        .collect();
-    let faces = grid.topology().faces;
-    let score = |set: &[usize; 4], t: usize, built: &Option<(Carrier, Target)>| -> Option<f64> {
-        let (carrier, target) = built.as_ref()?;
-        let at = set.map(|k| (place(&tracked.tracks[k], &tracked.features, t).unwrap_or(Vec3::ZERO), true));
-        let g = map_on(carrier.clone(), &frames[t], &at, None, grid).ok()?.grid;
-        let f = (&frames[t].positions[..], &frames[t].faces[..]);
-        symmetric_rms_to((&g, &faces), &|_| None, f, target, (f64::INFINITY, 1)).ok()
-    };
-    let runs: Vec<(usize, usize)> =
-        (0..sets.len()).flat_map(|s| (0..scored_frames.len()).map(move |i| (s, i))).collect();
-    let errors: Vec<Option<f64>> =
-        runs.par_iter().map(|&(s, i)| score(&sets[s], scored_frames[i], &built[i])).collect();
-    // `runs` holds each set's frames together: a set whose map failed on
-    // any of them is out.
-    let scored: Vec<(f64, [usize; 4])> = errors
-        .chunks(scored_frames.len())
-        .zip(&sets)
-        .filter_map(|(e, set)| e.iter().copied().sum::<Option<f64>>().map(|e| (e, *set)))
-        .collect();
-    Ok(scored.into_iter().min_by(|a, b| a.0.total_cmp(&b.0)).map_or(tracked.cones, |x| x.1))
-}
 
 #[cfg(test)]
 mod tests {

@@ -132,7 +132,13 @@ impl RegisterReport {
         self.unmatched_frames += next.unmatched_frames;
         self.bridged_frames += next.bridged_frames;
         self.smoothed_frames += next.smoothed_frames;
-        self.registered_runs.extend(next.registered_runs.iter().map(|[a, b]| [start + a, start + b]));
+        for &[a, b] in &next.registered_runs {
+            // A run cut at the longest segment goes on with one map: one run.
+            match self.registered_runs.last_mut() {
+                Some(last) if last[1] == start + a => last[1] = start + b,
+                _ => self.registered_runs.push([start + a, start + b]),
+            }
+        }
         self.seconds_features += next.seconds_features;
         self.seconds_maps += next.seconds_maps;
         self.lid_votes = super::lids::added(&self.lid_votes, &next.lid_votes);

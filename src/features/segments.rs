@@ -54,7 +54,8 @@ fn starts_of(classes: &[Class]) -> Vec<usize> {
 /// the topology changes ([`segment_starts`]), where a registered run
 /// starts or ends ([`run_starts`]) and at every multiple of `longest`
 /// frames (0: no limit) that is not within [`SEGMENT_FRAMES`] of such a
-/// change nor inside a run. A long capture's features come and go (pcow's 204
+/// change (a run cut there goes on with one map,
+/// `super::handover::RunMap`). A long capture's features come and go (pcow's 204
 /// frames as one segment: its cones' tracks seen in 100 / 73 / 40 / 33 %
 /// of them, 29 frames that no turn of the grid matches), so a capture is
 /// tracked and mapped a stretch at a time; at multiples of the encoder's
@@ -79,13 +80,9 @@ pub fn segment_ranges(
     changes.sort_unstable();
     changes.dedup();
     let near_change = |t: usize| changes.iter().any(|&c| c.abs_diff(t) < SEGMENT_FRAMES);
-    // A registered run is not cut at `longest`: its features are carried,
-    // not tracked, and one map serves it whole, as a registered motion's.
-    let runs = registered_runs(&keys);
-    let in_run = |t: usize| runs.iter().any(|&(a, b)| a < t && t < b);
     let mut starts = changes.clone();
     if longest > 0 {
-        starts.extend((longest..n).step_by(longest).filter(|&t| !near_change(t) && !in_run(t)));
+        starts.extend((longest..n).step_by(longest).filter(|&t| !near_change(t)));
         starts.sort_unstable();
     }
     let ends = starts.iter().skip(1).copied().chain([n]);
