@@ -569,6 +569,21 @@ fn a_capture_in_registered_runs_maps_each_run_once() {
     assert_eq!((&cut_report.segments[..], &cut_report.registered_runs[..]), (&[3, 8][..], &[[3, 9]][..]));
     assert!((3..9).all(|t| cut.grid.frames[t] == registered.grid.frames[t] && cut.meshes[t].places == *places(3)));
     assert!(places(1) != places(0), "frames each their own mesh are mapped each on its own");
+    // Two runs back to back (frames 0-3 and 4-8): the second starts from
+    // the first's cones, cut and turn, so the grid stays on the body (1.4 %
+    // of the diagonal from frame 0 at frame 4; 14 % with cones of its own).
+    let second = Remesh::of(&walk.read_frame(4).unwrap(), faces, 0.7, 4);
+    let two: Vec<CaptureFrame> = (0..9)
+        .map(|t| {
+            let r = if t < 4 { &run } else { &second };
+            CaptureFrame { positions: r.positions(&walk.read_frame(t).unwrap()), faces: r.faces.clone() }
+        })
+        .collect();
+    let (both, r) = register(Path::new("walk"), 30.0, &two, grid, 60, &mut |_, _, _| {}).unwrap();
+    assert_eq!((&r.segments[..], &r.registered_runs[..]), (&[4][..], &[[0, 4], [4, 9]][..]));
+    let step = swim(&walk, &both.grid, &[]);
+    eprintln!("two runs, swim against frame 0: {step:?}");
+    assert!(step[4] < 0.03, "{step:?}");
     // Where the samples sit on the body, against the run's first frame.
     let swum = swim(&walk, &registered.grid, &report.segments);
     let own = {

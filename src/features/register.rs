@@ -345,10 +345,14 @@ fn register_run(
     handover: Option<&Handover>,
 ) -> Result<(Registered, RegisterReport, Handover)> {
     let t1 = std::time::Instant::now();
+    let goes_on_with_run = going_on(frames, handover).is_some();
     let (run, trace, tracked) = match going_on(frames, handover) {
         Some(run) => (run.clone(), handover.and_then(|h| h.trace.clone()), carried_cones(frames, run.cones)),
         None => {
-            let mut tracked = track_capture(label, frames)?;
+            let mut tracked = match handover {
+                Some(h) => carried_cones(frames, handed_over(&frames[0], h)),
+                None => track_capture(label, frames)?,
+            };
             fits(label, frames, &tracked)?;
             let (run, trace) = new_run_map(label, frames, &mut tracked, grid, handover)?;
             (run, trace, tracked)
@@ -359,6 +363,7 @@ fn register_run(
     let report = RegisterReport {
         frames: frames.len(),
         registered_runs: vec![[0, frames.len()]],
+        goes_on_with_run,
         seconds_maps: t1.elapsed().as_secs_f64(),
         lid_votes: lids::over_holes(grid, &vec![run.on_input.clone(); frames.len()]),
         lid_pieces: 1,
@@ -404,6 +409,17 @@ fn new_run_map(
         cones: tracked.cones.map(vertex),
     };
     Ok((run, Some(trace)))
+}
+
+/// The vertices of `first` nearest where the last piece's cones would be
+/// in it ([`Handover::cones`], less the frame's center): a run that starts
+/// after another piece is the same body a frame later, so it takes those
+/// cones rather than features of its own, and its map starts where the
+/// last one left off.
+fn handed_over(first: &CaptureFrame, h: &Handover) -> [u32; 4] {
+    let center = first.center();
+    let d = |v: &u32, p: Vec3| first.positions[*v as usize].distance_squared(p + center);
+    h.cones.map(|p| (0..first.positions.len() as u32).min_by(|a, b| d(a, p).total_cmp(&d(b, p))).unwrap_or(0))
 }
 
 /// A registered run's cones at vertices `cones` carried through `frames`

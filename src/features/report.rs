@@ -33,6 +33,10 @@ pub struct RegisterReport {
     /// [`super::capture::is_registered_run`]), each run mapped once
     /// ([`super::frame_map::map_run`]) rather than frame by frame.
     pub registered_runs: Vec<[usize; 2]>,
+    /// Whether this piece goes on with the last piece's run map (a run
+    /// cut at the longest segment): joined, the two are one run.
+    #[serde(skip)]
+    pub goes_on_with_run: bool,
     /// Frames whose grid lay far from their own mesh, rebuilt from their
     /// neighbours ([`super::outliers`]).
     pub rebuilt_frames: usize,
@@ -135,7 +139,7 @@ impl RegisterReport {
         for &[a, b] in &next.registered_runs {
             // A run cut at the longest segment goes on with one map: one run.
             match self.registered_runs.last_mut() {
-                Some(last) if last[1] == start + a => last[1] = start + b,
+                Some(last) if next.goes_on_with_run && a == 0 && last[1] == start => last[1] = start + b,
                 _ => self.registered_runs.push([start + a, start + b]),
             }
         }
