@@ -1093,6 +1093,16 @@ fn a_capture_in_stable_runs_from_the_commands() {
     let coded = cgv(&["encode", capture_s, "--unregistered", "--grid", "32", "-o", file.to_str().unwrap()]);
     let err = String::from_utf8_lossy(&coded.stderr);
     assert!(coded.status.success() && err.contains("8 frames share one mesh"), "{err}");
+    // One run cut into segments of 4 frames (2 s at 2 fps) is listed whole.
+    let one = dir.join("one-run");
+    let out = cgv(&["unregister", "builtin:walk", "--frames", "0..9", "--stable", "9", "-o", one.to_str().unwrap()]);
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let info = cgv(&["info", one.to_str().unwrap(), "--unregistered", "--fps", "2", "--json"]);
+    let report: serde_json::Value = serde_json::from_slice(&info.stdout).unwrap();
+    assert_eq!(
+        (&report["segments"], &report["registered_runs"]),
+        (&serde_json::json!([0, 4, 8]), &serde_json::json!([[0, 9]]))
+    );
 }
 
 /// A capture of GLB frames reads as the same capture in OBJ: each frame's

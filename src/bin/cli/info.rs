@@ -177,7 +177,7 @@ fn unregistered_info(args: &Args) -> Result<()> {
     match starts.len() {
         1 => println!("  segments      1 (the topology never changes, at most {longest} frames)"),
         n => println!(
-            "  segments      {n}, from frames {} (every {longest} frames, where the topology changes and where a registered run starts or ends; each its own map)",
+            "  segments      {n}, from frames {} (every {longest} frames, where the topology changes and where a registered run starts or ends; each its own map, a run's pieces one)",
             starts.iter().map(usize::to_string).collect::<Vec<_>>().join(", ")
         ),
     }
@@ -214,15 +214,25 @@ fn tracked_segments(
     ranges: &[std::ops::Range<usize>],
     pb: &indicatif::ProgressBar,
 ) -> Result<Tracking> {
-    use cgv::features::capture::{is_registered_run, Capture};
-    let (mut lo, mut hi, mut runs) = (usize::MAX, 0, Vec::new());
+    use cgv::features::capture::{is_registered_run, Capture, CaptureFrame};
+    let (mut lo, mut hi, mut runs) = (usize::MAX, 0, Vec::<std::ops::Range<usize>>::new());
     let mut segments = Vec::with_capacity(ranges.len());
+    // The last run's mesh: a run cut at the longest segment goes on in the
+    // next segment, as the encoder's registration goes on with its map.
+    let mut run_mesh: Option<CaptureFrame> = None;
     for r in ranges {
         let frames = capture.frames(r.clone())?;
         let sizes = frames.iter().map(|f| f.positions.len());
         (lo, hi) = (lo.min(sizes.clone().min().unwrap_or(lo)), hi.max(sizes.max().unwrap_or(0)));
-        if is_registered_run(&frames) {
-            runs.push(r.clone());
+        let last = runs.last().filter(|l| l.end == r.start);
+        let goes_on = last.is_some() && run_mesh.as_ref().is_some_and(|m| frames.iter().all(|f| f.shares_mesh(m)));
+        match runs.last_mut() {
+            Some(l) if goes_on => l.end = r.end,
+            _ if is_registered_run(&frames) => {
+                runs.push(r.clone());
+                run_mesh = frames.first().cloned();
+            }
+            _ => run_mesh = None,
         }
         let tracked = cgv::features::tracking::track_capture(dir, &frames);
         segments.push(tracked.with_context(|| format!("the segment of frames {r:?}"))?);
