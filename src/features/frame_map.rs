@@ -256,7 +256,7 @@ pub(super) struct Mapped {
 }
 
 /// The vertex of `positions` nearest `p`.
-fn nearest(positions: &[Vec3], p: Vec3) -> Option<u32> {
+pub(super) fn nearest(positions: &[Vec3], p: Vec3) -> Option<u32> {
     (0..positions.len() as u32).min_by(|&a, &b| {
         positions[a as usize].distance_squared(p).total_cmp(&positions[b as usize].distance_squared(p))
     })

@@ -12,7 +12,7 @@
 use super::capture::{is_registered_run, Capture, CaptureFrame};
 use super::cones::chosen_cones;
 use super::follow::CutTrace;
-use super::frame_map::{cut_frame, finish_cut, map_frame, map_run, FrameCut, Mapped};
+use super::frame_map::{cut_frame, finish_cut, map_frame, map_run, nearest, FrameCut, Mapped};
 use super::handover::{self, Handover, RunMap};
 pub use super::report::RegisterReport;
 use super::segments::segment_ranges;
@@ -49,7 +49,8 @@ pub fn register(
 /// The capture `capture` (named `label`) on `grid`, each frame's grid and
 /// own mesh written to `store`, and the report. The capture is registered
 /// segment by segment ([`segment_ranges`]: where its topology changes,
-/// and every `longest` frames), each read on its own and with its own
+/// where a registered run starts or ends, and every `longest` frames),
+/// each read on its own and with its own
 /// tracks and maps ([`registered_parts`]), going on where the last left
 /// off ([`handover`]: its cones, its cut, its turn of the square); only
 /// the segment in hand is held. `progress` hears ("reading", frames read,
@@ -334,9 +335,10 @@ fn registered(
 /// registered as one piece with one map, as a registered motion is: the
 /// last piece's map where this piece goes on with its run (a run cut at
 /// the longest segment; its cones carried, [`carried_cones`]), else a map
-/// made on its first frame ([`new_run_map`]; its features carried by
-/// their vertices, [`track_capture`]). One map does not jump or swim, so nothing is
-/// bridged, smoothed or turned back.
+/// made on its first frame ([`new_run_map`]) with the cones the last piece
+/// hands over ([`handed_over`]), or, for a capture's first piece, with
+/// features carried by their vertices ([`track_capture`]). One map does
+/// not jump or swim, so nothing is bridged, smoothed or turned back.
 fn register_run(
     label: &Path,
     fps: f32,
@@ -418,14 +420,14 @@ fn new_run_map(
 /// last one left off.
 fn handed_over(first: &CaptureFrame, h: &Handover) -> [u32; 4] {
     let center = first.center();
-    let d = |v: &u32, p: Vec3| first.positions[*v as usize].distance_squared(p + center);
-    h.cones.map(|p| (0..first.positions.len() as u32).min_by(|a, b| d(a, p).total_cmp(&d(b, p))).unwrap_or(0))
+    h.cones.map(|p| nearest(&first.positions, p + center).unwrap_or(0))
 }
 
 /// A registered run's cones at vertices `cones` carried through `frames`
 /// (which share the run's mesh) as its only features: a piece that goes on
-/// with the last piece's map needs no features of its own, only its cones
-/// for the report and for the next piece to go on from.
+/// with the last piece's map, or starts a run from the cones the last
+/// piece hands over, needs no features of its own, only its cones for its
+/// map, the report and the next piece to go on from.
 fn carried_cones(frames: &[CaptureFrame], cones: [u32; 4]) -> Tracked {
     let at = |f: &CaptureFrame, v: u32| super::detect::Feature {
         vertex: v,

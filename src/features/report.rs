@@ -62,8 +62,8 @@ pub struct RegisterReport {
     /// The whole registration, wall clock (set by [`super::register::register`]).
     pub seconds: f64,
     /// Frames where a segment (after the first) starts: the topology
-    /// changed there, or the last segment reached its longest
-    /// ([`super::segments::segment_ranges`]).
+    /// changed there, a registered run starts or ends there, or the last
+    /// segment reached its longest ([`super::segments::segment_ranges`]).
     pub segments: Vec<u32>,
     /// Each segment's (each piece's, a split segment's halves apart)
     /// tracking and floor, in order: where [`RegisterReport::cones_seen`]
